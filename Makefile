@@ -1,0 +1,31 @@
+# One-command set-up: every target creates .venv and installs the project from its own files.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+
+.PHONY: install test demo bench lint clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	touch $@
+
+install: $(VENV)/.installed
+
+lint: install
+	$(BIN)/ruff check .
+
+test: install lint
+	$(BIN)/python -m pytest -q
+
+demo: install
+	$(BIN)/jethr1 robot show
+	$(BIN)/jethr1 plan configs/jet_hr1_trial.yaml -o out
+
+bench: install
+	$(BIN)/python bench/bench_evaluator.py
+	$(BIN)/python bench/bench_plan.py
+
+clean:
+	rm -rf $(VENV) out .pytest_cache

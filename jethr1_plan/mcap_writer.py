@@ -1,0 +1,214 @@
+"""``trajectory.mcap``: JSON messages with jsonschema schemas, Foxglove schema names where one exists.
+
+Topics (CONTRACT.md): ``/tf`` (foxglove.FrameTransforms: world→trunk and every URDF joint's
+parent→child link, so the URDF layer of Foxglove's 3D panel plays the motion), ``/joint_states``,
+``/thrust``, ``/p_body``, ``/com``, ``/zmp`` (foxglove.PoseInFrame), ``/terrain`` and
+``/swing_path`` (foxglove.SceneUpdate).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+from .robot_model import RobotModel, urdf_joints
+from .swing_path import Carton
+
+# --- JSON schemas (every field required, as in Foxglove's current schemas) ------------------
+
+
+def _object(props: dict) -> dict:
+    return {"type": "object", "properties": props, "required": list(props)}
+
+
+NUMBER = {"type": "number"}
+TIME = {"type": "object", "title": "time", "properties": {"sec": {"type": "integer", "minimum": 0},
+                                                           "nsec": {"type": "integer", "minimum": 0,
+                                                                    "maximum": 999999999}},
+        "required": ["sec", "nsec"]}
+VECTOR3 = {"title": "foxglove.Vector3", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER})}
+QUATERNION = {"title": "foxglove.Quaternion", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER, "w": NUMBER})}
+POSE = {"title": "foxglove.Pose", **_object({"position": VECTOR3, "orientation": QUATERNION})}
+COLOR = {"title": "foxglove.Color", **_object({"r": NUMBER, "g": NUMBER, "b": NUMBER, "a": NUMBER})}
+DURATION = {"type": "object", "title": "duration", "properties": {"sec": {"type": "integer"},
+                                                                  "nsec": {"type": "integer", "minimum": 0}},
+            "required": ["sec", "nsec"]}
+LINE = {"title": "foxglove.LinePrimitive", **_object({
+    "type": {"type": "integer", "enum": [0, 1, 2]}, "pose": POSE, "thickness": NUMBER,
+    "scale_invariant": {"type": "boolean"}, "points": {"type": "array", "items": VECTOR3}, "color": COLOR,
+    "colors": {"type": "array", "items": COLOR}, "indices": {"type": "array", "items": {"type": "integer"}}})}
+CUBE = {"title": "foxglove.CubePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
+SPHERE = {"title": "foxglove.SpherePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
+ENTITY = {"title": "foxglove.SceneEntity", **_object({
+    "timestamp": TIME, "frame_id": {"type": "string"}, "id": {"type": "string"}, "lifetime": DURATION,
+    "frame_locked": {"type": "boolean"}, "metadata": {"type": "array"}, "arrows": {"type": "array"},
+    "cubes": {"type": "array", "items": CUBE}, "spheres": {"type": "array", "items": SPHERE},
+    "cylinders": {"type": "array"}, "lines": {"type": "array", "items": LINE}, "triangles": {"type": "array"},
+    "texts": {"type": "array"}, "models": {"type": "array"}})}
+
+SCHEMAS: dict[str, dict] = {
+    "foxglove.FrameTransforms": _object({"transforms": {"type": "array", "items": {
+        "title": "foxglove.FrameTransform", **_object({
+            "timestamp": TIME, "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
+            "translation": VECTOR3, "rotation": QUATERNION})}}}),
+    "foxglove.PoseInFrame": _object({"timestamp": TIME, "frame_id": {"type": "string"}, "pose": POSE}),
+    "foxglove.SceneUpdate": _object({"deletions": {"type": "array"}, "entities": {"type": "array", "items": ENTITY}}),
+    "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
+                                  "position_rad": {"type": "array", "items": NUMBER}}),
+    "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
+                              "feasible": {"type": "boolean"}}),
+}
+for _name, _schema in SCHEMAS.items():
+    _schema.setdefault("title", _name)
+
+TOPICS = {"/tf": "foxglove.FrameTransforms", "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
+          "/p_body": "foxglove.PoseInFrame", "/com": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
+          "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate"}
+
+# --- helpers ------------------------------------------------------------------------------
+
+
+def stamp(t_s: float) -> dict:
+    ns = round(t_s * 1e9)
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions (x, y, z, w)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return np.array([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz])
+
+
+def quat_axis_angle(axis, angle_rad: float) -> np.ndarray:
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    return np.array([*(a * math.sin(angle_rad / 2)), math.cos(angle_rad / 2)])
+
+
+def quat_rpy(rpy) -> np.ndarray:
+    """Quaternion of URDF fixed-axis roll, pitch, yaw: R = Rz(y)·Ry(p)·Rx(r)."""
+    r, p, y = rpy
+    return quat_mul(quat_axis_angle((0, 0, 1), y), quat_mul(quat_axis_angle((0, 1, 0), p),
+                                                            quat_axis_angle((1, 0, 0), r)))
+
+
+def _vec(v) -> dict:
+    return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+
+
+def _quat(q) -> dict:
+    return {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "w": float(q[3])}
+
+
+def _pose(pos, quat=(0.0, 0.0, 0.0, 1.0)) -> dict:
+    return {"position": _vec(pos), "orientation": _quat(quat)}
+
+
+def _entity(t: float, ident: str, cubes=(), lines=(), spheres=()) -> dict:
+    return {"timestamp": stamp(t), "frame_id": "world", "id": ident, "lifetime": {"sec": 0, "nsec": 0},
+            "frame_locked": False, "metadata": [], "arrows": [], "cubes": list(cubes), "spheres": list(spheres),
+            "cylinders": [], "lines": list(lines), "triangles": [], "texts": [], "models": []}
+
+
+def terrain_update(cartons: Iterable[Carton], t: float = 0.0) -> dict:
+    """/terrain: one cube per carton (brown)."""
+    cubes = []
+    for c in cartons:
+        x, y, ztop = c.top_centre_m
+        cubes.append({"pose": _pose((x, y, ztop - c.size_m[2] / 2)), "size": _vec(c.size_m),
+                      "color": {"r": 0.72, "g": 0.53, "b": 0.32, "a": 0.9}})
+    return {"deletions": [], "entities": [_entity(t, "cartons", cubes=cubes)]}
+
+
+def swing_path_update(paths: Iterable[np.ndarray], t: float = 0.0) -> dict:
+    """/swing_path: one line strip per step through its swing samples."""
+    lines = [{"type": 0, "pose": _pose((0, 0, 0)), "thickness": 0.005, "scale_invariant": False,
+              "points": [_vec(p) for p in path], "color": {"r": 0.1, "g": 0.6, "b": 1.0, "a": 1.0}, "colors": [],
+              "indices": []} for path in paths]
+    return {"deletions": [], "entities": [_entity(t, "swing_paths", lines=lines)]}
+
+
+def frame_transforms(robot: RobotModel, t: float, p_body, yaw: float, q: np.ndarray) -> dict:
+    """/tf at one instant: world→trunk and each joint's parent→child."""
+    ts = stamp(t)
+    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": "trunk", "translation": _vec(p_body),
+            "rotation": _quat(quat_axis_angle((0, 0, 1), yaw))}]
+    qmap = dict(zip(robot.joint_names, q, strict=True))
+    for j in urdf_joints(robot.urdf_path):
+        rot = quat_rpy(j.rpy)
+        if j.kind in ("revolute", "continuous"):
+            rot = quat_mul(rot, quat_axis_angle(j.axis, float(qmap[j.name])))
+        tfs.append({"timestamp": ts, "parent_frame_id": j.parent, "child_frame_id": j.child,
+                    "translation": _vec(j.xyz), "rotation": _quat(rot)})
+    return {"transforms": tfs}
+
+
+def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
+    """The MCAP bytes of a planned trajectory (zstd-compressed chunks)."""
+    from mcap.writer import CompressionType, Writer
+
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.ZSTD)
+    w.start(profile="", library="jethr1-plan")
+    schema_ids = {name: w.register_schema(name=name, encoding="jsonschema",
+                                          data=json.dumps(s, sort_keys=True).encode()) for name, s in SCHEMAS.items()}
+    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=schema_ids[name])
+                for topic, name in TOPICS.items()}
+    seq = 0
+
+    def put(topic: str, t: float, msg: dict) -> None:
+        nonlocal seq
+        ns = round(t * 1e9)
+        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
+                      data=json.dumps(msg, separators=(",", ":")).encode())
+        seq += 1
+
+    put("/terrain", 0.0, terrain_update(cartons))
+    put("/swing_path", 0.0, swing_path_update(paths))
+    c = rows.columns
+    names = list(robot.joint_names)
+    for i in range(len(rows)):
+        t = float(c["time_s"][i])
+        p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
+        put("/tf", t, frame_transforms(robot, t, p, yaw, q))
+        put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q]})
+        put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
+                           "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
+                           "feasible": bool(c["feasible"][i])})
+        put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
+                           "pose": _pose(p, quat_axis_angle((0, 0, 1), yaw))})
+        put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(c["com"][i])})
+        zmp = c["zmp"][i]
+        put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose((zmp[0], zmp[1], _ground(c, i)))})
+    w.finish()
+    return buf.getvalue()
+
+
+def _ground(c: dict, i: int) -> float:
+    """Height of the ZMP: the support sole's height (the lower sole in double support)."""
+    return float(c["ground_z"][i]) if "ground_z" in c else 0.0
+
+
+def read_mcap(data: bytes) -> list[tuple[str, str, dict, int]]:
+    """Every message of an MCAP file: (topic, schema name, decoded JSON, log_time [ns])."""
+    from mcap.reader import make_reader
+
+    out = []
+    reader = make_reader(io.BytesIO(data))
+    for schema, channel, message in reader.iter_messages():
+        out.append((channel.topic, schema.name, json.loads(message.data), message.log_time))
+    return out
+
+
+def mcap_schemas(data: bytes) -> dict[str, dict]:
+    """Schema name → the JSON schema stored in the file."""
+    from mcap.reader import make_reader
+
+    summary = make_reader(io.BytesIO(data)).get_summary()
+    return {s.name: json.loads(s.data) for s in summary.schemas.values()}

@@ -1,0 +1,260 @@
+"""``jethr1 plan``: a scenario in, optimised swing samples and a resampled trajectory out."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from . import __version__
+from .balance import body_yaw_eq4, body_yaw_forward_axis, sole_polygon
+from .errors import InfeasiblePlan
+from .fitness import VIOLATIONS, SampleProblem
+from .optimiser import SampleResult, optimise_sample
+from .posture import PostureSolver, Stance
+from .robot_model import RobotModel, load_robot
+from .scenario import Scenario
+from .sequence import Rows, SequenceBuilder
+
+STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
+NOMINAL_HEIGHT_FRACTION = 0.8  # centre of the initial phase's box, same unit
+
+
+@dataclass
+class StepResult:
+    """The optimised samples of one step."""
+
+    index: int
+    swing: str
+    support: str
+    path_m: np.ndarray  # (N, 3)
+    samples: list[SampleResult]
+
+    @property
+    def p_body(self) -> np.ndarray:
+        return np.array([s.p_body for s in self.samples])
+
+    @property
+    def thrust_n(self) -> np.ndarray:
+        return np.array([float(s.best.thrust_n[0]) for s in self.samples])
+
+
+@dataclass
+class PlanResult:
+    scenario: Scenario
+    robot: RobotModel
+    method: str
+    seed: int
+    steps: list[StepResult]
+    rows: Rows | None
+    first_infeasible: dict | None
+    evaluations: int
+    wall_s: float
+
+    @property
+    def feasible(self) -> bool:
+        return self.first_infeasible is None
+
+
+def smoothness(p_body: np.ndarray, thrust_n: np.ndarray) -> dict:
+    """Σ‖ΔP_body‖² [m²], the largest ‖ΔP_body‖ [m] and the largest thrust jump [N] over consecutive samples."""
+    d = np.diff(p_body, axis=0)
+    step = np.linalg.norm(d, axis=1) if len(d) else np.zeros(1)
+    jumps = np.abs(np.diff(thrust_n)) if len(thrust_n) > 1 else np.zeros(1)
+    return {"smoothness_m2": float(np.sum(d * d)), "max_step_m": float(step.max()),
+            "max_thrust_jump_n": float(np.nan_to_num(jumps, nan=np.inf).max())}
+
+
+def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray):
+    """Body yaw [rad] as a function of the swing sole position, per the scenario's mode."""
+    swing = "left" if support == "right" else "right"
+    off = np.asarray(robot.fan_for(swing).offset_in_foot_m[:2])
+    if scenario.yaw_mode == "eq4":
+        return lambda sw: float(body_yaw_eq4(support_xyz[:2], sw[:2] + off, support))
+    if scenario.yaw_mode == "forward_axis":
+        return lambda sw: float(body_yaw_forward_axis(support_xyz[:2], sw[:2] + off))
+    return lambda sw: scenario.yaw_fixed_rad
+
+
+def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray,
+                   swing_xyz: np.ndarray, yaw: float) -> SampleProblem:
+    """The optimisation problem at one swing sample."""
+    swing = "left" if support == "right" else "right"
+    fan_xy = swing_xyz[:2] + np.asarray(robot.fan_for(swing).offset_in_foot_m[:2])
+    stance = Stance(support, support_xyz, 0.0, swing_xyz, 0.0, yaw)
+    poly = sole_polygon(support_xyz[:2], 0.0, robot.sole_length_m, robot.sole_width_m, scenario.balance.sole_margin_m)
+    return SampleProblem(stance=stance, fan_xy=fan_xy, ankle_xy=swing_xyz[:2].copy(), edge_origin_xy=support_xyz[:2],
+                         support_polygon=poly, mass_kg=robot.mass_kg, thrust_max_n=scenario.balance.thrust_max_n,
+                         rho_rad=scenario.balance.rho_rad)
+
+
+def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
+         progress: Callable[[str, int, int], None] | None = None, keep_going: bool = False,
+         build_rows: bool = True) -> PlanResult:
+    """Optimise every swing sample of ``scenario`` and resample the whole sequence.
+
+    Args:
+        method: override of ``optimiser.method``.
+        seed: override of the scenario's seed.
+        progress: called as ``progress(label, done, total)`` after each sample.
+        keep_going: continue past infeasible samples (their rows are marked infeasible).
+        build_rows: also build the output-rate trajectory.
+
+    Raises:
+        InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
+    """
+    t0 = time.perf_counter()
+    robot = load_robot(scenario.robot)
+    cfg = scenario.optimiser if method is None else replace(scenario.optimiser, method=method)
+    seed = scenario.seed if seed is None else seed
+    solver = PostureSolver(robot)
+    feet = {k: v.copy() for k, v in scenario.start.items()}
+    total = sum(len(s.path_m) for s in scenario.steps)
+    done, evaluations = 0, 0
+    first_bad: dict | None = None
+    steps: list[StepResult] = []
+    for si, step in enumerate(scenario.steps):
+        support = step.support
+        yaw_of = yaw_function(scenario, robot, support, feet[support])
+        z_nom = scenario.nominal_height_m or NOMINAL_HEIGHT_FRACTION * robot.leg_length_m
+        results: list[SampleResult] = []
+        previous = None
+        for i, swing_xyz in enumerate(step.path_m):
+            problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw_of(swing_xyz))
+            nominal = np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
+            rng = np.random.default_rng([seed, si, i])
+            res = optimise_sample(solver, problem, cfg, rng, previous, nominal)
+            evaluations += res.evaluations
+            results.append(res)
+            previous = res.p_body
+            done += 1
+            if progress:
+                progress(f"step {si} sample {i}", done, total)
+            if not res.feasible and first_bad is None:
+                first_bad = {"step": si, "phase": "swing", "sample": i, "swing_m": swing_xyz.tolist(),
+                             "p_body_m": res.p_body.tolist(), "thrust_n": _finite(res.best.thrust_n[0]),
+                             "reason": VIOLATIONS[int(res.best.violation[0])]}
+                if not keep_going:
+                    partial = StepResult(si, step.swing, support, step.path_m[:i + 1], results)
+                    result = PlanResult(scenario, robot, cfg.method, seed, [*steps, partial], None, first_bad,
+                                        evaluations, time.perf_counter() - t0)
+                    raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
+        steps.append(StepResult(si, step.swing, support, step.path_m, results))
+        feet[step.swing] = step.landing_m.copy()
+
+    rows = None
+    if build_rows:
+        rows, bad_row = build_sequence(scenario, robot, solver, steps)
+        if first_bad is None and bad_row is not None:
+            first_bad = bad_row
+            if not keep_going:
+                result = PlanResult(scenario, robot, cfg.method, seed, steps, None, first_bad, evaluations,
+                                    time.perf_counter() - t0)
+                raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
+    return PlanResult(scenario, robot, cfg.method, seed, steps, rows, first_bad, evaluations, time.perf_counter() - t0)
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def _describe(bad: dict) -> str:
+    where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
+    pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
+    return f"infeasible at {where}{pos}: {bad['reason']}"
+
+
+def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:
+    """P_body [m] over the midpoint of both soles, knees bent.
+
+    The height is the highest of 0.9, 0.89, ... leg lengths over the higher sole at which both
+    hip–ankle distances are at most 95 % of the leg's stretch (so wide stances crouch).
+    """
+    mid = 0.5 * (feet["left"] + feet["right"])
+    base = max(feet["left"][2], feet["right"][2])
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    reach = 0.95 * (robot.thigh_m + robot.shank_m)
+    for frac in np.arange(STANDING_HEIGHT_FRACTION, 0.3, -0.01):
+        p = np.array([mid[0], mid[1], base + frac * robot.leg_length_m])
+        ok = True
+        for side, sgn in (("left", 1.0), ("right", -1.0)):
+            hip = p + sgn * robot.hip_offset_m * np.array([-s, c, 0.0])
+            ankle = feet[side] + np.array([0.0, 0.0, robot.ankle_height_m])
+            ok &= bool(np.linalg.norm(hip - ankle) <= reach)
+        if ok:
+            return p
+    return p
+
+
+def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult]
+                   ) -> tuple[Rows, dict | None]:
+    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate."""
+    tm = scenario.timing
+    b = scenario.balance
+    seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m)
+    feet = {k: v.copy() for k, v in scenario.start.items()}
+    p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
+    thrust_out = None
+    for st in steps:
+        yaw_of = yaw_function(scenario, robot, st.support, feet[st.support])
+        p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
+        seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
+                     (st.swing, float(st.thrust_n[0])))
+        seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s)
+        feet[st.swing] = st.path_m[-1].copy()
+        p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
+        thrust_out = (st.swing, float(st.thrust_n[-1]))
+    seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
+                 thrust_out, None, include_end=True)
+    return seq.rows, seq.first_infeasible
+
+
+def plan_summary(result: PlanResult) -> dict:
+    """summary.json (CONTRACT.md): figures over the optimised swing samples, per step and in total."""
+    sc = result.scenario
+    per_step = []
+    all_thrust, all_p = [], []
+    for st in result.steps:
+        thrust = st.thrust_n
+        fin = thrust[np.isfinite(thrust)]
+        per_step.append({
+            "index": st.index, "swing": st.swing, "support": st.support, "samples": len(st.samples),
+            "max_thrust_n": float(fin.max()) if len(fin) else None,
+            "mean_thrust_n": float(fin.mean()) if len(fin) else None,
+            **smoothness(st.p_body, thrust),
+            "evaluations": int(sum(s.evaluations for s in st.samples)),
+            "restarts": sum(s.phase == "restart" for s in st.samples),
+            "feasible": all(s.feasible for s in st.samples),
+        })
+        all_thrust.append(fin)
+        all_p.append(st.p_body)
+    thr = np.concatenate(all_thrust) if all_thrust else np.zeros(0)
+    out = {
+        "scenario": sc.name,
+        "scenario_file": sc.source,
+        "robot": result.robot.name,
+        "optimiser": result.method,
+        "seed": result.seed,
+        "version": __version__,
+        "feasible": result.feasible,
+        "first_infeasible": result.first_infeasible,
+        "sample_count": int(sum(len(st.samples) for st in result.steps)),
+        "row_count": len(result.rows) if result.rows is not None else 0,
+        "max_thrust_n": float(thr.max()) if len(thr) else None,
+        "mean_thrust_n": float(thr.mean()) if len(thr) else None,
+        "thrust_max_n": sc.balance.thrust_max_n,
+        "smoothness_m2": float(sum(s["smoothness_m2"] for s in per_step)),
+        "max_step_m": max((s["max_step_m"] for s in per_step), default=0.0),
+        "max_thrust_jump_n": max((s["max_thrust_jump_n"] for s in per_step), default=0.0),
+        "evaluations": int(result.evaluations),
+        "wall_s": float(result.wall_s),
+        "steps": per_step,
+    }
+    if result.rows is not None and len(result.rows):
+        tl, tr = result.rows.array("thrust_left"), result.rows.array("thrust_right")
+        out["trajectory"] = {"rows": len(result.rows), "rate_hz": sc.timing.rate_hz,
+                             "duration_s": len(result.rows) / sc.timing.rate_hz,
+                             "max_thrust_n": float(max(tl.max(), tr.max()))}
+    return out

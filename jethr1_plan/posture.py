@@ -1,0 +1,192 @@
+"""Posture kinematics (Paper A, III-B): from P_body and the body yaw to the 12 joint angles.
+
+Preconditions 1 and 2 fix the trunk level (roll = pitch = 0, yaw given) and both soles flat, so a
+posture is determined by P_body ∈ R³. PlaCo's KinematicsSolver solves the leg IK with the trunk
+pose imposed (``mask_fbase``) and two soft sole tasks; the residual is checked against the
+tolerance on both feet, so a candidate is either converged or carries the reason it is not.
+
+A :class:`PostureSolver` owns one PlaCo robot and solver; it cannot be pickled: each worker process
+builds its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .robot_model import RobotModel
+
+OK, UNREACHABLE, JOINT_LIMIT, NOT_CONVERGED = 0, 1, 2, 3
+REASONS = {OK: "ok", UNREACHABLE: "unreachable", JOINT_LIMIT: "joint limit", NOT_CONVERGED: "ik not converged"}
+
+#: bent-knee seed per leg (hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll) [rad]
+BENT_SEED = np.array([0.0, 0.0, -0.5, 1.0, -0.5, 0.0])
+
+
+def pose_matrix(xyz: np.ndarray, yaw_rad: float) -> np.ndarray:
+    """4×4 homogeneous transform of a level frame at ``xyz`` [m] turned by ``yaw_rad`` about z."""
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    T = np.eye(4)
+    T[0, 0], T[0, 1], T[1, 0], T[1, 1] = c, -s, s, c
+    T[:3, 3] = xyz
+    return T
+
+
+@dataclass(frozen=True)
+class Stance:
+    """What a swing sample fixes: both sole poses and the body yaw (SI units)."""
+
+    support_side: str  # 'left' or 'right'
+    support_xyz: np.ndarray  # (3,) support sole centre [m]
+    support_yaw: float  # [rad]
+    swing_xyz: np.ndarray  # (3,) swing sole centre [m]
+    swing_yaw: float  # [rad] (Precondition 2: 0, "forward")
+    body_yaw: float  # trunk yaw [rad]
+
+    @property
+    def swing_side(self) -> str:
+        return "left" if self.support_side == "right" else "right"
+
+    def foot_pose(self, side: str) -> np.ndarray:
+        if side == self.support_side:
+            return pose_matrix(self.support_xyz, self.support_yaw)
+        return pose_matrix(self.swing_xyz, self.swing_yaw)
+
+
+@dataclass
+class PostureBatch:
+    """Postures for N candidate P_body: joints (N, 12) [rad], CoM (N, 3) [m], status (N,), residual [m]."""
+
+    q: np.ndarray
+    com: np.ndarray
+    status: np.ndarray
+    residual_m: np.ndarray
+    iterations: int = 0  # IK iterations spent on the batch
+
+
+def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.ndarray:
+    """(N,) True where both hip–ankle distances are within the leg's geometric range."""
+    T_trunk_rot = pose_matrix(np.zeros(3), stance.body_yaw)[:3, :3]
+    ok = np.ones(len(p_body), dtype=bool)
+    longest = model.thigh_m + model.shank_m
+    shortest = abs(model.thigh_m - model.shank_m) + 0.05  # knee flexion limit keeps it well above
+    for side, sgn in (("left", 1.0), ("right", -1.0)):
+        hip = p_body + T_trunk_rot @ np.array([0.0, sgn * model.hip_offset_m, 0.0])
+        T_foot = stance.foot_pose(side)
+        ankle = T_foot[:3, 3] + T_foot[:3, :3] @ np.array([0.0, 0.0, model.ankle_height_m])
+        dist = np.linalg.norm(hip - ankle, axis=1)
+        ok &= (dist <= longest) & (dist >= shortest)
+    return ok
+
+
+class PostureSolver:
+    """Leg IK through PlaCo for batches of P_body candidates.
+
+    Args:
+        model: the robot.
+        tol_m: position residual accepted on each sole [m].
+        tol_rad: orientation residual accepted on each sole [rad].
+        max_iter: Gauss–Newton iterations before a candidate is declared not converged.
+    """
+
+    def __init__(self, model: RobotModel, tol_m: float = 1e-9, tol_rad: float = 1e-9, max_iter: int = 15):
+        import placo
+
+        self.model = model
+        self.tol_m, self.tol_rad, self.max_iter = tol_m, tol_rad, max_iter
+        self.robot = model.wrapper()
+        self.solver = placo.KinematicsSolver(self.robot)
+        self.solver.mask_fbase(True)
+        self.tasks = {}
+        for side in ("left", "right"):
+            task = self.solver.add_frame_task(f"{side}_foot", np.eye(4))
+            task.configure(f"{side}_foot", "soft", 1.0, 1.0)
+            self.tasks[side] = task
+        self.seed = np.concatenate([BENT_SEED, BENT_SEED])
+        self._lo = model.lower_rad + 1e-9
+        self._hi = model.upper_rad - 1e-9
+        self.evaluations = 0
+
+    def set_stance(self, stance: Stance) -> None:
+        """Point the sole tasks at the stance's feet."""
+        self._targets = {side: stance.foot_pose(side) for side in ("left", "right")}
+        for side, task in self.tasks.items():
+            task.T_world_frame = self._targets[side]
+        self._stance = stance
+
+    def _residual(self) -> tuple[float, float]:
+        """Largest sole position [m] and orientation [rad] error over both feet."""
+        get = self.robot.get_T_world_frame
+        dl = get("left_foot") - self._targets["left"]
+        dr = get("right_foot") - self._targets["right"]
+        err_p = max(dl[0, 3] ** 2 + dl[1, 3] ** 2 + dl[2, 3] ** 2, dr[0, 3] ** 2 + dr[1, 3] ** 2 + dr[2, 3] ** 2)
+        err_r = max(float(np.sum(dl[:3, :3] ** 2)), float(np.sum(dr[:3, :3] ** 2))) / 2.0
+        return float(np.sqrt(err_p)), float(np.sqrt(err_r))
+
+    def solve_one(self, p_body: np.ndarray, q_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
+        """Solve one candidate from ``q_start``: (q, com, status, residual [m], iterations).
+
+        Gauss–Newton steps until both soles are within tolerance; stops early when the residual
+        no longer halves between checks (a joint limit or the stretched-leg singularity).
+        """
+        robot = self.robot
+        robot.set_T_world_fbase(pose_matrix(p_body, self._stance.body_yaw))
+        robot.state.q[7:] = q_start
+        err_p = err_r = prev = np.inf
+        it = 0
+        converged = False
+        while it < self.max_iter:
+            robot.update_kinematics()
+            self.solver.solve(True)
+            it += 1
+            if it < 3:
+                continue
+            robot.update_kinematics()
+            err_p, err_r = self._residual()
+            if err_p <= self.tol_m and err_r <= self.tol_rad:
+                converged = True
+                break
+            err = err_p + err_r
+            if err > 0.5 * prev:
+                break
+            prev = err
+        q = robot.state.q[7:].copy()
+        com = robot.com_world()
+        if converged:
+            status = OK
+        elif np.any(q <= self._lo + 1e-6) or np.any(q >= self._hi - 1e-6):
+            status = JOINT_LIMIT
+        else:
+            status = NOT_CONVERGED
+        return q, com, status, err_p, it
+
+    def solve_batch(self, stance: Stance, p_body: np.ndarray, warm: np.ndarray | None = None) -> PostureBatch:
+        """Postures for candidates ``p_body`` (N, 3) [m] under ``stance``.
+
+        Candidates that are geometrically out of reach are marked without running IK. The others
+        are visited in a deterministic order (sorted by position), each warm-started from the last
+        converged neighbour (or ``warm``, or the bent-knee seed).
+        """
+        p_body = np.atleast_2d(np.asarray(p_body, dtype=float))
+        n = len(p_body)
+        self.set_stance(stance)
+        q = np.zeros((n, 12))
+        com = np.full((n, 3), np.nan)
+        status = np.full(n, UNREACHABLE, dtype=np.int8)
+        residual = np.full(n, np.inf)
+        reach = leg_reach_ok(self.model, stance, p_body)
+        idx = np.flatnonzero(reach)
+        order = idx[np.lexsort((p_body[idx, 0], p_body[idx, 1], np.round(p_body[idx, 2], 2)))]
+        start = self.seed if warm is None else warm
+        iters = 0
+        for i in order:
+            qi, ci, si, ri, it = self.solve_one(p_body[i], start)
+            if si == NOT_CONVERGED and start is not self.seed:  # a far neighbour can mislead: retry from the seed
+                qi, ci, si, ri, it2 = self.solve_one(p_body[i], self.seed)
+                it += it2
+            q[i], com[i], status[i], residual[i] = qi, ci, si, ri
+            iters += it
+            start = qi if si == OK else start
+        self.evaluations += n
+        return PostureBatch(q=q, com=com, status=status, residual_m=residual, iterations=iters)

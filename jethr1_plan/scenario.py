@@ -1,0 +1,287 @@
+"""Scenario files: a typed, validating loader.
+
+A scenario is YAML (see README, "Scenario files"). Structure is checked against a JSON Schema
+(unknown keys, wrong types, bounds), then numbers are checked to be finite, then the geometry is
+checked (soles fully on cartons, swing paths that clear carton edges). Every problem is an
+:class:`~jethr1_plan.errors.InputError` naming the file, the key path and what is wrong.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .errors import InputError
+from .fitness import FitnessConstants
+from .optimiser import METHODS, GAPhase, OptimiserConfig
+from .robot_model import GRAVITY
+from .swing_path import Carton, arc_path, first_collision, sole_on_carton
+
+DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
+F3_UNITS = {"mm": 0.001, "m": 1.0}
+YAW_MODES = ("eq4", "forward_axis", "fixed")
+
+_num = {"type": "number"}
+_pos = {"type": "number", "exclusiveMinimum": 0}
+_prob = {"type": "number", "minimum": 0, "maximum": 1}
+_vec3 = {"type": "array", "items": _num, "minItems": 3, "maxItems": 3}
+
+
+def _obj(props: dict, required: tuple = ()) -> dict:
+    return {"type": "object", "properties": props, "required": list(required), "additionalProperties": False}
+
+
+_phase = _obj({"population": {"type": "integer", "minimum": 2}, "generations": {"type": "integer", "minimum": 1},
+               "half_range_m": _pos, "crossover": _prob, "mutation": _prob})
+
+SCHEMA = _obj({
+    "name": {"type": "string"},
+    "description": {"type": "string"},
+    "robot": {"type": "string"},
+    "seed": {"type": "integer", "minimum": 0},
+    "start": _obj({"left": _vec3, "right": _vec3}, ("left", "right")),
+    "terrain": _obj({
+        "carton_size_m": {**_vec3, "items": _pos},
+        "cartons": {"type": "array", "items": _obj({"top_centre_m": _vec3, "size_m": {**_vec3, "items": _pos}},
+                                                   ("top_centre_m",))},
+    }),
+    "steps": {"type": "array", "minItems": 1, "items": _obj({
+        "swing": {"enum": ["left", "right"]},
+        "landing_m": _vec3,
+        "path": {"oneOf": [
+            _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0},
+                  "samples": {"type": "integer", "minimum": 2}}, ("kind",)),
+            _obj({"kind": {"const": "points"}, "points_m": {"type": "array", "items": _vec3, "minItems": 2}},
+                 ("kind", "points_m")),
+        ]},
+    }, ("swing",))},
+    "optimiser": _obj({
+        "method": {"enum": list(METHODS)},
+        "initial": _phase,
+        "intermediate": _phase,
+        "bits": {"type": "integer", "minimum": 2, "maximum": 20},
+        "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num, "omega": {"type": "number", "minimum": 0},
+                         "f3_unit": {"enum": list(F3_UNITS)}, "graded": {"type": "boolean"}}),
+        "gaex": _obj({"half_m": _pos, "step_m": _pos}),
+        "nominal_height_m": _pos,
+    }),
+    "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0}, "rho_rad": {"type": "number", "minimum": 0},
+                     "sole_margin_m": {"type": "number", "minimum": 0}}),
+    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": _num}),
+    "timing": _obj({"swing_s": _pos, "transfer_s": _pos, "rate_hz": _pos}),
+    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0}}),
+}, ("steps",))
+
+
+@dataclass(frozen=True)
+class Step:
+    """One swing: which foot, its sampled path (N, 3) [m] (first = current sole, last = landing)."""
+
+    swing: str
+    path_m: np.ndarray
+
+    @property
+    def support(self) -> str:
+        return "left" if self.swing == "right" else "right"
+
+    @property
+    def landing_m(self) -> np.ndarray:
+        return self.path_m[-1]
+
+
+@dataclass(frozen=True)
+class Timing:
+    swing_s: float = 8.0
+    transfer_s: float = 3.0
+    rate_hz: float = 50.0
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    thrust_max_n: float = 23.0
+    rho_rad: float = math.radians(5.0)
+    sole_margin_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario (SI units)."""
+
+    source: str
+    name: str
+    robot: str
+    seed: int
+    start: dict[str, np.ndarray]
+    cartons: tuple[Carton, ...]
+    steps: tuple[Step, ...]
+    optimiser: OptimiserConfig
+    balance: BalanceConfig
+    yaw_mode: str
+    yaw_fixed_rad: float
+    timing: Timing
+    nominal_height_m: float | None
+    expect: dict = field(default_factory=dict)
+
+
+def _keypath(path) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
+
+
+def _check_finite(doc, src: str, path=()) -> None:
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            _check_finite(v, src, (*path, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            _check_finite(v, src, (*path, i))
+    elif isinstance(doc, float) and not math.isfinite(doc):
+        raise InputError(src, _keypath(path), f"{doc} is not a finite number")
+
+
+def _schema_error(doc: dict, src: str) -> None:
+    import jsonschema
+
+    validator = jsonschema.Draft202012Validator(SCHEMA)
+    errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
+    if not errors:
+        return
+    err = errors[0]
+    # for oneOf failures, report the most specific sub-error
+    while err.context:
+        err = sorted(err.context, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
+    if err.validator == "additionalProperties":
+        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
+        raise InputError(src, _keypath([*err.absolute_path, extra[0]]) if extra else _keypath(err.absolute_path),
+                         "unknown key")
+    if err.validator == "required":
+        missing = err.message.split("'")[1] if "'" in err.message else err.message
+        raise InputError(src, _keypath([*err.absolute_path, missing]), "missing")
+    raise InputError(src, _keypath(err.absolute_path), err.message)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file (the robot it names is loaded for its sole size).
+
+    Raises:
+        InputError: the first problem found (exit 2).
+    """
+    src = str(path)
+    try:
+        text = Path(path).read_text()
+    except OSError as exc:
+        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark else ""
+        raise InputError(src, where, f"not valid YAML: {getattr(exc, 'problem', exc)}") from None
+    if not isinstance(doc, dict):
+        raise InputError(src, "(top level)", "expected a mapping")
+    _check_finite(doc, src)
+    _schema_error(doc, src)
+    from .robot_model import load_robot
+
+    try:
+        robot = load_robot(doc.get("robot", "jethr1"))
+    except InputError as exc:
+        raise InputError(src, "robot", str(exc)) from None
+    return _build(doc, src, robot)
+
+
+def _build(doc: dict, src: str, robot) -> Scenario:
+    sole_l, sole_w = robot.sole_length_m, robot.sole_width_m
+    terrain = doc.get("terrain", {})
+    size = tuple(terrain.get("carton_size_m", DEFAULT_CARTON_M))
+    cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c.get("size_m", size))) for c in terrain.get("cartons", []))
+
+    def on_terrain(p: np.ndarray) -> bool:
+        if not cartons:
+            return abs(p[2]) < 1e-9
+        return any(sole_on_carton(p, 0.0, sole_l, sole_w, c) for c in cartons)
+
+    start = {side: np.array(doc["start"][side], dtype=float) for side in ("left", "right")} if "start" in doc else {
+        "left": np.array([0.0, 0.1125, 0.0]), "right": np.array([0.0, -0.1125, 0.0])}
+    for side in ("left", "right"):
+        if not on_terrain(start[side]):
+            raise InputError(src, f"start.{side}", "the sole does not lie fully on a carton top")
+    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < 0.09:
+        raise InputError(src, "start", "the two soles overlap")
+
+    feet = dict(start)
+    steps = []
+    for i, sd in enumerate(doc["steps"]):
+        key = f"steps[{i}]"
+        swing = sd["swing"]
+        path_doc = sd.get("path", {"kind": "arc"})
+        if path_doc["kind"] == "points":
+            pts = np.array(path_doc["points_m"], dtype=float)
+            if np.linalg.norm(pts[0] - feet[swing]) > 1e-6:
+                raise InputError(src, f"{key}.path.points_m[0]",
+                                 f"must be the {swing} sole's current position {feet[swing].tolist()}")
+            if "landing_m" in sd and np.linalg.norm(pts[-1] - np.array(sd["landing_m"])) > 1e-6:
+                raise InputError(src, f"{key}.path.points_m", "last point differs from landing_m")
+        else:
+            if "landing_m" not in sd:
+                raise InputError(src, f"{key}.landing_m", "missing")
+            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float), path_doc.get("clearance_m", 0.05),
+                           path_doc.get("samples", 25))
+        landing = pts[-1]
+        if not on_terrain(landing):
+            raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
+                             "not lie fully on a carton top")
+        other = feet["left" if swing == "right" else "right"]
+        if np.linalg.norm(landing[:2] - other[:2]) < 0.09:
+            raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
+        hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None
+        if hit is not None:
+            seg, pos, k = hit
+            raise InputError(src, f"{key}.path", f"the swing sole enters carton {k} near {np.round(pos, 3).tolist()} m "
+                             f"(between samples {seg} and {seg + 1}): the path cannot clear its edge; "
+                             "raise clearance_m")
+        steps.append(Step(swing, pts))
+        feet[swing] = landing
+
+    opt = doc.get("optimiser", {})
+    fit = opt.get("fitness", {})
+    constants = FitnessConstants(
+        c1=float(fit.get("c1", 11000.0)), c2=float(fit.get("c2", 9000.0)), c4_1=float(fit.get("c4_1", 5000.0)),
+        c4_2=float(fit.get("c4_2", 10.0)), omega=float(fit.get("omega", 50.0)),
+        f3_unit_m=F3_UNITS[fit.get("f3_unit", "mm")], graded=bool(fit.get("graded", True)),
+        weight_n=robot.mass_kg * GRAVITY)
+    dflt = OptimiserConfig()
+
+    def phase(d: dict | None, base: GAPhase) -> GAPhase:
+        d = d or {}
+        return GAPhase(d.get("population", base.population), d.get("generations", base.generations),
+                       float(d.get("half_range_m", base.half_range_m)), float(d.get("crossover", base.crossover)),
+                       float(d.get("mutation", base.mutation)))
+
+    gaex = opt.get("gaex", {})
+    optimiser = OptimiserConfig(
+        method=opt.get("method", "gas"), initial=phase(opt.get("initial"), dflt.initial),
+        intermediate=phase(opt.get("intermediate"), dflt.intermediate), bits=opt.get("bits", 10), constants=constants,
+        gaex_half_m=float(gaex.get("half_m", dflt.gaex_half_m)),
+        gaex_step_m=float(gaex.get("step_m", dflt.gaex_step_m)))
+    if optimiser.gaex_step_m > optimiser.gaex_half_m:
+        raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
+    bal = doc.get("balance", {})
+    balance = BalanceConfig(float(bal.get("thrust_max_n", 23.0)), float(bal.get("rho_rad", math.radians(5.0))),
+                            float(bal.get("sole_margin_m", 0.0)))
+    if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
+        raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
+    t = doc.get("timing", {})
+    timing = Timing(float(t.get("swing_s", 8.0)), float(t.get("transfer_s", 3.0)), float(t.get("rate_hz", 50.0)))
+    yaw = doc.get("body_yaw", {})
+    return Scenario(
+        source=src, name=doc.get("name", Path(src).stem), robot=doc.get("robot", "jethr1"), seed=doc.get("seed", 0),
+        start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
+        yaw_mode=yaw.get("mode", "eq4"), yaw_fixed_rad=float(yaw.get("fixed_rad", 0.0)), timing=timing,
+        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))

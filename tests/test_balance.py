@@ -1,0 +1,100 @@
+"""The balance model (A-1)..(A-4), (A-10) on cases solvable by hand and by its properties."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jethr1_plan.balance import (
+    body_yaw_eq4,
+    edge_angle_error,
+    inside_polygon,
+    minimal_thrust,
+    sole_polygon,
+    zmp_with_thrust,
+)
+
+M, G = 6.8, 9.81
+W = M * G
+SOLE = sole_polygon(np.zeros(2), 0.0, 0.16, 0.09)  # x in [-0.08, 0.08], y in [-0.045, 0.045]
+
+
+def test_com_inside_the_sole_needs_no_thrust():
+    f, zmp = minimal_thrust(np.array([0.03, -0.01]), np.array([0.5, 0.0]), SOLE, M)
+    assert f == 0.0
+    np.testing.assert_allclose(zmp, [0.03, -0.01])
+
+
+def test_symmetric_case_by_hand():
+    # CoM 0.1 m ahead of the toe edge (x = 0.08), fan 0.3 m further on the same line:
+    # the moment about the toe edge balances when F·(0.48 − 0.08) = W·(0.18 − 0.08) + ... exactly:
+    # ZMP = (W·c − F·p)/(W − F) = 0.08  →  F = W·(c − 0.08)/(p − 0.08)
+    c, p = 0.18, 0.48
+    f, zmp = minimal_thrust(np.array([c, 0.0]), np.array([p, 0.0]), SOLE, M)
+    assert f == pytest.approx(W * (c - 0.08) / (p - 0.08), rel=1e-12)
+    np.testing.assert_allclose(zmp, [0.08, 0.0], atol=1e-12)
+
+
+def test_moment_balance_about_the_zmp():
+    # with the returned thrust, gravity and thrust have no moment about the ZMP (A-1, A-2)
+    rng = np.random.default_rng(0)
+    com = rng.uniform([0.1, -0.2], [0.4, 0.2], (200, 2))
+    fan = com + rng.uniform([0.1, -0.2], [0.5, 0.2], (200, 2))
+    f, zmp = minimal_thrust(com, fan, SOLE, M)
+    ok = np.isfinite(f)
+    assert ok.sum() > 50
+    moment = W * (com[ok] - zmp[ok]) - f[ok, None] * (fan[ok] - zmp[ok])
+    np.testing.assert_allclose(moment, 0.0, atol=1e-9)
+    np.testing.assert_allclose(zmp_with_thrust(com[ok], fan[ok], f[ok], M), zmp[ok], atol=1e-12)
+
+
+def test_ray_that_misses_the_sole_cannot_be_balanced():
+    # CoM beside the sole, fan straight behind it: the ZMP moves further away from the sole
+    f, zmp = minimal_thrust(np.array([0.3, 0.2]), np.array([0.3, 0.5]), SOLE, M)
+    assert np.isinf(f) and np.all(np.isnan(zmp))
+
+
+def test_minimal_thrust_is_minimal_property():
+    rng = np.random.default_rng(1)
+    com = rng.uniform([-0.3, -0.3], [0.5, 0.3], (2000, 2))
+    fan = com + rng.normal(0, 0.3, (2000, 2))
+    f, zmp = minimal_thrust(com, fan, SOLE, M)
+    ok = np.isfinite(f) & (f > 1e-6)
+    assert ok.sum() > 200
+    # with F*: on the boundary (or inside) of the sole
+    assert np.all(inside_polygon(zmp[ok], SOLE, tol_m=1e-9))
+    on_edge = np.abs(np.abs(zmp[ok]) - [0.08, 0.045]).min(axis=1)
+    assert np.all(on_edge < 1e-9)
+    # with any smaller thrust: outside
+    for frac in (0.999, 0.9, 0.5, 0.0):
+        smaller = zmp_with_thrust(com[ok], fan[ok], f[ok] * frac, M)
+        assert not np.any(inside_polygon(smaller, SOLE, tol_m=-1e-12))
+
+
+def test_margin_shrinks_the_sole():
+    f0, _ = minimal_thrust(np.array([0.18, 0.0]), np.array([0.48, 0.0]), SOLE, M)
+    f1, zmp = minimal_thrust(np.array([0.18, 0.0]), np.array([0.48, 0.0]),
+                             sole_polygon(np.zeros(2), 0.0, 0.16, 0.09, margin_m=0.01), M)
+    assert f1 > f0 and zmp[0] == pytest.approx(0.07)
+    with pytest.raises(ValueError):
+        sole_polygon(np.zeros(2), 0.0, 0.16, 0.09, margin_m=0.05)
+
+
+def test_edge_angle():
+    # CoM on the line from Z to the ankle: 0; CoM off it by 10 deg seen from Z: about 10 deg + bend
+    assert edge_angle_error(np.zeros(2), np.array([0.1, 0.1]), np.array([0.3, 0.3])) == pytest.approx(0.0, abs=1e-12)
+    bend = edge_angle_error(np.zeros(2), np.array([0.0, 0.1]), np.array([0.1, 0.2]))
+    assert bend == pytest.approx(np.pi / 4)
+    assert edge_angle_error(np.zeros(2), np.zeros(2), np.array([0.1, 0.2])) == 0.0
+
+
+def test_body_yaw_eq4_turns_the_hip_line_towards_the_fan():
+    z = np.array([0.0, -0.1125])
+    # fan straight to the left of a right support foot: normal stance, yaw 0
+    assert body_yaw_eq4(z, np.array([0.0, 0.3]), "right") == pytest.approx(0.0)
+    # fan straight ahead: the trunk turns -90 deg so that the left hip leads
+    assert body_yaw_eq4(z, np.array([0.6, -0.1125]), "right") == pytest.approx(-np.pi / 2)
+    # left support, fan to the right: yaw 0; fan ahead: +90 deg
+    zl = np.array([0.0, 0.1125])
+    assert body_yaw_eq4(zl, np.array([0.0, -0.3]), "left") == pytest.approx(0.0)
+    assert body_yaw_eq4(zl, np.array([0.6, 0.1125]), "left") == pytest.approx(np.pi / 2)
