@@ -129,8 +129,10 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--write-infeasible", is_flag=True,
               help="On an infeasible plan, still write the trajectory; infeasible rows say so.")
+@click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Processes optimising steps in parallel (output does not depend on it).")
 def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
-         no_progress: bool, write_infeasible: bool) -> None:
+         no_progress: bool, write_infeasible: bool, jobs: int) -> None:
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from .planner import plan as run_plan
     from .planner import plan_summary
@@ -139,7 +141,8 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     scenario = load_scenario(scenario_path)
     try:
         with _Progress(not no_progress, scenario.name) as progress:
-            result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible)
+            result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
+                              jobs=jobs)
     except InfeasiblePlan as exc:
         write_plan_outputs_summary_only(scenario, outdir, exc.summary)
         raise

@@ -90,17 +90,67 @@ def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_
                          rho_rad=scenario.balance.rho_rad)
 
 
+def feet_before_each_step(scenario: Scenario) -> list[dict[str, np.ndarray]]:
+    """Both sole positions [m] at the start of every step."""
+    feet = {k: v.copy() for k, v in scenario.start.items()}
+    out = []
+    for step in scenario.steps:
+        out.append({k: v.copy() for k, v in feet.items()})
+        feet[step.swing] = step.landing_m.copy()
+    return out
+
+
+def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg, seed: int,
+                  keep_going: bool, solver: PostureSolver | None = None,
+                  progress: Callable[[str, int, int], None] | None = None, done0: int = 0, total: int = 0
+                  ) -> tuple[StepResult, dict | None]:
+    """Optimise every sample of step ``si``; stops at its first infeasible sample unless ``keep_going``.
+
+    Steps are independent of each other (each starts with the initial phase and every sample has
+    its own random stream ``default_rng([seed, step, sample])``), so they may run in any process.
+    """
+    robot = load_robot(scenario.robot)
+    solver = solver or PostureSolver(robot)
+    step = scenario.steps[si]
+    support = step.support
+    yaw_of = yaw_function(scenario, robot, support, feet[support])
+    z_nom = scenario.nominal_height_m or NOMINAL_HEIGHT_FRACTION * robot.leg_length_m
+    results: list[SampleResult] = []
+    previous = None
+    first_bad = None
+    for i, swing_xyz in enumerate(step.path_m):
+        problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw_of(swing_xyz))
+        nominal = np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
+        res = optimise_sample(solver, problem, cfg, np.random.default_rng([seed, si, i]), previous, nominal)
+        results.append(res)
+        previous = res.p_body
+        if progress:
+            progress(f"step {si} sample {i}", done0 + i + 1, total)
+        if not res.feasible and first_bad is None:
+            first_bad = {"step": si, "phase": "swing", "sample": i, "swing_m": swing_xyz.tolist(),
+                         "p_body_m": res.p_body.tolist(), "thrust_n": _finite(res.best.thrust_n[0]),
+                         "reason": VIOLATIONS[int(res.best.violation[0])]}
+            if not keep_going:
+                return StepResult(si, step.swing, support, step.path_m[:i + 1], results), first_bad
+    return StepResult(si, step.swing, support, step.path_m, results), first_bad
+
+
+def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going):
+    return optimise_step(scenario, si, feet, cfg, seed, keep_going)
+
+
 def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
          progress: Callable[[str, int, int], None] | None = None, keep_going: bool = False,
-         build_rows: bool = True) -> PlanResult:
+         build_rows: bool = True, jobs: int = 1) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
         method: override of ``optimiser.method``.
         seed: override of the scenario's seed.
-        progress: called as ``progress(label, done, total)`` after each sample.
+        progress: called as ``progress(label, done, total)`` as samples (or, with jobs, steps) finish.
         keep_going: continue past infeasible samples (their rows are marked infeasible).
         build_rows: also build the output-rate trajectory.
+        jobs: processes optimising steps in parallel; the result does not depend on it.
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -110,39 +160,39 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     cfg = scenario.optimiser if method is None else replace(scenario.optimiser, method=method)
     seed = scenario.seed if seed is None else seed
     solver = PostureSolver(robot)
-    feet = {k: v.copy() for k, v in scenario.start.items()}
+    feet_at = feet_before_each_step(scenario)
     total = sum(len(s.path_m) for s in scenario.steps)
-    done, evaluations = 0, 0
-    first_bad: dict | None = None
-    steps: list[StepResult] = []
-    for si, step in enumerate(scenario.steps):
-        support = step.support
-        yaw_of = yaw_function(scenario, robot, support, feet[support])
-        z_nom = scenario.nominal_height_m or NOMINAL_HEIGHT_FRACTION * robot.leg_length_m
-        results: list[SampleResult] = []
-        previous = None
-        for i, swing_xyz in enumerate(step.path_m):
-            problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw_of(swing_xyz))
-            nominal = np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
-            rng = np.random.default_rng([seed, si, i])
-            res = optimise_sample(solver, problem, cfg, rng, previous, nominal)
-            evaluations += res.evaluations
-            results.append(res)
-            previous = res.p_body
-            done += 1
+    n = len(scenario.steps)
+    if jobs > 1 and n > 1:
+        from joblib import Parallel, delayed
+
+        outcomes = []
+        for k, out in enumerate(Parallel(n_jobs=min(jobs, n), return_as="generator")(
+                delayed(_optimise_step_job)(scenario, si, feet_at[si], cfg, seed, keep_going) for si in range(n))):
+            outcomes.append(out)
             if progress:
-                progress(f"step {si} sample {i}", done, total)
-            if not res.feasible and first_bad is None:
-                first_bad = {"step": si, "phase": "swing", "sample": i, "swing_m": swing_xyz.tolist(),
-                             "p_body_m": res.p_body.tolist(), "thrust_n": _finite(res.best.thrust_n[0]),
-                             "reason": VIOLATIONS[int(res.best.violation[0])]}
-                if not keep_going:
-                    partial = StepResult(si, step.swing, support, step.path_m[:i + 1], results)
-                    result = PlanResult(scenario, robot, cfg.method, seed, [*steps, partial], None, first_bad,
-                                        evaluations, time.perf_counter() - t0)
-                    raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
-        steps.append(StepResult(si, step.swing, support, step.path_m, results))
-        feet[step.swing] = step.landing_m.copy()
+                progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
+    else:
+        outcomes, done = [], 0
+        for si in range(n):
+            out = optimise_step(scenario, si, feet_at[si], cfg, seed, keep_going, solver, progress, done, total)
+            outcomes.append(out)
+            done += len(out[0].samples)
+            if out[1] is not None and not keep_going:
+                break
+    steps: list[StepResult] = []
+    first_bad = None
+    for st, bad in outcomes:
+        steps.append(st)
+        if bad is not None and first_bad is None:
+            first_bad = bad
+            if not keep_going:
+                break
+    evaluations = sum(s.evaluations for st in steps for s in st.samples)
+    if first_bad is not None and not keep_going:
+        result = PlanResult(scenario, robot, cfg.method, seed, steps, None, first_bad, evaluations,
+                            time.perf_counter() - t0)
+        raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
 
     rows = None
     if build_rows:
@@ -163,7 +213,8 @@ def _finite(x: float) -> float | None:
 def _describe(bad: dict) -> str:
     where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
     pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
-    return f"infeasible at {where}{pos}: {bad['reason']}"
+    thrust = f", minimal thrust {bad['thrust_n']:.2f} N" if bad.get("thrust_n") is not None else ""
+    return f"infeasible at {where}{pos}: {bad['reason']}{thrust}"
 
 
 def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:

@@ -62,7 +62,7 @@ class PostureBatch:
     com: np.ndarray
     status: np.ndarray
     residual_m: np.ndarray
-    iterations: int = 0  # IK iterations spent on the batch
+    iterations: np.ndarray | None = None  # (N,) IK iterations spent on each candidate (0: not run)
 
 
 def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.ndarray:
@@ -90,7 +90,7 @@ class PostureSolver:
         max_iter: Gauss–Newton iterations before a candidate is declared not converged.
     """
 
-    def __init__(self, model: RobotModel, tol_m: float = 1e-9, tol_rad: float = 1e-9, max_iter: int = 15):
+    def __init__(self, model: RobotModel, tol_m: float = 1e-6, tol_rad: float = 1e-6, max_iter: int = 15):
         import placo
 
         self.model = model
@@ -103,63 +103,70 @@ class PostureSolver:
             task = self.solver.add_frame_task(f"{side}_foot", np.eye(4))
             task.configure(f"{side}_foot", "soft", 1.0, 1.0)
             self.tasks[side] = task
+        self._task_errors = [sub for t in self.tasks.values() for sub in (t.position(), t.orientation())]
         self.seed = np.concatenate([BENT_SEED, BENT_SEED])
+        self._tol = min(tol_m, tol_rad)
         self._lo = model.lower_rad + 1e-9
         self._hi = model.upper_rad - 1e-9
         self.evaluations = 0
+        #: when a list, every IK run appends (trunk pose, P_body, start q, left/right targets, iterations):
+        #: the benchmark replays them in a bare PlaCo loop
+        self.replay_log: list | None = None
 
     def set_stance(self, stance: Stance) -> None:
-        """Point the sole tasks at the stance's feet."""
+        """Point the sole tasks at the stance's feet and cache the trunk orientation."""
         self._targets = {side: stance.foot_pose(side) for side in ("left", "right")}
         for side, task in self.tasks.items():
             task.T_world_frame = self._targets[side]
+        self._T_trunk = pose_matrix(np.zeros(3), stance.body_yaw)
         self._stance = stance
-
-    def _residual(self) -> tuple[float, float]:
-        """Largest sole position [m] and orientation [rad] error over both feet."""
-        get = self.robot.get_T_world_frame
-        dl = get("left_foot") - self._targets["left"]
-        dr = get("right_foot") - self._targets["right"]
-        err_p = max(dl[0, 3] ** 2 + dl[1, 3] ** 2 + dl[2, 3] ** 2, dr[0, 3] ** 2 + dr[1, 3] ** 2 + dr[2, 3] ** 2)
-        err_r = max(float(np.sum(dl[:3, :3] ** 2)), float(np.sum(dr[:3, :3] ** 2))) / 2.0
-        return float(np.sqrt(err_p)), float(np.sqrt(err_r))
+        # bent-knee seed with the hip yaws that keep each foot at its yaw under the turned trunk
+        self.seed = np.concatenate([BENT_SEED, BENT_SEED])
+        for k, side in ((0, "left"), (6, "right")):
+            foot_yaw = stance.support_yaw if side == stance.support_side else stance.swing_yaw
+            yaw = (foot_yaw - stance.body_yaw + np.pi) % (2 * np.pi) - np.pi
+            self.seed[k] = np.clip(yaw, self.model.lower_rad[k], self.model.upper_rad[k])
 
     def solve_one(self, p_body: np.ndarray, q_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
-        """Solve one candidate from ``q_start``: (q, com, status, residual [m], iterations).
+        """Solve one candidate from ``q_start``: (q, com, status, residual, iterations).
 
-        Gauss–Newton steps until both soles are within tolerance; stops early when the residual
-        no longer halves between checks (a joint limit or the stretched-leg singularity).
+        Gauss–Newton steps (``update_kinematics`` + ``solve``) until the sole tasks' errors are
+        within tolerance. PlaCo reports each task's error for the state *before* the step just
+        taken, so convergence is declared when the state before the last step was already within
+        tolerance (the last step only refines it): the reported residual is exact and an upper
+        bound. The loop stops early when the error no longer halves (a joint limit or the
+        stretched-leg singularity).
         """
-        robot = self.robot
-        robot.set_T_world_fbase(pose_matrix(p_body, self._stance.body_yaw))
+        robot, solver, errs = self.robot, self.solver, self._task_errors
+        T = self._T_trunk.copy()
+        T[:3, 3] = p_body
+        robot.set_T_world_fbase(T)
         robot.state.q[7:] = q_start
-        err_p = err_r = prev = np.inf
+        tol = self._tol
         it = 0
-        converged = False
+        prev = lagged = np.inf
         while it < self.max_iter:
             robot.update_kinematics()
-            self.solver.solve(True)
+            solver.solve(True)
             it += 1
-            if it < 3:
+            if it < 2:
                 continue
-            robot.update_kinematics()
-            err_p, err_r = self._residual()
-            if err_p <= self.tol_m and err_r <= self.tol_rad:
-                converged = True
+            lagged = max(errs[0].error_norm(), errs[2].error_norm())  # positions first, orientations if needed
+            if lagged <= tol:
+                lagged = max(lagged, errs[1].error_norm(), errs[3].error_norm())
+            if lagged <= tol or (it >= 4 and lagged > 0.8 * prev):
                 break
-            err = err_p + err_r
-            if err > 0.5 * prev:
-                break
-            prev = err
+            prev = lagged
+        robot.update_kinematics()
         q = robot.state.q[7:].copy()
         com = robot.com_world()
-        if converged:
+        if lagged <= tol:
             status = OK
         elif np.any(q <= self._lo + 1e-6) or np.any(q >= self._hi - 1e-6):
             status = JOINT_LIMIT
         else:
             status = NOT_CONVERGED
-        return q, com, status, err_p, it
+        return q, com, status, float(lagged), it
 
     def solve_batch(self, stance: Stance, p_body: np.ndarray, warm: np.ndarray | None = None) -> PostureBatch:
         """Postures for candidates ``p_body`` (N, 3) [m] under ``stance``.
@@ -179,14 +186,26 @@ class PostureSolver:
         idx = np.flatnonzero(reach)
         order = idx[np.lexsort((p_body[idx, 0], p_body[idx, 1], np.round(p_body[idx, 2], 2)))]
         start = self.seed if warm is None else warm
-        iters = 0
-        for i in order:
-            qi, ci, si, ri, it = self.solve_one(p_body[i], start)
+        iters = np.zeros(n, dtype=np.int32)
+        log = self.replay_log
+        solve_one = self.solve_one
+        results = []
+        for i in order.tolist():
+            p = p_body[i]
+            qi, ci, si, ri, it = solve_one(p, start)
+            if log is not None:
+                log.append((self._T_trunk, p, start, self._targets["left"], self._targets["right"], it))
             if si == NOT_CONVERGED and start is not self.seed:  # a far neighbour can mislead: retry from the seed
-                qi, ci, si, ri, it2 = self.solve_one(p_body[i], self.seed)
+                qi, ci, si, ri, it2 = solve_one(p, self.seed)
+                if log is not None:
+                    log.append((self._T_trunk, p, self.seed, self._targets["left"], self._targets["right"], it2))
                 it += it2
-            q[i], com[i], status[i], residual[i] = qi, ci, si, ri
-            iters += it
-            start = qi if si == OK else start
+            results.append((qi, ci, si, ri, it))
+            if si == OK:
+                start = qi
+        if results:
+            qs, coms, sts, res, its = zip(*results, strict=True)
+            q[order], com[order], status[order] = np.array(qs), np.array(coms), np.array(sts)
+            residual[order], iters[order] = np.array(res), np.array(its)
         self.evaluations += n
         return PostureBatch(q=q, com=com, status=status, residual_m=residual, iterations=iters)

@@ -129,6 +129,8 @@ class SequenceBuilder:
             reason = None
             if status != OK:
                 reason = REASONS[status]
+            elif max(thrust.values()) > self.thrust_max_n:
+                reason = f"thrust {max(thrust.values()):.3f} N above its maximum {self.thrust_max_n} N"
             elif not inside_polygon(zmp, hull):
                 reason = "ZMP outside the hull of both soles"
             if reason:

@@ -1,0 +1,73 @@
+"""Candidates per second of the evaluator (IK + CoM + thrust + edge angle) against a bare PlaCo loop.
+
+Both run on one core in the same process, on the same candidates with the same IK iterations
+(the evaluator records every IK run; the bare loop replays them): GA-like populations (200 over
+±150 mm, 150 over ±25 mm) at every third sample of the 450 mm forward step. The two are timed
+alternately five times; the ratio of the medians is reported (this machine's timing is noisy).
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bare_loop import bare_replay_seconds
+
+from jethr1_plan.balance import body_yaw_eq4
+from jethr1_plan.fitness import evaluate_candidates
+from jethr1_plan.planner import sample_problem
+from jethr1_plan.posture import PostureSolver
+from jethr1_plan.robot_model import load_robot
+from jethr1_plan.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def workload(robot):
+    sc = load_scenario(ROOT / "configs" / "forward_ditch_450.yaml")
+    step = sc.steps[0]
+    support = sc.start["right"]
+    rng = np.random.default_rng(0)
+    problems, populations = [], []
+    for i in range(0, len(step.path_m), 3):
+        sw = step.path_m[i]
+        fan = sw[:2] + np.asarray(robot.fan_for("left").offset_in_foot_m[:2])
+        prob = sample_problem(sc, robot, "right", support, sw, float(body_yaw_eq4(support[:2], fan, "right")))
+        centre = np.array([0.5 * (support[0] + sw[0]), -0.11, 0.30])
+        for half, n in ((0.150, 200), (0.025, 150)):
+            problems.append(prob)
+            populations.append(centre + rng.uniform(-half, half, (n, 3)))
+    return problems, populations
+
+
+def main(repeats: int = 5) -> None:
+    robot = load_robot("jethr1")
+    problems, populations = workload(robot)
+    n_cand = sum(len(p) for p in populations)
+    solver = PostureSolver(robot)
+    ours, bare = [], []
+    for _ in range(repeats):
+        solver.replay_log = []
+        t0 = time.perf_counter()
+        for prob, pop in zip(problems, populations, strict=True):
+            evaluate_candidates(solver, prob, pop)
+        ours.append(time.perf_counter() - t0)
+        log, solver.replay_log = solver.replay_log, None
+        bare.append(bare_replay_seconds(robot, log))
+    iters = np.array([r[-1] for r in log])
+    o, b = statistics.median(ours), statistics.median(bare)
+    print(f"candidates: {n_cand} ({len(log)} IK runs, {iters.mean():.2f} iterations per run; "
+          f"{n_cand - len(log)} rejected as out of reach without IK); median of {repeats} runs")
+    print(f"evaluator : {o / n_cand * 1e6:7.2f} us/candidate  {n_cand / o:9.0f} candidates/s")
+    print(f"bare PlaCo: {b / n_cand * 1e6:7.2f} us/candidate  {n_cand / b:9.0f} candidates/s")
+    print(f"ratio evaluator / bare loop: {o / b:.2f} (target <= 1.5); per run: "
+          + ", ".join(f"{x / y:.2f}" for x, y in zip(ours, bare, strict=True)))
+
+
+if __name__ == "__main__":
+    main()

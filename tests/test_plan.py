@@ -1,0 +1,195 @@
+"""`jethr1 plan` end to end: outputs re-checked independently of the planner's internals."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pytest
+import yaml
+
+from jethr1_plan.balance import inside_polygon, sole_polygon, zmp_with_thrust
+from jethr1_plan.cli import run
+from jethr1_plan.csv_writer import columns, read_trajectory_csv
+from jethr1_plan.mcap_writer import mcap_schemas, read_mcap
+from jethr1_plan.robot_model import JOINT_NAMES
+from jethr1_plan.scenario import load_scenario
+from jethr1_plan.sequence import convex_hull
+
+from .conftest import ROOT
+
+FORWARD = ROOT / "configs" / "forward_ditch_450.yaml"
+
+
+@pytest.fixture(scope="module")
+def planned(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plan")
+    assert run(["plan", str(FORWARD), "-o", str(out), "--no-progress"]) == 0
+    return out / "forward_ditch_450"
+
+
+def test_outputs_exist_and_summary_reports(planned):
+    assert sorted(p.name for p in planned.iterdir()) == ["summary.json", "trajectory.csv", "trajectory.mcap"]
+    s = json.loads((planned / "summary.json").read_text())
+    assert s["feasible"] is True and s["optimiser"] == "gas" and s["seed"] == 1
+    assert 0 < s["max_thrust_n"] <= 23.0
+    assert s["evaluations"] > 0 and s["wall_s"] > 0 and s["sample_count"] == 60
+    for key in ("smoothness_m2", "max_step_m", "max_thrust_jump_n", "mean_thrust_n", "version", "steps"):
+        assert key in s
+
+
+def test_csv_header_is_the_contract(planned):
+    header = (planned / "trajectory.csv").read_text().split("\n", 1)[0].split(",")
+    assert header == columns()
+    assert header[:6] == ["time_s", "step", "phase", "sample", "support", "feasible"]
+    assert header[13:25] == [f"{j}_rad" for j in JOINT_NAMES]
+
+
+def test_trajectory_rechecked_with_placo(planned, robot):
+    """Put the written pose and joints into a fresh PlaCo robot and re-check every row."""
+    sc = load_scenario(FORWARD)
+    c = read_trajectory_csv((planned / "trajectory.csv").read_text())
+    wrapper = robot.wrapper()
+    n = len(c["time_s"])
+    assert n == round((3 * 2 + 7.5) * 50) + 1
+    np.testing.assert_allclose(np.diff(c["time_s"]), 1 / 50, atol=1e-9)
+    assert np.all(c["feasible"])
+    q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1)
+    assert np.all(q >= robot.lower_rad - 1e-12) and np.all(q <= robot.upper_rad + 1e-12)
+    path = sc.steps[0].path_m
+    start = sc.start
+    landing = sc.steps[0].landing_m
+    for i in range(n):
+        T = np.eye(4)
+        qx, qy, qz, qw = c["pelvis_qx"][i], c["pelvis_qy"][i], c["pelvis_qz"][i], c["pelvis_qw"][i]
+        assert qx == 0 and qy == 0 and abs(qz * qz + qw * qw - 1) < 1e-12  # trunk level (Precondition 1)
+        yaw = 2 * np.arctan2(qz, qw)
+        T[:3, :3] = [[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]]
+        T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        right = wrapper.get_T_world_frame("right_foot")
+        left = wrapper.get_T_world_frame("left_foot")
+        # support foot fixed and flat
+        assert np.linalg.norm(right[:3, 3] - start["right"]) < 1e-6
+        for foot in (left, right):
+            assert np.linalg.norm(foot[:3, :3] - np.eye(3)) < 2e-6
+        com = wrapper.com_world()
+        np.testing.assert_allclose(com, [c["com_x_m"][i], c["com_y_m"][i], c["com_z_m"][i]], atol=1e-12)
+        thrust = {"left": c["thrust_left_n"][i], "right": c["thrust_right_n"][i]}
+        assert 0 <= thrust["left"] <= 23.0 and thrust["right"] == 0.0
+        fan = wrapper.get_T_world_frame("left_fan")[:2, 3]
+        zmp = zmp_with_thrust(com[:2], fan, thrust["left"], robot.mass_kg)
+        np.testing.assert_allclose(zmp, [c["zmp_x_m"][i], c["zmp_y_m"][i]], atol=1e-9)
+        if c["phase"][i] == "swing":
+            swing = np.array([c["swing_x_m"][i], c["swing_y_m"][i], c["swing_z_m"][i]])
+            assert np.linalg.norm(left[:3, 3] - swing) < 1e-6  # swing sole on its sample
+            seg = _distance_to_polyline(swing, path)
+            assert seg < 1e-9  # the sample lies on the scenario's swing path
+            sole = sole_polygon(start["right"][:2], 0.0, robot.sole_length_m, robot.sole_width_m)
+            assert inside_polygon(zmp, sole, tol_m=1e-9)
+        else:
+            feet_left = start["left"] if c["step"][i] == 0 else landing
+            assert np.linalg.norm(left[:3, 3] - feet_left) < 1e-6
+            hull = convex_hull(np.vstack([sole_polygon(p[:2], 0.0, robot.sole_length_m, robot.sole_width_m)
+                                          for p in (feet_left, start["right"])]))
+            assert inside_polygon(zmp, hull, tol_m=1e-9)
+
+
+def _distance_to_polyline(p, pts):
+    best = np.inf
+    for a, b in itertools.pairwise(pts):
+        t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0, 1)
+        best = min(best, np.linalg.norm(a + t * (b - a) - p))
+    return best
+
+
+def test_mcap_messages_validate_against_their_stored_schemas(planned, robot):
+    data = (planned / "trajectory.mcap").read_bytes()
+    schemas = mcap_schemas(data)
+    msgs = read_mcap(data)
+    topics = {m[0] for m in msgs}
+    assert {"/tf", "/joint_states", "/thrust", "/p_body", "/com", "/zmp", "/terrain", "/swing_path"} <= topics
+    assert schemas.keys() >= {"foxglove.FrameTransforms", "foxglove.SceneUpdate", "foxglove.PoseInFrame"}
+    validators = {name: jsonschema.Draft202012Validator(s) for name, s in schemas.items()}
+    for _topic, schema, msg, _ in msgs:
+        validators[schema].validate(msg)
+    tf = [m for m in msgs if m[0] == "/tf"]
+    first = tf[0][2]["transforms"]
+    children = {t["child_frame_id"] for t in first}
+    assert {"trunk", "left_foot", "right_foot", "left_fan", "right_fan"} <= children
+    assert len(first) == 1 + 12 + 4  # world→trunk, 12 revolute joints, sole and fan frames
+    times = [m[3] for m in tf]
+    assert times == sorted(times) and len(times) == len(set(times))
+    terrain = next(m for m in msgs if m[0] == "/terrain")[2]
+    assert len(terrain["entities"][0]["cubes"]) == 3
+
+
+def test_same_seed_same_bytes(planned, tmp_path):
+    assert run(["plan", str(FORWARD), "-o", str(tmp_path), "--no-progress"]) == 0
+    for name in ("trajectory.csv", "trajectory.mcap"):
+        assert (tmp_path / "forward_ditch_450" / name).read_bytes() == (planned / name).read_bytes()
+
+
+def _small_two_step(tmp_path: Path, **balance) -> Path:
+    doc = yaml.safe_load((ROOT / "configs" / "jet_hr1_trial.yaml").read_text())
+    doc["optimiser"] = {"initial": {"population": 40, "generations": 10},
+                        "intermediate": {"population": 30, "generations": 4}}
+    for st in doc["steps"]:
+        st["path"]["samples"] = 25
+    doc["steps"][1]["landing_m"] = [0.45, -0.1125, 0.0]
+    doc["terrain"]["cartons"][3]["top_centre_m"] = [0.45, -0.1125, 0.0]
+    doc["timing"] = {"swing_s": 1.0, "transfer_s": 0.5, "rate_hz": 20.0}
+    doc["balance"] = {"thrust_max_n": 23.0, **balance}
+    p = tmp_path / "small_two_step.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def test_parallel_steps_give_identical_bytes(tmp_path):
+    path = _small_two_step(tmp_path)
+    assert run(["plan", str(path), "-o", str(tmp_path / "a"), "--no-progress", "-j", "1"]) == 0
+    assert run(["plan", str(path), "-o", str(tmp_path / "b"), "--no-progress", "-j", "2"]) == 0
+    for name in ("trajectory.csv", "trajectory.mcap"):
+        assert (tmp_path / "a" / "small_two_step" / name).read_bytes() == \
+            (tmp_path / "b" / "small_two_step" / name).read_bytes()
+
+
+def test_no_thrust_over_the_ditch_is_exit_3(tmp_path, capsys):
+    doc = yaml.safe_load(FORWARD.read_text())
+    doc["balance"]["thrust_max_n"] = 0.0
+    path = tmp_path / "no_fan.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"]) == 3
+    err = capsys.readouterr().err
+    assert "sample" in err and "thrust" in err
+    folder = tmp_path / "o" / "no_fan"
+    assert sorted(p.name for p in folder.iterdir()) == ["summary.json"]
+    s = json.loads((folder / "summary.json").read_text())
+    assert s["feasible"] is False
+    bad = s["first_infeasible"]
+    assert bad["step"] == 0 and bad["phase"] == "swing" and bad["thrust_n"] > 0
+    # the first samples, with the swing foot still beside the support foot, balance without thrust
+    assert bad["sample"] > 0 and s["steps"][0]["samples"] == bad["sample"] + 1
+
+
+def test_write_infeasible_marks_rows(tmp_path):
+    path = _small_two_step(tmp_path, thrust_max_n=0.0)
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress", "--write-infeasible"]) == 3
+    c = read_trajectory_csv((tmp_path / "o" / "small_two_step" / "trajectory.csv").read_text())
+    bad = ~c["feasible"]
+    assert bad.any() and np.all(c["reason"][bad] != "") and np.all(c["reason"][~bad] == "")
+    # with no thrust allowed, every row that needs thrust is marked infeasible, and the others are not
+    needs_thrust = (c["thrust_left_n"] > 0) | (c["thrust_right_n"] > 0)
+    assert needs_thrust.any() and np.all(bad[needs_thrust])
+
+
+def test_json_summary_on_stdout(tmp_path, capsys):
+    path = _small_two_step(tmp_path)
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress", "--json"]) == 0
+    out = capsys.readouterr().out
+    assert json.loads(out) == json.loads((tmp_path / "o" / "small_two_step" / "summary.json").read_text())
