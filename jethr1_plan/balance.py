@@ -15,6 +15,8 @@ enters the support polygon, which makes H(P_body) of (A-5) exact and closed-form
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .robot_model import GRAVITY
@@ -44,10 +46,20 @@ def sole_polygon(centre_xy: np.ndarray, yaw_rad: float, length_m: float, width_m
 
 def _halfplanes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward normals n (K, 2) and offsets b (K,) with n·x ≤ b inside a CCW convex polygon."""
+    polygon = np.asarray(polygon, dtype=float)
+    return _halfplanes_of(polygon.tobytes(), len(polygon))
+
+
+@functools.lru_cache(maxsize=4096)
+def _halfplanes_of(data: bytes, k: int) -> tuple[np.ndarray, np.ndarray]:
+    polygon = np.frombuffer(data, dtype=float).reshape(k, 2)
     edges = np.roll(polygon, -1, axis=0) - polygon
     normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals, np.einsum("kd,kd->k", normals, polygon)
+    offsets = np.einsum("kd,kd->k", normals, polygon)
+    normals.setflags(write=False)
+    offsets.setflags(write=False)
+    return normals, offsets
 
 
 def inside_polygon(p_xy: np.ndarray, polygon: np.ndarray, tol_m: float = 1e-12) -> np.ndarray:
@@ -76,8 +88,8 @@ def minimal_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, 
     com = np.asarray(com_xy, dtype=float)
     d = com - np.asarray(fan_xy, dtype=float)
     n, b = _halfplanes(polygon)
-    nc = np.einsum("...d,kd->...k", com, n)
-    nd = np.einsum("...d,kd->...k", d, n)
+    nc = com @ n.T
+    nd = d @ n.T
     slack = b - nc  # ≥ 0 on the inner side of edge k
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = slack / nd

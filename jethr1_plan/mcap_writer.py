@@ -134,16 +134,35 @@ def swing_path_update(paths: Iterable[np.ndarray], t: float = 0.0) -> dict:
     return {"deletions": [], "entities": [_entity(t, "swing_paths", lines=lines)]}
 
 
-def frame_transforms(robot: RobotModel, t: float, p_body, yaw: float, q: np.ndarray) -> dict:
-    """/tf at one instant: world→trunk and each joint's parent→child."""
+def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
+    """Per URDF joint, the parent→child rotation quaternions (N, 4) for joint angles ``q`` (N, 12)."""
+    q = np.atleast_2d(q)
+    index = {name: k for k, name in enumerate(robot.joint_names)}
+    out = []
+    for j in urdf_joints(robot.urdf_path):
+        base = quat_rpy(j.rpy)
+        if j.kind in ("revolute", "continuous"):
+            axis = np.asarray(j.axis, dtype=float) / np.linalg.norm(j.axis)
+            half = 0.5 * q[:, index[j.name]]
+            rot = np.concatenate([np.sin(half)[:, None] * axis, np.cos(half)[:, None]], axis=1)
+            bx, by, bz, bw = base
+            x, y, z, w = rot.T
+            out.append(np.stack([bw * x + bx * w + by * z - bz * y, bw * y - bx * z + by * w + bz * x,
+                                 bw * z + bx * y - by * x + bz * w, bw * w - bx * x - by * y - bz * z], axis=1))
+        else:
+            out.append(np.repeat(base[None], len(q), axis=0))
+    return out
+
+
+def frame_transforms(robot: RobotModel, t: float, p_body, yaw: float, q: np.ndarray,
+                     rotations: list[np.ndarray] | None = None) -> dict:
+    """/tf at one instant: world→trunk and each joint's parent→child (``rotations``: precomputed rows)."""
     ts = stamp(t)
     tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": "trunk", "translation": _vec(p_body),
             "rotation": _quat(quat_axis_angle((0, 0, 1), yaw))}]
-    qmap = dict(zip(robot.joint_names, q, strict=True))
-    for j in urdf_joints(robot.urdf_path):
-        rot = quat_rpy(j.rpy)
-        if j.kind in ("revolute", "continuous"):
-            rot = quat_mul(rot, quat_axis_angle(j.axis, float(qmap[j.name])))
+    if rotations is None:
+        rotations = [r[0] for r in joint_rotations(robot, q)]
+    for j, rot in zip(urdf_joints(robot.urdf_path), rotations, strict=True):
         tfs.append({"timestamp": ts, "parent_frame_id": j.parent, "child_frame_id": j.child,
                     "translation": _vec(j.xyz), "rotation": _quat(rot)})
     return {"transforms": tfs}
@@ -173,10 +192,11 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
     put("/swing_path", 0.0, swing_path_update(paths))
     c = rows.columns
     names = list(robot.joint_names)
+    rotations = joint_rotations(robot, np.asarray(c["q"])) if len(rows) else []
     for i in range(len(rows)):
         t = float(c["time_s"][i])
         p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
-        put("/tf", t, frame_transforms(robot, t, p, yaw, q))
+        put("/tf", t, frame_transforms(robot, t, p, yaw, q, [r[i] for r in rotations]))
         put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q]})
         put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
                            "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],

@@ -101,11 +101,10 @@ def single_point_crossover(parents: np.ndarray, rate: float, rng: np.random.Gene
     length = parents.shape[1]
     cross = rng.random(n_pairs) < rate
     cuts = rng.integers(1, length, size=n_pairs)
-    cols = np.arange(length)
-    for k in np.flatnonzero(cross):
-        tail = cols >= cuts[k]
-        a, b = 2 * k, 2 * k + 1
-        children[a, tail], children[b, tail] = parents[b, tail], parents[a, tail]
+    swap = cross[:, None] & (np.arange(length)[None, :] >= cuts[:, None])  # (pairs, bits)
+    a, b = parents[0:2 * n_pairs:2], parents[1:2 * n_pairs:2]
+    children[0:2 * n_pairs:2] = np.where(swap, b, a)
+    children[1:2 * n_pairs:2] = np.where(swap, a, b)
     return children
 
 

@@ -141,7 +141,7 @@ def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going):
 
 def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
          progress: Callable[[str, int, int], None] | None = None, keep_going: bool = False,
-         build_rows: bool = True, jobs: int = 1) -> PlanResult:
+         build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -151,6 +151,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
         keep_going: continue past infeasible samples (their rows are marked infeasible).
         build_rows: also build the output-rate trajectory.
         jobs: processes optimising steps in parallel; the result does not depend on it.
+        solver: the PostureSolver to use in this process (one is made if None).
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -159,7 +160,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     robot = load_robot(scenario.robot)
     cfg = scenario.optimiser if method is None else replace(scenario.optimiser, method=method)
     seed = scenario.seed if seed is None else seed
-    solver = PostureSolver(robot)
+    solver = solver or PostureSolver(robot)
     feet_at = feet_before_each_step(scenario)
     total = sum(len(s.path_m) for s in scenario.steps)
     n = len(scenario.steps)

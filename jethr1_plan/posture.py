@@ -67,16 +67,17 @@ class PostureBatch:
 
 def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.ndarray:
     """(N,) True where both hip–ankle distances are within the leg's geometric range."""
-    T_trunk_rot = pose_matrix(np.zeros(3), stance.body_yaw)[:3, :3]
+    longest_sq = (model.thigh_m + model.shank_m) ** 2
+    shortest_sq = (abs(model.thigh_m - model.shank_m) + 0.05) ** 2  # the knee limit keeps it well above
+    c, s = np.cos(stance.body_yaw), np.sin(stance.body_yaw)
     ok = np.ones(len(p_body), dtype=bool)
-    longest = model.thigh_m + model.shank_m
-    shortest = abs(model.thigh_m - model.shank_m) + 0.05  # knee flexion limit keeps it well above
     for side, sgn in (("left", 1.0), ("right", -1.0)):
-        hip = p_body + T_trunk_rot @ np.array([0.0, sgn * model.hip_offset_m, 0.0])
         T_foot = stance.foot_pose(side)
-        ankle = T_foot[:3, 3] + T_foot[:3, :3] @ np.array([0.0, 0.0, model.ankle_height_m])
-        dist = np.linalg.norm(hip - ankle, axis=1)
-        ok &= (dist <= longest) & (dist >= shortest)
+        ankle = T_foot[:3, 3] + T_foot[:3, 2] * model.ankle_height_m
+        # hip − ankle = p_body + R_trunk·(0, ±w, 0) − ankle
+        d = p_body + (np.array([-s, c, 0.0]) * (sgn * model.hip_offset_m) - ankle)
+        dist_sq = np.einsum("ij,ij->i", d, d)
+        ok &= (dist_sq <= longest_sq) & (dist_sq >= shortest_sq)
     return ok
 
 
@@ -115,6 +116,8 @@ class PostureSolver:
 
     def set_stance(self, stance: Stance) -> None:
         """Point the sole tasks at the stance's feet and cache the trunk orientation."""
+        if stance is getattr(self, "_stance", None):
+            return
         self._targets = {side: stance.foot_pose(side) for side in ("left", "right")}
         for side, task in self.tasks.items():
             task.T_world_frame = self._targets[side]
@@ -149,7 +152,7 @@ class PostureSolver:
             robot.update_kinematics()
             solver.solve(True)
             it += 1
-            if it < 2:
+            if it < 3:
                 continue
             lagged = max(errs[0].error_norm(), errs[2].error_norm())  # positions first, orientations if needed
             if lagged <= tol:
