@@ -193,3 +193,37 @@ def test_json_summary_on_stdout(tmp_path, capsys):
     assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress", "--json"]) == 0
     out = capsys.readouterr().out
     assert json.loads(out) == json.loads((tmp_path / "o" / "small_two_step" / "summary.json").read_text())
+
+
+def _compose(transforms: list[dict], frame: str) -> np.ndarray:
+    by_child = {t["child_frame_id"]: t for t in transforms}
+    T = np.eye(4)
+    while frame != "world":
+        t = by_child[frame]
+        x, y, z, w = (t["rotation"][k] for k in "xyzw")
+        R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        local = np.eye(4)
+        local[:3, :3] = R
+        local[:3, 3] = [t["translation"][k] for k in "xyz"]
+        T = local @ T
+        frame = t["parent_frame_id"]
+    return T
+
+
+def test_tf_moves_the_feet_where_the_csv_says(planned):
+    """Composing /tf from world to each sole reproduces the planned feet (what Foxglove will show)."""
+    sc = load_scenario(FORWARD)
+    c = read_trajectory_csv((planned / "trajectory.csv").read_text())
+    tf = [m for m in read_mcap((planned / "trajectory.mcap").read_bytes()) if m[0] == "/tf"]
+    assert len(tf) == len(c["time_s"])
+    for i in range(0, len(tf), 37):
+        transforms = tf[i][2]["transforms"]
+        right = _compose(transforms, "right_foot")
+        np.testing.assert_allclose(right[:3, 3], sc.start["right"], atol=1e-6)
+        np.testing.assert_allclose(right[:3, :3], np.eye(3), atol=2e-6)
+        if c["phase"][i] == "swing":
+            left = _compose(transforms, "left_foot")
+            np.testing.assert_allclose(left[:3, 3], [c["swing_x_m"][i], c["swing_y_m"][i], c["swing_z_m"][i]],
+                                       atol=1e-6)
