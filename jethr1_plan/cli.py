@@ -131,8 +131,10 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
               help="On an infeasible plan, still write the trajectory; infeasible rows say so.")
 @click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
               help="Processes optimising steps in parallel (output does not depend on it).")
+@click.option("--kinematics", type=click.Choice(["placo", "analytic"]), default="placo", show_default=True,
+              help="Leg IK: PlaCo's solver, or the closed form (same postures to 1e-9 m, faster).")
 def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
-         no_progress: bool, write_infeasible: bool, jobs: int) -> None:
+         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str) -> None:
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from .planner import plan as run_plan
     from .planner import plan_summary
@@ -142,7 +144,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     try:
         with _Progress(not no_progress, scenario.name) as progress:
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
-                              jobs=jobs)
+                              jobs=jobs, kinematics=kinematics)
     except InfeasiblePlan as exc:
         write_plan_outputs_summary_only(scenario, outdir, exc.summary)
         raise

@@ -36,7 +36,7 @@ class Fan:
     offset_in_foot_m: tuple[float, float, float]  # thrust point in the foot frame [m]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
 class RobotModel:
     """A loaded robot: the URDF path and what the YAML adds, with figures read from PlaCo."""
 

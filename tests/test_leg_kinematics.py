@@ -1,0 +1,93 @@
+"""The closed-form numpy leg kinematics agree with PlaCo to 1e-9 m on thousands of candidates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jethr1_plan.leg_kinematics import AnalyticPostureSolver, com_batch, link_poses, solve_postures
+from jethr1_plan.posture import OK, UNREACHABLE, PostureSolver, Stance
+from jethr1_plan.robot_model import JOINT_NAMES
+
+
+def _random_stances(rng, n):
+    for _ in range(n):
+        support = rng.choice(["left", "right"])
+        sgn = 1.0 if support == "left" else -1.0
+        sup = np.array([0.0, sgn * 0.1125, 0.0])
+        swing = np.array([rng.uniform(-0.3, 0.6), rng.uniform(-0.35, 0.35) - sgn * 0.1, rng.uniform(-0.05, 0.12)])
+        yield Stance(support, sup, rng.uniform(-0.3, 0.3), swing, rng.uniform(-0.3, 0.3), rng.uniform(-1.5, 1.5))
+
+
+def test_closed_form_agrees_with_placo_on_thousands_of_candidates(robot):
+    rng = np.random.default_rng(11)
+    placo_solver, analytic = PostureSolver(robot), AnalyticPostureSolver(robot)
+    wrapper = robot.wrapper()
+    compared = 0
+    for stance in _random_stances(rng, 60):
+        mid = 0.5 * (stance.support_xyz + stance.swing_xyz)
+        p = mid + np.array([0, 0, 0.3]) + rng.uniform(-0.12, 0.12, (100, 3))
+        a = analytic.solve_batch(stance, p)
+        b = placo_solver.solve_batch(stance, p)
+        both = (a.status == OK) & (b.status == OK)
+        # PlaCo converges where the closed form says the posture exists and is within limits
+        assert np.all(b.status[a.status == OK] == OK)
+        assert np.all(a.status[b.status == UNREACHABLE] == UNREACHABLE)
+        # PlaCo stops within its 1e-6 tolerance; the closed form is exact
+        np.testing.assert_allclose(a.q[both], b.q[both], atol=1e-6)
+        np.testing.assert_allclose(a.com[both], b.com[both], atol=1e-6)
+        # the closed-form joints put PlaCo's soles on their targets to 1e-9 m, and PlaCo's CoM is ours
+        for i in np.flatnonzero(a.status == OK):
+            T = np.eye(4)
+            c, s = np.cos(stance.body_yaw), np.sin(stance.body_yaw)
+            T[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+            T[:3, 3] = p[i]
+            wrapper.set_T_world_fbase(T)
+            wrapper.state.q[7:] = a.q[i]
+            wrapper.update_kinematics()
+            for side in ("left", "right"):
+                np.testing.assert_allclose(wrapper.get_T_world_frame(f"{side}_foot"), stance.foot_pose(side),
+                                           atol=1e-9)
+            np.testing.assert_allclose(wrapper.com_world(), a.com[i], atol=1e-12)
+        compared += int((a.status == OK).sum())
+    assert compared > 2000
+
+
+def test_batched_forward_kinematics_matches_placo(robot):
+    rng = np.random.default_rng(5)
+    q = rng.uniform(robot.lower_rad, robot.upper_rad, (300, 12))
+    p, yaw = rng.uniform(-0.3, 0.3, (300, 3)), rng.uniform(-np.pi, np.pi, 300)
+    com = com_batch(robot, p, yaw, q)
+    poses = link_poses(robot, p, yaw, q)
+    wrapper = robot.wrapper()
+    for i in range(0, 300, 7):
+        T = np.eye(4)
+        T[:3, :3] = [[np.cos(yaw[i]), -np.sin(yaw[i]), 0], [np.sin(yaw[i]), np.cos(yaw[i]), 0], [0, 0, 1]]
+        T[:3, 3] = p[i]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        np.testing.assert_allclose(com[i], wrapper.com_world(), atol=1e-12)
+        for frame in ("left_foot", "right_fan", "right_shank"):
+            Tf = wrapper.get_T_world_frame(frame)
+            R, pos = poses[frame]
+            np.testing.assert_allclose(pos[:, i], Tf[:3, 3], atol=1e-12)
+            np.testing.assert_allclose(R[:, :, i], Tf[:3, :3], atol=1e-12)
+
+
+def test_limits_and_reach_are_reported(robot):
+    feet = {"left": (np.array([0.0, 0.1125, 0.0]), 0.0), "right": (np.array([0.0, -0.1125, 0.0]), 0.0)}
+    q, _, status = solve_postures(robot, np.array([[0.0, 0.0, 0.40], [0.0, 0.0, 0.60], [0.0, 0.0, 0.38]]),
+                                    np.array([0.0, 0.0, 2.2]), feet)
+    assert status.tolist() == [OK, UNREACHABLE, 2]  # 2.2 rad of trunk yaw is beyond the hip-yaw limits
+    assert q[0, JOINT_NAMES.index("left_knee")] > 0
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_straight_leg_is_the_reach_boundary(robot, side):
+    sgn = 1.0 if side == "left" else -1.0
+    foot = np.array([0.0, sgn * robot.hip_offset_m, 0.0])
+    feet = {side: (foot, 0.0), ("right" if side == "left" else "left"): (-foot, 0.0)}
+    z = np.array([robot.leg_length_m - 1e-9, robot.leg_length_m + 1e-6])
+    _, _, status = solve_postures(robot, np.stack([np.zeros(2), np.zeros(2), z], axis=1), 0.0, feet)
+    assert status[1] == UNREACHABLE and status[0] != UNREACHABLE
