@@ -130,8 +130,8 @@ class PostureSolver:
             yaw = (foot_yaw - stance.body_yaw + np.pi) % (2 * np.pi) - np.pi
             self.seed[k] = np.clip(yaw, self.model.lower_rad[k], self.model.upper_rad[k])
 
-    def solve_one(self, p_body: np.ndarray, q_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, float, int]:
-        """Solve one candidate from ``q_start``: (q, com, status, residual, iterations).
+    def solve_one(self, p_body: np.ndarray, q_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool, float, int]:
+        """Solve one candidate from ``q_start``: (q, com, converged, residual, iterations).
 
         Gauss–Newton steps (``update_kinematics`` + ``solve``) until the sole tasks' errors are
         within tolerance. PlaCo reports each task's error for the state *before* the step just
@@ -140,36 +140,34 @@ class PostureSolver:
         bound. The loop stops early when the error no longer halves (a joint limit or the
         stretched-leg singularity).
         """
-        robot, solver, errs = self.robot, self.solver, self._task_errors
+        robot = self.robot
+        update, solve = robot.update_kinematics, self.solver.solve
+        pos_l, ori_l, pos_r, ori_r = (e.error_norm for e in self._task_errors)
         T = self._T_trunk.copy()
         T[:3, 3] = p_body
         robot.set_T_world_fbase(T)
         robot.state.q[7:] = q_start
-        tol = self._tol
-        it = 0
+        tol, max_iter = self._tol, self.max_iter
+        update()
+        solve(True)
+        update()
+        solve(True)
+        it = 2
         prev = lagged = np.inf
-        while it < self.max_iter:
-            robot.update_kinematics()
-            solver.solve(True)
+        while it < max_iter:
+            update()
+            solve(True)
             it += 1
-            if it < 3:
-                continue
-            lagged = max(errs[0].error_norm(), errs[2].error_norm())  # positions first, orientations if needed
+            lagged = max(pos_l(), pos_r())  # positions first, orientations once they are in
             if lagged <= tol:
-                lagged = max(lagged, errs[1].error_norm(), errs[3].error_norm())
-            if lagged <= tol or (it >= 4 and lagged > 0.8 * prev):
+                lagged = max(lagged, ori_l(), ori_r())
+                if lagged <= tol:
+                    break
+            if it >= 4 and lagged > 0.8 * prev:
                 break
             prev = lagged
-        robot.update_kinematics()
-        q = robot.state.q[7:].copy()
-        com = robot.com_world()
-        if lagged <= tol:
-            status = OK
-        elif np.any(q <= self._lo + 1e-6) or np.any(q >= self._hi - 1e-6):
-            status = JOINT_LIMIT
-        else:
-            status = NOT_CONVERGED
-        return q, com, status, float(lagged), it
+        update()
+        return robot.state.q[7:].copy(), robot.com_world(), lagged <= tol, lagged, it
 
     def solve_batch(self, stance: Stance, p_body: np.ndarray, warm: np.ndarray | None = None) -> PostureBatch:
         """Postures for candidates ``p_body`` (N, 3) [m] under ``stance``.
@@ -193,22 +191,27 @@ class PostureSolver:
         log = self.replay_log
         solve_one = self.solve_one
         results = []
+        lo, hi = self._lo + 1e-6, self._hi - 1e-6
         for i in order.tolist():
             p = p_body[i]
-            qi, ci, si, ri, it = solve_one(p, start)
+            qi, ci, ok, ri, it = solve_one(p, start)
             if log is not None:
                 log.append((self._T_trunk, p, start, self._targets["left"], self._targets["right"], it))
-            if si == NOT_CONVERGED and start is not self.seed:  # a far neighbour can mislead: retry from the seed
-                qi, ci, si, ri, it2 = solve_one(p, self.seed)
+            if not ok and start is not self.seed and not ((qi <= lo).any() or (qi >= hi).any()):
+                # not converged and no joint at a limit: a far neighbour can mislead, retry from the seed
+                qi, ci, ok, ri, it2 = solve_one(p, self.seed)
                 if log is not None:
                     log.append((self._T_trunk, p, self.seed, self._targets["left"], self._targets["right"], it2))
                 it += it2
-            results.append((qi, ci, si, ri, it))
-            if si == OK:
+            results.append((qi, ci, ok, ri, it))
+            if ok:
                 start = qi
         if results:
-            qs, coms, sts, res, its = zip(*results, strict=True)
-            q[order], com[order], status[order] = np.array(qs), np.array(coms), np.array(sts)
+            qs, coms, oks, res, its = zip(*results, strict=True)
+            qs, oks = np.array(qs), np.array(oks)
+            at_limit = np.any((qs <= lo) | (qs >= hi), axis=1)
+            q[order], com[order] = qs, np.array(coms)
+            status[order] = np.where(oks, OK, np.where(at_limit, JOINT_LIMIT, NOT_CONVERGED))
             residual[order], iters[order] = np.array(res), np.array(its)
         self.evaluations += n
         return PostureBatch(q=q, com=com, status=status, residual_m=residual, iterations=iters)
