@@ -127,6 +127,16 @@ def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nda
     return np.where(degenerate, 0.0, err)
 
 
+def edge_angle_excess(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.ndarray, rho_rad: float) -> np.ndarray:
+    """How far (A-10) is violated [rad]: max(|θ_ZC − θ_CA| − ρ, 0).
+
+    Applied to every posture, with or without thrust, as Paper A writes it: a condition that only
+    switched on with the fan would let a thrust-free posture leave the cone, and the postures
+    interpolated between it and the next (thrust-borne) sample would break it.
+    """
+    return np.maximum(edge_angle_error(origin_xy, com_xy, ankle_xy) - rho_rad, 0.0)
+
+
 def wrap_angle(a: np.ndarray | float) -> np.ndarray:
     """Wrap [rad] to (−π, π]."""
     return -((-np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balance import edge_angle_error, minimal_thrust
+from .balance import edge_angle_excess, minimal_thrust
 from .posture import OK, REASONS, PostureSolver, Stance
 from .robot_model import GRAVITY
 
@@ -67,8 +67,7 @@ def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: n
     ik_ok = batch.status == OK
     thrust, zmp = minimal_thrust(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg)
     thrust = np.where(ik_ok, thrust, np.inf)
-    excess = np.maximum(edge_angle_error(problem.edge_origin_xy, batch.com[:, :2], problem.ankle_xy)
-                        - problem.rho_rad, 0.0)
+    excess = edge_angle_excess(problem.edge_origin_xy, batch.com[:, :2], problem.ankle_xy, problem.rho_rad)
     excess = np.where(ik_ok, excess, np.inf)
     violation = np.where(ik_ok, FEASIBLE, batch.status.astype(np.int64))
     violation = np.where(ik_ok & ~np.isfinite(thrust), NO_BALANCE, violation)

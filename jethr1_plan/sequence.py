@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .balance import edge_angle_error, inside_polygon, minimal_thrust, sole_polygon, wrap_angle
+from .balance import edge_angle_excess, inside_polygon, minimal_thrust, sole_polygon, wrap_angle
 from .posture import OK, REASONS, PostureSolver, Stance
 from .robot_model import GRAVITY, RobotModel
 
@@ -160,7 +160,7 @@ class SequenceBuilder:
             fan = self._fan_xy(swing_side, swing)
             thrust, zmp = minimal_thrust(com[:2], fan, poly, self.robot.mass_kg)
             thrust, zmp = float(thrust), np.asarray(zmp)
-            edge = float(edge_angle_error(feet[support][:2], com[:2], swing[:2]))
+            edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
             if status != OK:
                 reason = REASONS[status]
@@ -168,8 +168,8 @@ class SequenceBuilder:
                 reason = "no thrust can balance (ZMP ray misses the sole)"
             elif thrust > self.thrust_max_n:
                 reason = f"thrust {thrust:.3f} N above its maximum {self.thrust_max_n} N"
-            elif edge > self.rho_rad:
-                reason = f"edge angle {np.degrees(edge):.2f} deg above rho"
+            elif edge > 0:
+                reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
                 self._mark(step, "swing", k, reason, {"p_body_m": p.tolist(), "swing_m": swing.tolist()})
             f = thrust if np.isfinite(thrust) else 0.0

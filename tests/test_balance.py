@@ -98,3 +98,12 @@ def test_body_yaw_eq4_turns_the_hip_line_towards_the_fan():
     zl = np.array([0.0, 0.1125])
     assert body_yaw_eq4(zl, np.array([0.0, -0.3]), "left") == pytest.approx(0.0)
     assert body_yaw_eq4(zl, np.array([0.6, 0.1125]), "left") == pytest.approx(np.pi / 2)
+
+
+def test_edge_excess():
+    from jethr1_plan.balance import edge_angle_excess
+
+    z, com, ankle = np.zeros(2), np.array([0.0, 0.1]), np.array([0.1, 0.2])  # a 45 deg bend
+    rho = np.radians(5)
+    assert edge_angle_excess(z, com, ankle, rho) == pytest.approx(np.pi / 4 - rho)
+    assert edge_angle_excess(z, com, np.array([0.005, 0.2]), rho) == 0.0
