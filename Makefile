@@ -18,6 +18,7 @@ lint: install
 
 test: install lint
 	$(BIN)/python -m pytest -q
+	$(BIN)/jethr1 batch configs/*.yaml -o out/ci-batch --no-progress
 
 demo: install
 	$(BIN)/jethr1 robot show
@@ -26,6 +27,7 @@ demo: install
 bench: install
 	$(BIN)/python bench/bench_evaluator.py
 	$(BIN)/python bench/bench_plan.py
+	$(BIN)/python bench/bench_balance_space.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

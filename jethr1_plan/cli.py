@@ -179,10 +179,142 @@ def _report_plan(summary: dict, folder: Path) -> None:
             "/terrain shows the cartons.")
 
 
+def _pair(ctx, param, value):
+    if value is None:
+        return None
+    lo, hi = value
+    if not lo < hi:
+        raise click.BadParameter(f"expected LOW < HIGH, got {lo} {hi}")
+    return (float(lo), float(hi))
+
+
+@main.command("balance-space")
+@click.option("--robot", "robot_name", default="jethr1", show_default=True, help="Robot name or path.")
+@click.option("--support", type=click.Choice(["left", "right"]), default="right", show_default=True,
+              help="Which sole supports; the other one sweeps.")
+@click.option("--support-position", nargs=3, type=float, default=None, metavar="X Y Z",
+              help="Support sole centre [m] (default (0, -0.1125, 0) for the right sole, mirrored for the left).")
+@click.option("--x-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole x bounds [m].")
+@click.option("--y-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole y bounds [m].")
+@click.option("--z-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole z bounds [m].")
+@click.option("--resolution", default=0.01, show_default=True, type=click.FloatRange(min=0.001), help="Grid step [m].")
+@click.option("--thrust-max", default=23.0, show_default=True, type=click.FloatRange(min=0.0), help="F_max [N].")
+@click.option("--method", type=click.Choice(["continuation", "exhaustive"]), default="continuation", show_default=True,
+              help="Inner search over P_body.")
+@click.option("--pbody-resolution", default=0.01, show_default=True, type=click.FloatRange(min=0.001),
+              help="P_body grid step of the exhaustive method [m].")
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
+@click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
+@click.option("-o", "--output", "outdir", default="out/balance_space", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
+                  pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
+    """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
+    from .atomic import staged_directory
+    from .balance_space import SweepSpec, summary, sweep, verify_members
+    from .balance_space_io import balance_space_csv, balance_space_mcap, balance_space_png
+    from .robot_model import load_robot
+
+    robot = load_robot(robot_name)
+    if support_position is None:
+        support_position = (0.0, -0.1125 if support == "right" else 0.1125, 0.0)
+    sx, sy, sz = support_position
+    sgn = 1.0 if support == "right" else -1.0  # the swing foot is on the +y side of a right support
+    spec = SweepSpec(robot=robot_name, support_side=support, support_xyz=tuple(support_position),
+                     x_range=x_range or (sx - 0.8, sx + 0.9),
+                     y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
+                     z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
+                     method=method, pbody_resolution_m=pbody_resolution)
+    if executor == "dask":
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise InputError("--executor", "dask",
+                             "needs the optional extra: pip install 'jethr1-plan[dask]'") from None
+    with _Progress(not no_progress, "balance space") as progress:
+        result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    checked = verify_members(result)
+    doc = summary(result)
+    doc["verified_members"] = checked
+    with staged_directory(outdir) as tmp:
+        (tmp / "balance_space.csv").write_text(balance_space_csv(result))
+        (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
+        (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
+        (tmp / "summary.json").write_text(_dump(doc))
+    if as_json:
+        click.echo(_dump(doc), nl=False)
+    w, wo = doc["with_thrust"], doc["without_thrust"]
+    err_console.print(f"balance space: {w['cells']} cells with thrust (reach forward {w['max_forward_m']} m, "
+                      f"sideways {w['max_sideways_m']} m), {wo['cells']} without (forward {wo['max_forward_m']} m, "
+                      f"sideways {wo['max_sideways_m']} m) in {doc['wall_s']:.1f} s; wrote {outdir}/")
+
+
+@main.command()
+@click.argument("scenarios", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--manifest", type=click.Path(dir_okay=False, path_type=Path),
+              help="A YAML list of scenario paths (relative to the manifest).")
+@click.option("-o", "--output", "outdir", default="out/batch", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
+@click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
+@click.option("--json", "as_json", is_flag=True, help="Print the batch summary on stdout.")
+@click.option("--no-progress", is_flag=True)
+def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_progress) -> None:
+    """Plan many scenarios: one subdirectory each, a summary.json and a table; exit 0 when every
+    expectation holds, 3 when a plan is unexpectedly infeasible, 4 when an expectation fails."""
+    from .atomic import write_text_atomic
+    from .batch import batch_exit_code, read_manifest, run_batch
+
+    paths = list(scenarios) + (read_manifest(manifest) if manifest else [])
+    if not paths:
+        raise InputError("batch", "SCENARIOS", "give scenario files or --manifest")
+    stems = [p.stem for p in paths]
+    if len(set(stems)) != len(stems):
+        raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
+    if executor == "dask":
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise InputError("--executor", "dask",
+                             "needs the optional extra: pip install 'jethr1-plan[dask]'") from None
+    with _Progress(not no_progress, "batch") as progress:
+        records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    code = batch_exit_code(records)
+    doc = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
+        "max_thrust_n": (r.get("summary") or {}).get("max_thrust_n"),
+        "mean_thrust_n": (r.get("summary") or {}).get("mean_thrust_n"),
+        "feasible": (r.get("summary") or {}).get("feasible"),
+        "wall_s": (r.get("summary") or {}).get("wall_s")} for r in records]}
+    write_text_atomic(outdir / "summary.json", _dump(doc))
+    if as_json:
+        click.echo(_dump(doc), nl=False)
+    t = Table(title=f"batch: {len(records)} scenarios -> {outdir}")
+    for col in ("scenario", "status", "max thrust [N]", "mean [N]", "wall [s]", "expectations"):
+        t.add_column(col)
+    def fmt(v):
+        return "" if v is None else f"{v:.2f}"
+
+    for r in doc["scenarios"]:
+        t.add_row(r["name"], r["status"], fmt(r["max_thrust_n"]), fmt(r["mean_thrust_n"]), fmt(r["wall_s"]),
+                  "; ".join(r.get("expectations_failed") or []) or ("ok" if r.get("expect") else "-"))
+    err_console.print(t)
+    for r in records:
+        if r["exit_code"] and r.get("error"):
+            err_console.print(f"{r['name']}: {r['error']}", markup=False)
+    if code:
+        raise click.exceptions.Exit(code)
+
+
 def run(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map expected failures to exit codes (no traceback)."""
     try:
-        main.main(args=argv, prog_name="jethr1", standalone_mode=False)
+        rv = main.main(args=argv, prog_name="jethr1", standalone_mode=False)
+        if isinstance(rv, int):  # click returns an Exit's code instead of raising it here
+            return rv
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.ClickException as exc:

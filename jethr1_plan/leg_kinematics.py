@@ -120,12 +120,15 @@ def leg_ik(geom: LegGeometry, side: str, trunk_xyz: np.ndarray, trunk_yaw: np.nd
     ankle_roll = np.arctan2(r[:, 1], r[:, 2])
     alpha = np.arcsin(np.clip(a * np.sin(np.pi - knee) / np.where(c > 0, c, 1.0), -1.0, 1.0))
     ankle_pitch = -np.arctan2(r[:, 0], np.sign(r[:, 2]) * np.hypot(r[:, 1], r[:, 2])) - alpha
-    # hip: Rz(fy − ty) Rx(q6)ᵀ Ry(q4 + q5)ᵀ = Rz(q1) Rx(q2) Ry(q3)
-    R = _mm(_mm(rot_axis((0, 0, 1), fy - ty), rot_axis((1, 0, 0), -ankle_roll)),
-            rot_axis((0, 1, 0), -(knee + ankle_pitch)))
-    hip_yaw = np.arctan2(-R[0, 1], R[1, 1])
-    hip_roll = np.arctan2(R[2, 1], -R[0, 1] * np.sin(hip_yaw) + R[1, 1] * np.cos(hip_yaw))
-    hip_pitch = np.arctan2(-R[2, 0], R[2, 2])
+    # hip: Rz(δ) Rx(A) Ry(B) = Rz(q1) Rx(q2) Ry(q3) with δ = fy − ty, A = −q6, B = −(q4 + q5);
+    # the five entries used, written out elementwise
+    sd, cd = np.sin(fy - ty), np.cos(fy - ty)
+    sa, ca = np.sin(-ankle_roll), np.cos(-ankle_roll)
+    sb, cb = np.sin(-(knee + ankle_pitch)), np.cos(-(knee + ankle_pitch))
+    r01, r11, r21, r20, r22 = -sd * ca, cd * ca, sa, -ca * sb, ca * cb
+    hip_yaw = np.arctan2(-r01, r11)
+    hip_roll = np.arctan2(r21, -r01 * np.sin(hip_yaw) + r11 * np.cos(hip_yaw))
+    hip_pitch = np.arctan2(-r20, r22)
     q = np.stack([hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll], axis=1)
     return q, reach
 
@@ -185,6 +188,95 @@ def com_batch(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, q
     return (moment / total).T
 
 
+def _merged(robot: RobotModel, link: str, fixed_children: dict) -> tuple[float, np.ndarray]:
+    """Mass [kg] and CoM [m] (in ``link``'s frame) of ``link`` with everything fixed to it."""
+    links, _ = _mass_model(robot)
+    m, c = links.get(link, (0.0, np.zeros(3)))
+    total, moment = m, m * c
+    for j, R0 in fixed_children.get(link, []):
+        mc, cc = _merged(robot, j.child, fixed_children)
+        total += mc
+        moment = moment + mc * (np.asarray(j.xyz) + (R0 @ cc if R0 is not None else cc))
+    return total, (moment / total if total > 0 else np.zeros(3))
+
+
+@functools.lru_cache(maxsize=8)
+def _leg_mass_model(robot: RobotModel):
+    """Masses and CoMs of the rigid groups the closed-form CoM needs: the trunk with everything
+    fixed to it, and per leg the six moving links with everything fixed to each."""
+    _, chain = _mass_model(robot)
+    fixed_children: dict[str, list] = {}
+    for j, _k, R0, _xyz in chain:
+        if j.kind == "fixed":
+            fixed_children.setdefault(j.parent, []).append((j, None if R0 is None else R0[:, :, 0]))
+    joints = {j.name: j for j, *_ in chain}
+    trunk = _merged(robot, "trunk", fixed_children)
+    legs = {}
+    for side in SIDES:
+        names = [f"{side}_{t}" for t in AXES]
+        legs[side] = {
+            "hip_xyz": np.asarray(joints[names[0]].xyz),
+            "knee_xyz": np.asarray(joints[names[3]].xyz),
+            "ankle_xyz": np.asarray(joints[names[4]].xyz),
+            "links": [_merged(robot, joints[n].child, fixed_children) for n in names],
+        }
+    return trunk, legs
+
+
+def _rot_zxyx(cz, sz, cx, sx, cy, sy, v, cx2=None, sx2=None):
+    """Rz·Rx·Ry (·Rx2) applied to a constant vector ``v`` (3,), elementwise over the angle arrays."""
+    x, y, z = v[0], v[1], v[2]
+    if cx2 is not None:  # innermost Rx2
+        y, z = cx2 * y - sx2 * z, sx2 * y + cx2 * z
+    x, z = cy * x + sy * z, -sy * x + cy * z  # Ry
+    y, z = cx * y - sx * z, sx * y + cx * z  # Rx
+    x, y = cz * x - sz * y, sz * x + cz * y  # Rz
+    return x, y, z
+
+
+def fast_com(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Whole-body CoM (N, 3) [m] for the closed-form leg structure, written out elementwise.
+
+    Equal to :func:`com_batch` (tested to 1e-12 m) and several times faster: each link frame of a
+    leg is Rz(yaw + q1)·Rx(q2)·Ry(q3 + …) applied to constant vectors read from the URDF.
+    """
+    (m_t, c_t), legs = _leg_mass_model(robot)
+    q = np.atleast_2d(q)
+    n = len(q)
+    yaw = np.broadcast_to(np.asarray(trunk_yaw, dtype=float), (n,))
+    p = np.broadcast_to(np.asarray(trunk_xyz, dtype=float), (n, 3))
+    cyaw, syaw = np.cos(yaw), np.sin(yaw)
+    one, zero = np.ones(n), np.zeros(n)
+    x, y, z = _rot_zxyx(cyaw, syaw, one, zero, one, zero, c_t)
+    mx, my, mz = m_t * (p[:, 0] + x), m_t * (p[:, 1] + y), m_t * (p[:, 2] + z)
+    total = m_t
+    for k0, side in ((0, "left"), (6, "right")):
+        leg = legs[side]
+        q1, q2, q3, q4, q5, q6 = (q[:, k0 + i] for i in range(6))
+        hx, hy, hz = _rot_zxyx(cyaw, syaw, one, zero, one, zero, leg["hip_xyz"])
+        hip = (p[:, 0] + hx, p[:, 1] + hy, p[:, 2] + hz)
+        psi = yaw + q1
+        cz, sz = np.cos(psi), np.sin(psi)
+        cx, sx = np.cos(q2), np.sin(q2)
+        angles = [(one, zero), (one, zero), (np.cos(q3), np.sin(q3)), (np.cos(q3 + q4), np.sin(q3 + q4)),
+                  (np.cos(q3 + q4 + q5), np.sin(q3 + q4 + q5))]
+        rolls = [(one, zero), (cx, sx), (cx, sx), (cx, sx), (cx, sx)]
+        kx, ky, kz = _rot_zxyx(cz, sz, cx, sx, *angles[2], leg["knee_xyz"])
+        knee = (hip[0] + kx, hip[1] + ky, hip[2] + kz)
+        ax_, ay_, az_ = _rot_zxyx(cz, sz, cx, sx, *angles[3], leg["ankle_xyz"])
+        ankle = (knee[0] + ax_, knee[1] + ay_, knee[2] + az_)
+        origins = [hip, hip, hip, knee, ankle]
+        for (m, c), origin, (cr, sr), (cp, sp) in zip(leg["links"][:5], origins, rolls, angles, strict=True):
+            vx, vy, vz = _rot_zxyx(cz, sz, cr, sr, cp, sp, c)
+            mx, my, mz = mx + m * (origin[0] + vx), my + m * (origin[1] + vy), mz + m * (origin[2] + vz)
+            total += m
+        m, c = leg["links"][5]  # the foot link, turned by the ankle roll too
+        vx, vy, vz = _rot_zxyx(cz, sz, cx, sx, *angles[4], c, np.cos(q6), np.sin(q6))
+        mx, my, mz = mx + m * (ankle[0] + vx), my + m * (ankle[1] + vy), mz + m * (ankle[2] + vz)
+        total += m
+    return np.stack([mx, my, mz], axis=1) / total
+
+
 def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, feet: dict[str, tuple]
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Both legs in closed form: joints (N, 12) [rad], CoM (N, 3) [m] and status (N,) as in posture.py.
@@ -205,7 +297,7 @@ def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarr
     q = np.concatenate(qs, axis=1)
     within = np.all((q >= robot.lower_rad) & (q <= robot.upper_rad), axis=1)
     status = np.where(~reach, UNREACHABLE, np.where(within, OK, JOINT_LIMIT)).astype(np.int8)
-    com = com_batch(robot, trunk_xyz, trunk_yaw, q)
+    com = fast_com(robot, trunk_xyz, trunk_yaw, q)
     return q, com, status
 
 

@@ -1,0 +1,477 @@
+"""Balance space (Paper A, IV-A, Fig. 5): where the swing sole can be held, with and without thrust.
+
+The support sole is fixed; the swing sole (flat, facing +x) visits every cell of a grid. For each
+cell the minimal thrust F* over P_body is found under all of Paper A's constraints: the legs reach
+(IK), joint limits (A-8), 0 ≤ F ≤ F_max (A-9), the edge angle (A-10), the ZMP in the support sole
+(A-11), with the body yaw of (A-4). The cell is in the space *with* thrust when F* ≤ F_max and in
+the space *without* when F* = 0: one sweep gives both.
+
+Two inner searches over P_body:
+
+* ``exhaustive`` (the paper's): a P_body grid over every pelvis position from which both legs
+  reach, at ``pbody_resolution_m``, then the best point refined on a 1 mm grid (±2 steps).
+* ``continuation`` (default): cells are visited in slices along x, each seeded with the best
+  P_body of its neighbour in the previous slice and with a few generic postures; a compass
+  (pattern) search then shrinks its step from 16 mm to 0.5 mm. A test checks that it agrees with
+  ``exhaustive`` on sampled cells (same membership, thrust within 0.1 N).
+
+Kinematics are the closed-form numpy path (``leg_kinematics``), which agrees with PlaCo to 1e-9 m;
+the best posture of every member cell is re-checked by PlaCo forward kinematics after the sweep.
+Work is split into z layers, a fixed partition, so the output does not depend on the number of
+workers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .balance import body_yaw_eq4, edge_angle_excess, minimal_thrust, sole_polygon
+from .leg_kinematics import check_structure, solve_postures
+from .posture import JOINT_LIMIT, OK, UNREACHABLE
+from .robot_model import GRAVITY, RobotModel, load_robot
+
+# reason codes of a cell
+MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)
+REASONS = {MEMBER: "", OVERLAP: "overlaps the support sole", OUT_OF_REACH: "out of reach",
+           LIMITS: "joint limits", NO_BALANCE: "no thrust can balance", EDGE: "edge angle (A-10)",
+           ABOVE_MAX: "thrust above its maximum"}
+SEED_EVERY = 4  # continuation: generic seeds on every 4th x slice
+RELAX_PASSES = 3  # continuation: rounds of neighbour relaxation
+EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the penalty is exact
+LAYERS_PER_TASK = 4  # the fixed partition of the work: output never depends on the number of workers
+def has_posture(reason: np.ndarray) -> np.ndarray:
+    """Cells whose best P_body is a kinematically valid posture (legs reach, within limits)."""
+    return (reason == MEMBER) | (reason >= NO_BALANCE)
+
+
+AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0  # 26 neighbours
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """What to sweep (SI units). Bounds are absolute world coordinates of the swing sole centre."""
+
+    robot: str = "jethr1"
+    support_side: str = "right"
+    support_xyz: tuple[float, float, float] = (0.0, -0.1125, 0.0)
+    x_range: tuple[float, float] = (-0.8, 0.9)
+    y_range: tuple[float, float] = (-0.9, 0.8)
+    z_range: tuple[float, float] = (0.0, 0.3)
+    resolution_m: float = 0.01
+    thrust_max_n: float = 23.0
+    rho_rad: float = math.radians(5.0)
+    sole_margin_m: float = 0.0
+    method: str = "continuation"
+    pbody_resolution_m: float = 0.01  # exhaustive only
+    min_step_m: float = 0.0005  # continuation: final compass step
+
+    @property
+    def swing_side(self) -> str:
+        return "left" if self.support_side == "right" else "right"
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Grid coordinates [m] along x, y, z (inclusive bounds, rounded to 1e-9 m)."""
+        def ax(lo, hi):
+            n = math.floor((hi - lo) / self.resolution_m + 1e-9) + 1
+            return np.round(lo + self.resolution_m * np.arange(n), 9)
+        return ax(*self.x_range), ax(*self.y_range), ax(*self.z_range)
+
+
+@dataclass
+class LayerResult:
+    """Per cell of one z layer (arrays over the cells, in x-major order)."""
+
+    swing: np.ndarray  # (C, 3)
+    thrust: np.ndarray  # (C,) F* [N] (inf where nothing balances)
+    p_body: np.ndarray  # (C, 3) best posture (NaN where no posture is kinematically valid)
+    yaw: np.ndarray  # (C,)
+    reason: np.ndarray  # (C,) reason codes
+    evaluations: int = 0
+
+
+@dataclass
+class _Cells:
+    """Per-candidate data of the cells being searched."""
+
+    swing: np.ndarray
+    yaw: np.ndarray
+    fan: np.ndarray
+
+
+class _Evaluator:
+    """Vectorised objective over candidates of many cells at once."""
+
+    def __init__(self, robot: RobotModel, spec: SweepSpec):
+        self.robot, self.spec = robot, spec
+        self.geom = check_structure(robot)
+        self.support = np.asarray(spec.support_xyz, dtype=float)
+        self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, spec.sole_margin_m)
+        self.fan_offset = np.asarray(robot.fan_for(spec.swing_side).offset_in_foot_m[:2])
+        self.evaluations = 0
+        self.lo, self.hi = robot.lower_rad, robot.upper_rad
+        self.weight = robot.mass_kg * GRAVITY
+
+    def cells(self, swing: np.ndarray) -> _Cells:
+        fan = swing[:, :2] + self.fan_offset
+        yaw = body_yaw_eq4(self.support[:2], fan, self.spec.support_side)
+        return _Cells(swing, yaw, fan)
+
+    def reach_possible(self, c: _Cells) -> np.ndarray:
+        """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
+        around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
+        g = self.geom
+        reach = g.thigh_m + g.shank_m
+        u = np.stack([-np.sin(c.yaw), np.cos(c.yaw), np.zeros_like(c.yaw)], axis=1) * g.hip_offset_m
+        sgn_sw = 1.0 if self.spec.swing_side == "left" else -1.0
+        up = np.array([0.0, 0.0, g.ankle_height_m])
+        ankle_s = self.support + up
+        ankle_w = c.swing + up
+        centre_s = ankle_s + sgn_sw * u  # P_body = ankle − hip offset (support hip is at −sgn_sw·u)
+        centre_w = ankle_w - sgn_sw * u
+        return np.linalg.norm(centre_w - centre_s, axis=1) <= 2 * reach
+
+    def __call__(self, c: _Cells, idx: np.ndarray, P: np.ndarray):
+        """Objective, thrust and reason code of candidates P (M, 3) for cells ``idx`` (M,)."""
+        self.evaluations += len(P)
+        swing, yaw, fan = c.swing[idx], c.yaw[idx], c.fan[idx]
+        feet = {self.spec.support_side: (self.support, 0.0), self.spec.swing_side: (swing, 0.0)}
+        q, com, status = solve_postures(self.robot, P, yaw, feet)
+        thrust, _ = minimal_thrust(com[:, :2], fan, self.poly, self.robot.mass_kg)
+        edge = edge_angle_excess(self.support[:2], com[:, :2], swing[:, :2], self.spec.rho_rad)
+        limit_excess = np.sum(np.maximum(self.lo - q, 0) + np.maximum(q - self.hi, 0), axis=1)
+        reach_excess = self._reach_excess(P, yaw, swing)
+        dist = np.linalg.norm(com[:, :2] - self.support[:2], axis=1)
+        # an exact penalty for (A-10): continuous, so the search can slide along the cone's edge
+        obj = np.where(status == UNREACHABLE, 4000 + 1e4 * reach_excess,
+                       np.where(status == JOINT_LIMIT, 3000 + 1e3 * limit_excess,
+                                np.where(~np.isfinite(thrust), 2000 + 1e3 * dist,
+                                         thrust + EDGE_PENALTY_N_PER_DEG * np.degrees(edge))))
+        reason = np.where(status == UNREACHABLE, OUT_OF_REACH,
+                          np.where(status == JOINT_LIMIT, LIMITS,
+                                   np.where(~np.isfinite(thrust), NO_BALANCE,
+                                            np.where(edge > 0, EDGE,
+                                                     np.where(thrust > self.spec.thrust_max_n, ABOVE_MAX, MEMBER)))))
+        return obj, np.where(reason == MEMBER, thrust, np.where(reason == ABOVE_MAX, thrust, np.inf)), reason
+
+    def _reach_excess(self, P, yaw, swing):
+        g = self.geom
+        L = g.thigh_m + g.shank_m
+        u = np.stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)], axis=1) * g.hip_offset_m
+        sgn_sw = 1.0 if self.spec.swing_side == "left" else -1.0
+        up = np.array([0.0, 0.0, g.ankle_height_m])
+        d_s = np.linalg.norm(P - sgn_sw * u - (self.support + up), axis=1)
+        d_w = np.linalg.norm(P + sgn_sw * u - (swing + up), axis=1)
+        return np.maximum(np.maximum(d_s, d_w) - L, 0.0)
+
+
+def _generic_seeds(ev: _Evaluator, c: _Cells, idx: np.ndarray) -> np.ndarray:
+    """Pelvis positions per cell: over the support foot, a quarter and half way to the swing foot,
+    each from a deep crouch to nearly straight legs: (len(idx), 12, 3)."""
+    g = ev.geom
+    sup = ev.support
+    sw = c.swing[idx]
+    leg = g.thigh_m + g.shank_m + g.ankle_height_m
+    seeds = []
+    for t in (0.0, 0.25, 0.5):
+        base = sup + t * (sw - sup)
+        for hz in (0.42, 0.57, 0.72, 0.87):
+            p = base.copy()
+            p[:, 2] = np.minimum(sup[2], sw[:, 2]) + hz * leg
+            seeds.append(p)
+    return np.stack(seeds, axis=1)
+
+
+def _from_neighbour(ev: _Evaluator, c: _Cells, idx: np.ndarray, P0: np.ndarray, spec: SweepSpec):
+    """A short compass search (from 4 mm) started at a neighbour's optimum."""
+    f0, _, _ = ev(c, idx, P0)
+    return compass_search(ev, c, idx, P0, f0, np.full(len(idx), 0.004), spec.min_step_m)
+
+
+def compass_search(ev: _Evaluator, c: _Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
+                   min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002):
+    """Vectorised compass search from P (B, 3) with objective f (B,), one cell per row.
+
+    Polls the 6 axis directions while the step is at least ``coarse_until``, then all 26
+    neighbours of the cube (so the search can slide along a constraint's edge). A cell stops when
+    its step falls below ``min_step``, when it reaches zero thrust, or, after ``give_up_after``
+    iterations, when it has still found no kinematically valid posture.
+    """
+    P, f, step = P.copy(), f.copy(), step0.copy()
+    for stage, dirs in ((0, AXIS_DIRECTIONS), (1, DIRECTIONS)):
+        floor = coarse_until if stage == 0 else min_step
+        P, f, step = _poll(ev, c, idx, P, f, step, floor, dirs, max_iter, give_up_after)
+    return P, f
+
+
+def _poll(ev, c, idx, P, f, step, min_step, dirs, max_iter, give_up_after):
+    active = (step >= min_step) & (f > 0)
+    for it in range(max_iter):
+        if it == give_up_after:
+            active &= f < 2000
+        a = np.flatnonzero(active)
+        if not len(a):
+            break
+        k = len(dirs)
+        cand = P[a, None, :] + step[a, None, None] * dirs[None]
+        obj, _, _ = ev(c, np.repeat(idx[a], k), cand.reshape(-1, 3))
+        obj = obj.reshape(len(a), k)
+        j = np.argmin(obj, axis=1)
+        best = obj[np.arange(len(a)), j]
+        better = best < f[a] - 1e-12
+        moved = a[better]
+        P[moved] = cand[np.flatnonzero(better), j[better]]
+        f[moved] = best[better]
+        step[a[~better]] *= 0.5
+        active = (step >= min_step) & (f > 0)
+    return P, f, step
+
+
+def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
+    """Every cell of the layers at swing heights ``zs`` [m] (``continuation`` or ``exhaustive``).
+
+    Layers are independent; sweeping a few together only makes the numpy batches larger.
+    """
+    robot = load_robot(spec.robot)
+    ev = _Evaluator(robot, spec)
+    xs, ys, _ = spec.axes()
+    X, Y, Z = np.meshgrid(xs, ys, np.asarray(zs, dtype=float), indexing="ij")
+    swing = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+    n = len(swing)
+    c = ev.cells(swing)
+    reason = np.full(n, OUT_OF_REACH, dtype=np.int8)
+    thrust = np.full(n, np.inf)
+    best_p = np.full((n, 3), np.nan)
+    sup = ev.support
+    overlap = (np.abs(swing[:, 0] - sup[0]) < robot.sole_length_m) & (np.abs(swing[:, 1] - sup[1]) < robot.sole_width_m)
+    reason[overlap] = OVERLAP
+    todo = ~overlap & ev.reach_possible(c)
+    if spec.method == "exhaustive":
+        for i in np.flatnonzero(todo):
+            best_p[i], thrust[i], reason[i] = _exhaustive_cell(ev, c, i)
+    else:
+        per_slice = len(ys) * len(zs)
+        slices = [np.arange(ix * per_slice, (ix + 1) * per_slice) for ix in range(len(xs))]
+        P_all = np.full((n, 3), np.nan)
+        f_all = np.full(n, np.inf)
+        shift = np.array([spec.resolution_m / 2, 0.0, 0.0])
+        # forward pass along +x: every cell starts from its -x neighbour's optimum; cells without one,
+        # and every SEED_EVERY-th slice, also start from the best generic seed (new basins enter there)
+        for ix, sl in enumerate(slices):
+            idx = sl[todo[sl]]
+            if not len(idx):
+                continue
+            P = np.full((len(idx), 3), np.nan)
+            f = np.full(len(idx), np.inf)
+            if ix > 0:
+                nb = idx - per_slice
+                has = np.isfinite(f_all[nb]) & (f_all[nb] < 2000)
+                if has.any():
+                    P[has], f[has] = _from_neighbour(ev, c, idx[has], P_all[nb[has]] + shift, spec)
+            fresh = ~np.isfinite(f) | (f >= 2000) | (ix % SEED_EVERY == 0)
+            if fresh.any():
+                sub_idx = idx[fresh]
+                seeds = _generic_seeds(ev, c, sub_idx)
+                b, k = seeds.shape[:2]
+                obj, _, _ = ev(c, np.repeat(sub_idx, k), seeds.reshape(-1, 3))
+                obj = obj.reshape(b, k)
+                j = np.argmin(obj, axis=1)
+                P2, f2 = compass_search(ev, c, sub_idx, seeds[np.arange(b), j], obj[np.arange(b), j],
+                                        np.full(b, 0.032), spec.min_step_m)
+                better = f2 < f[fresh]
+                rows = np.flatnonzero(fresh)[better]
+                P[rows], f[rows] = P2[better], f2[better]
+            P_all[idx], f_all[idx] = P, f
+        # relaxation: a better optimum found at a neighbour (along -x, +y, -y, +x) propagates, until
+        # no cell improves or RELAX_PASSES rounds are done
+        nx, ny, nz = len(xs), len(ys), len(zs)
+        grid = np.arange(n).reshape(nx, ny, nz)
+        for _ in range(RELAX_PASSES):
+            improved = 0
+            for axis, d in ((0, -1), (1, 1), (1, -1), (0, 1)):
+                src = np.take(grid, range(max(0, -d), grid.shape[axis] - max(0, d)), axis=axis).ravel()
+                dst = np.take(grid, range(max(0, d), grid.shape[axis] - max(0, -d)), axis=axis).ravel()
+                # dst receives src's optimum; pairs are neighbours one cell apart along the axis
+                ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000) & (f_all[src] < f_all[dst] - 0.05)
+                if not ok.any():
+                    continue
+                s_idx, d_idx = src[ok], dst[ok]
+                delta = (c.swing[d_idx] - c.swing[s_idx]) / 2
+                P2, f2 = _from_neighbour(ev, c, d_idx, P_all[s_idx] + delta, spec)
+                better = f2 < f_all[d_idx] - 1e-9
+                P_all[d_idx[better]], f_all[d_idx[better]] = P2[better], f2[better]
+                improved += int(better.sum())
+            if not improved:
+                break
+        idx = np.flatnonzero(todo)
+        if len(idx):
+            _, t, r = ev(c, idx, P_all[idx])
+            thrust[idx], reason[idx] = t, r
+            valid = has_posture(r)
+            best_p[idx[valid]] = P_all[idx[valid]]
+    member = reason == MEMBER
+    return LayerResult(swing=swing, thrust=np.where(member | (reason == ABOVE_MAX), thrust, np.inf),
+                       p_body=np.where(has_posture(reason)[:, None], best_p, np.nan), yaw=c.yaw, reason=reason,
+                       evaluations=ev.evaluations)
+
+
+def pelvis_box(ev: _Evaluator, c: _Cells, i: int, res: float) -> np.ndarray:
+    """Grid points [m] of every P_body from which both ankles may be reached (bounding box of the
+    intersection of the two reach spheres) at spacing ``res``."""
+    g = ev.geom
+    L = g.thigh_m + g.shank_m
+    u = np.array([-np.sin(c.yaw[i]), np.cos(c.yaw[i]), 0.0]) * g.hip_offset_m
+    sgn_sw = 1.0 if ev.spec.swing_side == "left" else -1.0
+    cs = ev.support + [0, 0, g.ankle_height_m] + sgn_sw * u
+    cw = c.swing[i] + [0, 0, g.ankle_height_m] - sgn_sw * u
+    lo = np.maximum(cs - L, cw - L)
+    hi = np.minimum(cs + L, cw + L)
+    lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
+    axes = [np.arange(lo[k], hi[k] + 1e-12, res) for k in range(3)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def _exhaustive_cell(ev: _Evaluator, c: _Cells, i: int):
+    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid around the best point."""
+    grid = pelvis_box(ev, c, i, ev.spec.pbody_resolution_m)
+    best_p, best_f = None, np.inf
+    for s in range(0, len(grid), 20000):
+        chunk = grid[s:s + 20000]
+        obj, _, _ = ev(c, np.full(len(chunk), i), chunk)
+        j = int(np.argmin(obj))
+        if obj[j] < best_f:
+            best_f, best_p = obj[j], chunk[j]
+    if best_p is None:
+        return np.full(3, np.nan), np.inf, OUT_OF_REACH
+    r = ev.spec.pbody_resolution_m
+    fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
+    local = best_p + np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
+    obj, _, _ = ev(c, np.full(len(local), i), local)
+    j = int(np.argmin(obj))
+    if obj[j] < best_f:
+        best_p = local[j]
+    _, t, rr = ev(c, np.array([i]), best_p[None])
+    return best_p, float(t[0]), int(rr[0])
+
+
+@dataclass
+class SweepResult:
+    spec: SweepSpec
+    swing: np.ndarray
+    thrust: np.ndarray
+    p_body: np.ndarray
+    yaw: np.ndarray
+    reason: np.ndarray
+    evaluations: int
+    wall_s: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def with_thrust(self) -> np.ndarray:
+        return self.reason == MEMBER
+
+    @property
+    def without_thrust(self) -> np.ndarray:
+        return (self.reason == MEMBER) & (self.thrust == 0.0)
+
+
+def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
+          progress=None) -> SweepResult:
+    """The whole sweep, one z layer per task. The result does not depend on ``jobs`` or the executor."""
+    import time
+
+    from joblib import Parallel, delayed, parallel_config
+
+    t0 = time.perf_counter()
+    _, _, zs = spec.axes()
+    chunks = [tuple(float(z) for z in zs[k:k + LAYERS_PER_TASK]) for k in range(0, len(zs), LAYERS_PER_TASK)]
+    tasks = [delayed(sweep_layers)(spec, chunk) for chunk in chunks]
+    if executor == "dask":
+        from distributed import Client
+
+        with Client(scheduler) if scheduler else Client(processes=True, n_workers=jobs, threads_per_worker=1) as _c, \
+                parallel_config(backend="dask"):
+            layers = list(Parallel()(tasks))
+    elif jobs == 1:
+        layers = []
+        for k, task in enumerate(tasks):
+            fn, args, kwargs = task
+            layers.append(fn(*args, **kwargs))
+            if progress:
+                progress(f"layers z = {chunks[k][0]:.3f}..{chunks[k][-1]:.3f} m", k + 1, len(tasks))
+    else:
+        layers = []
+        for k, layer in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):
+            layers.append(layer)
+            if progress:
+                progress(f"layers z = {chunks[k][0]:.3f}..{chunks[k][-1]:.3f} m", k + 1, len(tasks))
+    cat = {f: np.concatenate([getattr(layer, f) for layer in layers]) for f in ("swing", "thrust", "p_body", "yaw",
+                                                                             "reason")}
+    order = np.lexsort((cat["swing"][:, 2], cat["swing"][:, 1], cat["swing"][:, 0]))
+    return SweepResult(spec, *(cat[f][order] for f in ("swing", "thrust", "p_body", "yaw", "reason")),
+                       evaluations=sum(layer.evaluations for layer in layers), wall_s=time.perf_counter() - t0)
+
+
+def verify_members(result: SweepResult) -> int:
+    """Re-check every member cell's best posture by PlaCo forward kinematics; return the count checked.
+
+    Raises:
+        AssertionError: a posture whose soles are not where the sweep says (a bug).
+    """
+    robot = load_robot(result.spec.robot)
+    spec = result.spec
+    wrapper = robot.wrapper()
+    support = np.asarray(spec.support_xyz)
+    feet = {spec.support_side: (support, 0.0)}
+    idx = np.flatnonzero(result.with_thrust)
+    for i in idx:
+        feet[spec.swing_side] = (result.swing[i], 0.0)
+        q, com, status = solve_postures(robot, result.p_body[i][None], result.yaw[i], feet)
+        T = np.eye(4)
+        cy, sy = math.cos(result.yaw[i]), math.sin(result.yaw[i])
+        T[:2, :2] = [[cy, -sy], [sy, cy]]
+        T[:3, 3] = result.p_body[i]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[0]
+        wrapper.update_kinematics()
+        err_s = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.support_side}_foot")[:3, 3] - support)
+        err_w = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.swing_side}_foot")[:3, 3] - result.swing[i])
+        if status[0] != OK or max(err_s, err_w) > 1e-9 or np.linalg.norm(wrapper.com_world() - com[0]) > 1e-9:
+            raise AssertionError(f"balance-space cell {result.swing[i]} fails its PlaCo re-check")
+    return len(idx)
+
+
+def summary(result: SweepResult) -> dict:
+    """summary.json of a sweep."""
+    spec = result.spec
+    res = spec.resolution_m
+    sup = np.asarray(spec.support_xyz)
+    out = {
+        "support": {"side": spec.support_side, "position_m": list(spec.support_xyz)},
+        "swing": spec.swing_side,
+        "robot": spec.robot,
+        "sole": {"length_m": load_robot(spec.robot).sole_length_m, "width_m": load_robot(spec.robot).sole_width_m},
+        "bounds_m": {"x": list(spec.x_range), "y": list(spec.y_range), "z": list(spec.z_range)},
+        "resolution_m": res,
+        "method": spec.method,
+        "thrust_max_n": spec.thrust_max_n,
+        "cells": len(result.swing),
+        "evaluations": int(result.evaluations),
+        "wall_s": float(result.wall_s),
+    }
+    side = 1.0 if spec.swing_side == "left" else -1.0
+    for name, mask in (("with_thrust", result.with_thrust), ("without_thrust", result.without_thrust)):
+        pts = result.swing[mask]
+        out[name] = {
+            "cells": int(mask.sum()),
+            "volume_m3": float(mask.sum() * res ** 3),
+            "max_forward_m": float((pts[:, 0] - sup[0]).max()) if len(pts) else None,
+            "max_sideways_m": float((side * (pts[:, 1] - sup[1])).max()) if len(pts) else None,
+            "max_reach_m": float(np.linalg.norm(pts[:, :2] - sup[:2], axis=1).max()) if len(pts) else None,
+        }
+    out["reasons"] = {REASONS[k] or "member": int(np.sum(result.reason == k)) for k in REASONS}
+    out["spec"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(spec).items()}
+    return out

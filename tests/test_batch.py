@@ -1,0 +1,61 @@
+"""`jethr1 batch`: one folder per scenario, a summary, and the exit status CI gates on."""
+
+from __future__ import annotations
+
+import json
+
+import yaml
+
+from jethr1_plan.cli import run
+
+from .conftest import ROOT
+
+
+def _small(tmp_path, name, **changes):
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["optimiser"] = {"initial": {"population": 40, "generations": 10},
+                        "intermediate": {"population": 30, "generations": 4}}
+    doc["steps"][0]["path"]["samples"] = 15
+    doc["timing"] = {"swing_s": 0.5, "transfer_s": 0.25, "rate_hz": 20.0}
+    for key, value in changes.items():
+        doc[key] = value
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def test_all_expectations_hold(tmp_path, capsys):
+    a = _small(tmp_path, "a", expect={"feasible": True, "max_thrust_n": 23.0})
+    b = _small(tmp_path, "b", expect={"feasible": False}, balance={"thrust_max_n": 0.0})
+    out = tmp_path / "out"
+    assert run(["batch", str(a), str(b), "-o", str(out), "--no-progress", "-j", "2"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert [r["name"] for r in s["scenarios"]] == ["a", "b"] and s["exit_code"] == 0
+    assert (out / "a" / "trajectory.csv").exists() and not (out / "b" / "trajectory.csv").exists()
+    assert (out / "b" / "summary.json").exists()
+
+
+def test_failed_expectation_is_exit_4(tmp_path):
+    a = _small(tmp_path, "a", expect={"max_thrust_n": 0.5})
+    assert run(["batch", str(a), "-o", str(tmp_path / "o"), "--no-progress", "-j", "1"]) == 4
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert "max thrust" in s["scenarios"][0]["expectations_failed"][0]
+
+
+def test_unexpected_infeasible_is_exit_3(tmp_path):
+    a = _small(tmp_path, "a", balance={"thrust_max_n": 0.0}, expect={})
+    ok = _small(tmp_path, "ok", expect={"feasible": True})
+    assert run(["batch", str(a), str(ok), "-o", str(tmp_path / "o"), "--no-progress"]) == 3
+
+
+def test_bad_input_is_exit_2_and_manifest(tmp_path):
+    good = _small(tmp_path, "good")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("steps: 3\n")
+    manifest = tmp_path / "m.yaml"
+    manifest.write_text(yaml.safe_dump(["good.yaml", "bad.yaml"]))
+    assert run(["batch", "--manifest", str(manifest), "-o", str(tmp_path / "o"), "--no-progress"]) == 2
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert [r["status"] for r in s["scenarios"]] == ["feasible", "bad input"]
+    assert "steps" in s["scenarios"][1]["error"]
+    assert good.exists()
