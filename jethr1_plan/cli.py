@@ -103,6 +103,21 @@ def robot_show(name: str, as_json: bool) -> None:
     out.print(f)
 
 
+class SelfCheckFailed(Exception):
+    """The planner's own output failed the independent re-check: a bug (exit 1)."""
+
+
+def _self_check(csv_text: str, result) -> None:
+    """Run ``verify`` on the trajectory before anything is written (a failure is a bug)."""
+    from .csv_writer import read_trajectory_csv
+    from .verify import verify_rows
+
+    _, failures = verify_rows(read_trajectory_csv(csv_text), result.robot.name, start_feet=result.scenario.start,
+                              max_failures=5)
+    if failures:
+        raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
+
+
 def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) -> Path:
     """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ atomically; return that folder."""
     from .atomic import staged_directory
@@ -112,7 +127,10 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
     final = outdir / Path(result.scenario.source).stem
     with staged_directory(final) as tmp:
         if trajectory and result.rows is not None:
-            (tmp / "trajectory.csv").write_text(trajectory_csv(result.rows))
+            text = trajectory_csv(result.rows)
+            if result.feasible:
+                _self_check(text, result)
+            (tmp / "trajectory.csv").write_text(text)
             (tmp / "trajectory.mcap").write_bytes(trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
                                                                   [st.path_m for st in result.steps]))
         (tmp / "summary.json").write_text(_dump(summary))
@@ -307,6 +325,31 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
             err_console.print(f"{r['name']}: {r['error']}", markup=False)
     if code:
         raise click.exceptions.Exit(code)
+
+
+@main.command()
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option("--scenario", type=click.Path(dir_okay=False, path_type=Path),
+              help="Also check the feet against this scenario (default: the one named in summary.json).")
+@click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON on stdout.")
+def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
+    """Re-check a trajectory (CSV, MCAP or an output folder) with PlaCo, independently of the planner.
+
+    Exit 0 when every row holds, 5 when any fails (one line per failing row on stderr).
+    """
+    from .verify import verify_path
+
+    n, failures, what = verify_path(path, scenario)
+    if as_json:
+        click.echo(_dump({"file": what, "rows": n, "ok": not failures,
+                          "failures": [f.__dict__ for f in failures]}), nl=False)
+    for f in failures:
+        err_console.print(f"{what}: {f}", markup=False)
+    if failures:
+        err_console.print(f"[red]verify: {len(failures)} failing rows{'+' if len(failures) >= 50 else ''} "
+                          f"of {n}[/]")
+        raise click.exceptions.Exit(5)
+    err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
 
 
 def run(argv: list[str] | None = None) -> int:

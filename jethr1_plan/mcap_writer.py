@@ -60,6 +60,7 @@ SCHEMAS: dict[str, dict] = {
     "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
                                   "position_rad": {"type": "array", "items": NUMBER}}),
     "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
+                              "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
                               "feasible": {"type": "boolean"}}),
 }
 for _name, _schema in SCHEMAS.items():
@@ -200,7 +201,7 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q]})
         put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
                            "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
-                           "feasible": bool(c["feasible"][i])})
+                           "support": c["support"][i], "step": int(c["step"][i]), "feasible": bool(c["feasible"][i])})
         put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
                            "pose": _pose(p, quat_axis_angle((0, 0, 1), yaw))})
         put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(c["com"][i])})

@@ -1,0 +1,241 @@
+"""``jethr1 verify``: an independent re-check of a written trajectory before it goes on the robot.
+
+Reads only the written file (``trajectory.csv`` or ``trajectory.mcap``) and the robot model, never
+the planner's state: puts each row's pelvis pose and joints into a fresh PlaCo robot and checks,
+row by row,
+
+* joints within the URDF limits;
+* both soles flat (level, facing +x), the support sole where it was at the start of its phase and
+  (with the scenario) where the scenario puts it;
+* the swing sole on its written sample (CSV) or on a swing path of the file (MCAP);
+* each fan's thrust within [0, F_max];
+* the ZMP from the written thrust (A-1, A-2) inside the support sole, or in double support inside
+  the hull of both soles;
+* the written CoM and ZMP (CSV) match the recomputed ones.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .balance import inside_polygon, sole_polygon
+from .errors import InputError
+from .robot_model import GRAVITY, JOINT_NAMES, SIDES, load_robot
+from .sequence import convex_hull
+
+TOL_M = 1e-6  # position tolerance [m] (the IK tolerance)
+TOL_RAD = 1e-6
+
+
+@dataclass
+class Failure:
+    row: int
+    time_s: float
+    check: str
+    detail: str
+
+    def __str__(self) -> str:
+        return f"row {self.row} (t = {self.time_s:.3f} s): {self.check}: {self.detail}"
+
+
+def _rows_from_csv(text: str) -> dict[str, np.ndarray]:
+    from .csv_writer import columns, read_trajectory_csv
+
+    header = text.split("\n", 1)[0].split(",")
+    missing = [c for c in columns() if c not in header and c != "reason"]
+    if missing:
+        raise InputError("trajectory.csv", "header", f"missing columns {missing[:4]}")
+    return read_trajectory_csv(text)
+
+
+def _rows_from_mcap(data: bytes) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+    from .mcap_writer import read_mcap
+
+    by_time: dict[int, dict] = {}
+    paths: list[np.ndarray] = []
+    for topic, _schema, msg, t in read_mcap(data):
+        if topic == "/swing_path":
+            for ent in msg["entities"]:
+                for line in ent["lines"]:
+                    paths.append(np.array([[p["x"], p["y"], p["z"]] for p in line["points"]]))
+        elif topic in ("/joint_states", "/thrust", "/p_body"):
+            by_time.setdefault(t, {})[topic] = msg
+    rows = [by_time[t] for t in sorted(by_time)]
+    if not rows or any(len(r) != 3 for r in rows):
+        raise InputError("trajectory.mcap", "/joint_states, /thrust, /p_body", "missing or unpaired messages")
+    cols: dict[str, list] = {}
+    for t, r in zip(sorted(by_time), rows, strict=True):
+        pose = r["/p_body"]["pose"]
+        names = r["/joint_states"]["name"]
+        pos = dict(zip(names, r["/joint_states"]["position_rad"], strict=True))
+        th = r["/thrust"]
+        vals = {"time_s": t / 1e9, "pelvis_x_m": pose["position"]["x"], "pelvis_y_m": pose["position"]["y"],
+                "pelvis_z_m": pose["position"]["z"], **{f"pelvis_q{k}": pose["orientation"][k] for k in "xyzw"},
+                **{f"{j}_rad": pos[j] for j in JOINT_NAMES}, "thrust_left_n": th["left_n"],
+                "thrust_right_n": th["right_n"], "phase": th["phase"], "support": th["support"], "step": th["step"]}
+        for k, v in vals.items():
+            cols.setdefault(k, []).append(v)
+    return {k: np.array(v, dtype=object if k in ("phase", "support") else float) for k, v in cols.items()}, paths
+
+
+def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_paths: list[np.ndarray] | None = None,
+                start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50) -> tuple[int, list[Failure]]:
+    """Check every row; return (rows checked, failures)."""
+    robot = load_robot(robot_name)
+    wrapper = robot.wrapper()
+    w = robot.mass_kg * GRAVITY
+    fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
+    n = len(c["time_s"])
+    q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1).astype(float)
+    failures: list[Failure] = []
+    reference = _ground_references(c, robot, q)
+
+    def fail(i, check, detail):
+        if len(failures) < max_failures:
+            failures.append(Failure(i, float(c["time_s"][i]), check, detail))
+
+    for i in range(n):
+        support = c["support"][i]
+        qx, qy, qz, qw = (float(c[f"pelvis_q{k}"][i]) for k in "xyzw")
+        T = np.eye(4)
+        T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                     [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                     [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
+        T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        low = q[i] < robot.lower_rad - 1e-9
+        high = q[i] > robot.upper_rad + 1e-9
+        if low.any() or high.any():
+            j = int(np.flatnonzero(low | high)[0])
+            fail(i, "joint limit", f"{JOINT_NAMES[j]} = {q[i, j]:.4f} rad outside "
+                 f"[{robot.lower_rad[j]:.3f}, {robot.upper_rad[j]:.3f}]")
+        feet = {s: wrapper.get_T_world_frame(f"{s}_foot") for s in SIDES}
+        for s, Tf in feet.items():
+            if np.linalg.norm(Tf[:3, :3] - np.eye(3)) / np.sqrt(2) > TOL_RAD:
+                fail(i, "sole not flat", f"{s} sole turned by {np.linalg.norm(Tf[:3, :3] - np.eye(3)):.2e}")
+        supports = SIDES if support == "both" else (support,)
+        for s in supports:
+            p = feet[s][:3, 3]
+            if start_feet is not None and i == 0 and np.linalg.norm(p - start_feet[s]) > TOL_M:
+                fail(i, "support foot moved", f"{s} sole at {np.round(p, 6).tolist()} m, scenario says "
+                     f"{np.round(start_feet[s], 6).tolist()} m")
+            ref = reference[s][i]
+            if np.linalg.norm(p - ref) > TOL_M:
+                fail(i, "support foot moved", f"{s} sole {np.linalg.norm(p - ref):.2e} m from where it stands "
+                     f"over the rows it supports ({np.round(ref, 6).tolist()} m)")
+        if support != "both":
+            swing = "left" if support == "right" else "right"
+            p = feet[swing][:3, 3]
+            if "swing_x_m" in c:
+                sample = np.array([c["swing_x_m"][i], c["swing_y_m"][i], c["swing_z_m"][i]], dtype=float)
+                if not np.isfinite(sample).all() or np.linalg.norm(p - sample) > TOL_M:
+                    fail(i, "swing sole off its sample", f"{swing} sole at {np.round(p, 6).tolist()} m, sample "
+                         f"{np.round(sample, 6).tolist()} m")
+            elif swing_paths:
+                d = min(_distance_to_polyline(p, path) for path in swing_paths)
+                if d > TOL_M:
+                    fail(i, "swing sole off its path", f"{d:.2e} m from every swing path")
+        thrust = {"left": float(c["thrust_left_n"][i]), "right": float(c["thrust_right_n"][i])}
+        for s, f in thrust.items():
+            if not (0.0 <= f <= fmax[s] + 1e-9):
+                fail(i, "thrust out of range", f"{s} fan {f:.3f} N outside [0, {fmax[s]}] N")
+        com = wrapper.com_world()
+        fans = {s: wrapper.get_T_world_frame(f"{s}_fan")[:2, 3] for s in SIDES}
+        total = thrust["left"] + thrust["right"]
+        zmp = (w * com[:2] - sum(thrust[s] * fans[s] for s in SIDES)) / (w - total)
+        polys = [sole_polygon(feet[s][:2, 3], 0.0, robot.sole_length_m, robot.sole_width_m) for s in supports]
+        region = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+        if not inside_polygon(zmp, region, tol_m=1e-9):
+            where = "the support sole" if len(polys) == 1 else "the hull of both soles"
+            fail(i, "ZMP outside support", f"ZMP {np.round(zmp, 4).tolist()} m with the written thrust "
+                 f"({total:.3f} N) is outside {where}")
+        if "com_x_m" in c:
+            written = np.array([c["com_x_m"][i], c["com_y_m"][i], c["com_z_m"][i]], dtype=float)
+            if np.linalg.norm(written - com) > 1e-9:
+                fail(i, "CoM column wrong", f"written {np.round(written, 6).tolist()}, recomputed "
+                     f"{np.round(com, 6).tolist()}")
+            wz = np.array([c["zmp_x_m"][i], c["zmp_y_m"][i]], dtype=float)
+            if np.linalg.norm(wz - zmp) > 1e-9:
+                fail(i, "ZMP column wrong", f"written {np.round(wz, 6).tolist()}, recomputed "
+                     f"{np.round(zmp, 6).tolist()}")
+    return n, failures
+
+
+def _ground_references(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Per foot and row, where that foot stands: the median of its FK position over each stretch of
+    consecutive rows in which it is on the ground (so a single tampered row stands out)."""
+    wrapper = robot.wrapper()
+    n = len(q)
+    pos = {s: np.full((n, 3), np.nan) for s in SIDES}
+    for i in range(n):
+        qx, qy, qz, qw = (float(c[f"pelvis_q{k}"][i]) for k in "xyzw")
+        T = np.eye(4)
+        T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                     [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                     [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
+        T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        for s in SIDES:
+            if c["support"][i] in (s, "both"):
+                pos[s][i] = wrapper.get_T_world_frame(f"{s}_foot")[:3, 3]
+    ref = {}
+    for s in SIDES:
+        grounded = ~np.isnan(pos[s][:, 0])
+        ref[s] = np.full((n, 3), np.nan)
+        start = 0
+        while start < n:
+            if not grounded[start]:
+                start += 1
+                continue
+            end = start
+            while end < n and grounded[end]:
+                end += 1
+            ref[s][start:end] = np.median(pos[s][start:end], axis=0)
+            start = end
+    return ref
+
+
+def _distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
+    a, b = pts[:-1], pts[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
+    return float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
+
+
+def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Failure], str]:
+    """Verify a trajectory.csv, trajectory.mcap or an output folder; returns (rows, failures, what)."""
+    path = Path(path)
+    if path.is_dir():
+        csv = path / "trajectory.csv"
+        path = csv if csv.exists() else path / "trajectory.mcap"
+    if not path.exists():
+        raise InputError(str(path), "", "no such file (expected trajectory.csv, trajectory.mcap or their folder)")
+    robot_name, start = "jethr1", None
+    summary = path.parent / "summary.json"
+    if summary.exists():
+        try:
+            doc = json.loads(summary.read_text())
+            robot_name = doc.get("robot", robot_name)
+            scenario = scenario or (Path(doc["scenario_file"]) if doc.get("scenario_file") else None)
+        except (ValueError, KeyError):
+            pass
+    if scenario is not None and Path(scenario).exists():
+        from .scenario import load_scenario
+
+        start = load_scenario(scenario).start
+    if path.suffix == ".mcap":
+        rows, paths = _rows_from_mcap(path.read_bytes())
+        n, failures = verify_rows(rows, robot_name, swing_paths=paths, start_feet=start)
+    elif path.suffix == ".csv":
+        n, failures = verify_rows(_rows_from_csv(path.read_text()), robot_name, start_feet=start)
+    else:
+        raise InputError(str(path), "", "expected a .csv or .mcap trajectory")
+    return n, failures, str(path)
