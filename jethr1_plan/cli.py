@@ -17,6 +17,8 @@ from rich.table import Table
 from .errors import InfeasiblePlan, InputError, Jethr1Error
 
 err_console = Console(stderr=True)
+if not err_console.is_terminal:  # logs and CI: no terminal width to respect, keep tables readable
+    err_console = Console(stderr=True, width=160)
 
 
 def _dump(doc: dict) -> str:
@@ -350,6 +352,52 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
                           f"of {n}[/]")
         raise click.exceptions.Exit(5)
     err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
+
+
+@main.command("compare")
+@click.argument("scenario_path", metavar="SCENARIO.yaml", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", default=None, type=click.Path(file_okay=False, path_type=Path),
+              help="Write compare.json and the figures here (default: out/compare/<scenario stem>).")
+@click.option("--methods", default="gas,ga,gaex", show_default=True, help="Comma-separated optimisers.")
+@click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
+@click.option("--reference", is_flag=True, help="Also solve every sample exhaustively and report optimality gaps.")
+@click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
+@click.option("--no-progress", is_flag=True)
+def compare_cmd(scenario_path, outdir, methods, seed, reference, as_json, no_progress) -> None:
+    """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
+    from .atomic import staged_directory
+    from .compare import compare, comparison_pngs
+    from .optimiser import METHODS
+    from .scenario import load_scenario
+
+    names = tuple(m.strip() for m in methods.split(",") if m.strip())
+    unknown = [m for m in names if m not in METHODS]
+    if unknown or not names:
+        raise InputError("--methods", ",".join(unknown) or methods, f"unknown optimiser (known: {', '.join(METHODS)})")
+    scenario = load_scenario(scenario_path)
+    with _Progress(not no_progress, "compare") as progress:
+        doc = compare(scenario, names, seed, reference, progress)
+    outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
+    with staged_directory(outdir) as tmp:
+        (tmp / "compare.json").write_text(_dump(doc))
+        for name, data in comparison_pngs(doc).items():
+            (tmp / name).write_bytes(data)
+    if as_json:
+        click.echo(_dump(doc), nl=False)
+    t = Table(title=f"{scenario.name}: optimisers (seed {doc['seed']})")
+    cols = ["method", "max F [N]", "mean F [N]", "Σ‖ΔP‖² [m²]", "max ‖ΔP‖ [m]", "max ΔF [N]", "evaluations",
+            "wall [s]", "feasible"] + (["gap max [N]", "gap mean [N]"] if reference else [])
+    for col in cols:
+        t.add_column(col, justify="right")
+    for name, m in doc["methods"].items():
+        row = [name, f"{m['max_thrust_n']:.3f}", f"{m['mean_thrust_n']:.3f}", f"{m['smoothness_m2']:.2e}",
+               f"{m['max_step_m']:.4f}", f"{m['max_thrust_jump_n']:.3f}", str(m["evaluations"]), f"{m['wall_s']:.2f}",
+               str(m["feasible"])]
+        if reference:
+            row += [f"{m['gap_max_n']:.3f}", f"{m['gap_mean_n']:.3f}"]
+        t.add_row(*row)
+    err_console.print(t)
+    err_console.print(f"wrote {outdir}/compare.json, compare_trajectories.png, compare_time.png")
 
 
 def run(argv: list[str] | None = None) -> int:

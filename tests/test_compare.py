@@ -1,0 +1,47 @@
+"""`jethr1 compare`: the paper's comparison on a small scenario, re-checked from its own numbers."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import yaml
+
+from jethr1_plan.cli import run
+
+from .conftest import ROOT
+
+
+def test_compare_reports_and_reference(tmp_path, capsys):
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["optimiser"] = {"initial": {"population": 60, "generations": 12},
+                        "intermediate": {"population": 40, "generations": 5}}
+    doc["steps"][0]["path"]["samples"] = 8
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    out = tmp_path / "cmp"
+    assert run(["compare", str(path), "-o", str(out), "--reference", "--json", "--no-progress"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["methods"]) == {"gas", "ga", "gaex"}
+    ref = np.array([np.nan if v is None else v for v in d["reference"]["thrust_n"][0]])
+    for m in d["methods"].values():
+        p = np.array(m["p_body_m"][0])
+        t = np.array(m["thrust_n"][0], dtype=float)
+        # the reported figures follow from the reported samples
+        assert abs(m["smoothness_m2"] - np.sum(np.diff(p, axis=0) ** 2)) < 1e-15
+        assert m["max_thrust_n"] == t.max() and abs(m["mean_thrust_n"] - t.mean()) < 1e-12
+        assert m["max_step_m"] == np.linalg.norm(np.diff(p, axis=0), axis=1).max()
+        assert m["evaluations"] > 0 and m["wall_s"] > 0 and m["feasible"]
+        # the dense exhaustive search is (nearly) the global minimum: no method beats it by more than
+        # its grid error, and the reported gap is the largest difference
+        assert np.all(t >= ref - 0.2)
+        assert abs(m["gap_max_n"] - np.max(t - ref)) < 1e-12
+    assert json.loads((out / "compare.json").read_text()) == d
+    for png in ("compare_trajectories.png", "compare_time.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_unknown_method_is_exit_2(tmp_path):
+    assert run(["compare", str(ROOT / "configs" / "side_step.yaml"), "--methods", "gas,pso",
+                "-o", str(tmp_path / "x")]) == 2
+    assert not (tmp_path / "x").exists()
