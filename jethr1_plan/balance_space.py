@@ -425,11 +425,11 @@ def verify_members(result: SweepResult) -> int:
     spec = result.spec
     wrapper = robot.wrapper()
     support = np.asarray(spec.support_xyz)
-    feet = {spec.support_side: (support, 0.0)}
     idx = np.flatnonzero(result.with_thrust)
-    for i in idx:
-        feet[spec.swing_side] = (result.swing[i], 0.0)
-        q, com, status = solve_postures(robot, result.p_body[i][None], result.yaw[i], feet)
+    feet = {spec.support_side: (support, 0.0), spec.swing_side: (result.swing[idx], 0.0)}
+    qs, coms, statuses = solve_postures(robot, result.p_body[idx], result.yaw[idx], feet)
+    for k, i in enumerate(idx):
+        q, com, status = qs[k:k + 1], coms[k:k + 1], statuses[k:k + 1]
         T = np.eye(4)
         cy, sy = math.cos(result.yaw[i]), math.sin(result.yaw[i])
         T[:2, :2] = [[cy, -sy], [sy, cy]]

@@ -115,8 +115,8 @@ def _self_check(csv_text: str, result) -> None:
     from .csv_writer import read_trajectory_csv
     from .verify import verify_rows
 
-    _, failures = verify_rows(read_trajectory_csv(csv_text), result.robot.name, start_feet=result.scenario.start,
-                              max_failures=5)
+    _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path),
+                              start_feet=result.scenario.start, max_failures=5)
     if failures:
         raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
 
@@ -154,8 +154,9 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
               help="Processes optimising steps in parallel (output does not depend on it).")
 @click.option("--kinematics", type=click.Choice(["placo", "analytic"]), default="placo", show_default=True,
               help="Leg IK: PlaCo's solver, or the closed form (same postures to 1e-9 m, faster).")
+@click.option("--strict-torque", is_flag=True, help="Rows whose static torque exceeds a servo limit are infeasible.")
 def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
-         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str) -> None:
+         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str, strict_torque: bool) -> None:
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from .planner import plan as run_plan
     from .planner import plan_summary
@@ -165,7 +166,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     try:
         with _Progress(not no_progress, scenario.name) as progress:
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
-                              jobs=jobs, kinematics=kinematics)
+                              jobs=jobs, kinematics=kinematics, strict_torque=strict_torque)
     except InfeasiblePlan as exc:
         write_plan_outputs_summary_only(scenario, outdir, exc.summary)
         raise
@@ -408,7 +409,8 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, as_json, no_pro
 @click.option("--z0", type=click.FloatRange(min=0, min_open=True), help="Hip height over the soles [m].")
 @click.option("--l-pel", type=click.FloatRange(min=0), help="Pelvis width between the hip joints [m].")
 @click.option("--w-step", type=click.FloatRange(min=0), help="Lateral distance between the feet [m].")
-@click.option("--theta-pel-deg", default=45.0, show_default=True, type=click.FloatRange(0, 90), help="Pelvic yaw [deg].")
+@click.option("--theta-pel-deg", default=45.0, show_default=True, type=click.FloatRange(0, 90),
+              help="Pelvic yaw [deg].")
 @click.option("--dyros-jet", is_flag=True, help="Use Paper B's Dyros-Jet figures (0.75, 0.68, 0.21, 0.243 m, 45 deg).")
 @click.option("--json", "as_json", is_flag=True)
 def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as_json) -> None:

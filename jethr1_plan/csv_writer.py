@@ -24,7 +24,8 @@ def columns() -> list[str]:
             "pelvis_x_m", "pelvis_y_m", "pelvis_z_m", "pelvis_qx", "pelvis_qy", "pelvis_qz", "pelvis_qw",
             *(f"{j}_rad" for j in JOINT_NAMES),
             "swing_x_m", "swing_y_m", "swing_z_m", "thrust_left_n", "thrust_right_n",
-            "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m", "reason"]
+            "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m",
+            *(f"{j}_tau_nm" for j in JOINT_NAMES), "kappa_left", "kappa_right", "yaw_momentum_nms", "reason"]
 
 
 def _num(x: float) -> str:
@@ -45,7 +46,9 @@ def trajectory_csv(rows: Rows) -> str:
         vals = [_num(round(c["time_s"][i], 9)), str(c["step"][i]), c["phase"][i], str(c["sample"][i]), c["support"][i],
                 "true" if c["feasible"][i] else "false", *map(_num, c["p_body"][i]), *map(_num, (qx, qy, qz, qw)),
                 *map(_num, np.asarray(c["q"][i])), *map(_num, c["swing"][i]), _num(c["thrust_left"][i]),
-                _num(c["thrust_right"][i]), *map(_num, c["com"][i]), *map(_num, c["zmp"][i]), c["reason"][i]]
+                _num(c["thrust_right"][i]), *map(_num, c["com"][i]), *map(_num, c["zmp"][i]),
+                *map(_num, c["tau"][i]), _num(c["kappa"][i][0]), _num(c["kappa"][i][1]), _num(c["yaw_momentum"][i]),
+                c["reason"][i]]
         out.write(",".join(vals) + "\n")
     return out.getvalue()
 

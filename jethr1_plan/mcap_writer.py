@@ -58,7 +58,10 @@ SCHEMAS: dict[str, dict] = {
     "foxglove.PoseInFrame": _object({"timestamp": TIME, "frame_id": {"type": "string"}, "pose": POSE}),
     "foxglove.SceneUpdate": _object({"deletions": {"type": "array"}, "entities": {"type": "array", "items": ENTITY}}),
     "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
-                                  "position_rad": {"type": "array", "items": NUMBER}}),
+                                  "position_rad": {"type": "array", "items": NUMBER},
+                                  "effort_nm": {"type": "array", "items": NUMBER}}),
+    "jethr1.LegAnalysis": _object({"timestamp": TIME, "kappa_left": NUMBER, "kappa_right": NUMBER,
+                                   "yaw_momentum_nms": NUMBER}),
     "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
                               "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
                               "feasible": {"type": "boolean"}}),
@@ -68,7 +71,7 @@ for _name, _schema in SCHEMAS.items():
 
 TOPICS = {"/tf": "foxglove.FrameTransforms", "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
           "/p_body": "foxglove.PoseInFrame", "/com": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
-          "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate"}
+          "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate", "/analysis": "jethr1.LegAnalysis"}
 
 # --- helpers ------------------------------------------------------------------------------
 
@@ -198,7 +201,11 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         t = float(c["time_s"][i])
         p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
         put("/tf", t, frame_transforms(robot, t, p, yaw, q, [r[i] for r in rotations]))
-        put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q]})
+        put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q],
+                                 "effort_nm": [float(v) for v in c["tau"][i]]})
+        put("/analysis", t, {"timestamp": stamp(t), "kappa_left": float(c["kappa"][i][0]),
+                             "kappa_right": float(c["kappa"][i][1]),
+                             "yaw_momentum_nms": float(c["yaw_momentum"][i])})
         put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
                            "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
                            "support": c["support"][i], "step": int(c["step"][i]), "feasible": bool(c["feasible"][i])})

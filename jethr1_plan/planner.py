@@ -18,6 +18,7 @@ from .posture import PostureSolver, Stance
 from .robot_model import RobotModel, load_robot
 from .scenario import Scenario
 from .sequence import Rows, SequenceBuilder
+from .statics import KAPPA_WARNING, analyse_rows
 
 STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
 NOMINAL_HEIGHT_FRACTION = 0.8  # centre of the initial phase's box, same unit
@@ -143,7 +144,7 @@ def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going, kinematics):
 def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
          progress: Callable[[str, int, int], None] | None = None, keep_going: bool = False,
          build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
-         kinematics: str = "placo") -> PlanResult:
+         kinematics: str = "placo", strict_torque: bool = False) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -156,6 +157,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
         solver: the posture solver to use in this process (one is made if None).
         kinematics: ``placo`` (PlaCo's IK, the default) or ``analytic`` (closed form, same results
             to 1e-9 m, several times faster).
+        strict_torque: rows whose static torque exceeds a servo limit are infeasible (else flagged).
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -204,6 +206,8 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     rows = None
     if build_rows:
         rows, bad_row = build_sequence(scenario, robot, solver, steps)
+        bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
+        bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
             first_bad = bad_row
             if not keep_going:
@@ -211,6 +215,29 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
                                     time.perf_counter() - t0)
                 raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
     return PlanResult(scenario, robot, cfg.method, seed, steps, rows, first_bad, evaluations, time.perf_counter() - t0)
+
+
+def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) -> dict | None:
+    """Add Paper B's per-row figures (static torques, κ, yaw momentum) to ``rows``; flag torques
+    above the servo limits (infeasible rows under ``strict_torque``). Returns the first such row."""
+    a = analyse_rows(robot, rows, dt)
+    c = rows.columns
+    c["tau"], c["kappa"], c["yaw_momentum"] = list(a["tau"]), list(a["kappa"]), list(a["yaw_momentum"])
+    ratio = np.abs(a["tau"]) / robot.servo_limit_nm
+    over = np.flatnonzero(ratio.max(axis=1) > 1.0)
+    rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio}
+    if not strict_torque or not len(over):
+        return None
+    first = None
+    for i in over:
+        j = int(np.argmax(ratio[i]))
+        reason = f"{robot.joint_names[j]} torque {a['tau'][i, j]:.2f} N·m above its servo limit"
+        c["feasible"][i] = False
+        c["reason"][i] = c["reason"][i] or reason
+        if first is None:
+            first = {"time_s": float(c["time_s"][i]), "step": int(c["step"][i]), "phase": c["phase"][i],
+                     "sample": int(c["sample"][i]), "reason": reason}
+    return first
 
 
 def _finite(x: float) -> float | None:
@@ -293,6 +320,7 @@ def plan_summary(result: PlanResult) -> dict:
         "scenario": sc.name,
         "scenario_file": sc.source,
         "robot": result.robot.name,
+        "robot_yaml": str(result.robot.yaml_path),
         "optimiser": result.method,
         "seed": result.seed,
         "version": __version__,
@@ -311,8 +339,22 @@ def plan_summary(result: PlanResult) -> dict:
         "steps": per_step,
     }
     if result.rows is not None and len(result.rows):
-        tl, tr = result.rows.array("thrust_left"), result.rows.array("thrust_right")
-        out["trajectory"] = {"rows": len(result.rows), "rate_hz": sc.timing.rate_hz,
-                             "duration_s": len(result.rows) / sc.timing.rate_hz,
+        rows = result.rows
+        tl, tr = rows.array("thrust_left"), rows.array("thrust_right")
+        out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
+                             "duration_s": len(rows) / sc.timing.rate_hz,
                              "max_thrust_n": float(max(tl.max(), tr.max()))}
+        if "tau" in rows.columns:
+            tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
+            ratio = rows.analysis["ratio"]
+            out["torques"] = {
+                "max_abs_nm": dict(zip(result.robot.joint_names, tau.max(axis=0).tolist(), strict=True)),
+                "max_ratio_to_servo_limit": float(ratio.max()),
+                "rows_over_servo_limit": int(np.sum(ratio.max(axis=1) > 1.0)),
+            }
+            out["energy_j"] = float(rows.analysis["energy_j"])
+            out["kappa"] = {"max_left": float(kappa[:, 0].max()), "max_right": float(kappa[:, 1].max()),
+                            "warning_threshold": KAPPA_WARNING,
+                            "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
+            out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
     return out

@@ -54,6 +54,7 @@ class Rows:
     """Output rows (column arrays). Lengths grow as rows are appended."""
 
     columns: dict[str, list] = field(default_factory=dict)
+    analysis: dict = field(default_factory=dict)  # whole-trajectory figures (energy, torque ratios)
 
     def append(self, **values) -> None:
         for k, v in values.items():

@@ -225,7 +225,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
     if summary.exists():
         try:
             doc = json.loads(summary.read_text())
-            robot_name = doc.get("robot", robot_name)
+            robot_name = doc.get("robot_yaml") or doc.get("robot", robot_name)
             scenario = scenario or (Path(doc["scenario_file"]) if doc.get("scenario_file") else None)
         except (ValueError, KeyError):
             pass

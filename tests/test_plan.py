@@ -227,3 +227,47 @@ def test_tf_moves_the_feet_where_the_csv_says(planned):
             left = _compose(transforms, "left_foot")
             np.testing.assert_allclose(left[:3, 3], [c["swing_x_m"][i], c["swing_y_m"][i], c["swing_z_m"][i]],
                                        atol=1e-6)
+
+
+def test_torques_kappa_and_energy_are_written(planned, robot):
+    from jethr1_plan.statics import leg_condition_numbers, static_torques
+
+    c = read_trajectory_csv((planned / "trajectory.csv").read_text())
+    s = json.loads((planned / "summary.json").read_text())
+    tau = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1)
+    assert s["torques"]["rows_over_servo_limit"] == int(np.sum((np.abs(tau) / robot.servo_limit_nm).max(axis=1) > 1))
+    assert s["torques"]["max_ratio_to_servo_limit"] == pytest.approx((np.abs(tau) / robot.servo_limit_nm).max())
+    assert s["energy_j"] > 0 and s["kappa"]["max_left"] >= 1 and s["yaw_momentum_peak_nms"] >= 0
+    # one swing row recomputed from its written posture
+    i = int(np.argmax(np.where(c["phase"] == "swing", c["thrust_left_n"], -1)))
+    wrapper = robot.wrapper()
+    yaw = 2 * np.arctan2(c["pelvis_qz"][i], c["pelvis_qw"][i])
+    T = np.eye(4)
+    T[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+    T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
+    wrapper.set_T_world_fbase(T)
+    wrapper.state.q[7:] = [c[f"{j}_rad"][i] for j in JOINT_NAMES]
+    wrapper.update_kinematics()
+    expect, _ = static_torques(wrapper, {"left": c["thrust_left_n"][i], "right": 0.0}, ("right",))
+    np.testing.assert_allclose(tau[i], expect, atol=1e-9)
+    k = leg_condition_numbers(wrapper)
+    assert c["kappa_left"][i] == pytest.approx(k["left"]) and c["kappa_right"][i] == pytest.approx(k["right"])
+
+
+def test_strict_torque_makes_weak_servos_infeasible(tmp_path):
+    import shutil
+
+    robot_dir = tmp_path / "weakbot"
+    shutil.copytree(ROOT / "robots" / "jethr1", robot_dir)
+    (robot_dir / "jethr1.yaml").write_text((robot_dir / "jethr1.yaml").read_text()
+                                           .replace("stall_torque_nm: 7.8", "stall_torque_nm: 1.0"))
+    path = _small_two_step(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["robot"] = str(robot_dir)
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"]) == 0
+    s = json.loads((tmp_path / "o" / "small_two_step" / "summary.json").read_text())
+    assert s["torques"]["rows_over_servo_limit"] > 0  # flagged, not fatal
+    assert run(["plan", str(path), "-o", str(tmp_path / "o2"), "--no-progress", "--strict-torque"]) == 3
+    s = json.loads((tmp_path / "o2" / "small_two_step" / "summary.json").read_text())
+    assert "servo limit" in s["first_infeasible"]["reason"]

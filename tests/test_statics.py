@@ -1,0 +1,105 @@
+"""Static torques, κ, energy and yaw momentum, against independent computations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jethr1_plan.leg_kinematics import link_poses
+from jethr1_plan.robot_model import GRAVITY, JOINT_NAMES
+from jethr1_plan.statics import energy_consumption, leg_condition_numbers, static_torques
+
+
+def _potential(robot, reference, q, support, support_pose, thrust_side, thrust):
+    """Gravity minus thrust potential [J] with the support sole held at ``support_pose`` (numpy FK)."""
+    poses = reference.link_poses(np.zeros(3), 0.0, dict(zip(JOINT_NAMES, q, strict=True)))
+    T_fix = support_pose @ np.linalg.inv(poses[f"{support}_foot"])
+    v = 0.0
+    for name, (m, c) in reference.links.items():
+        T = T_fix @ poses[name]
+        v += m * GRAVITY * (T[:3, :3] @ c + T[:3, 3])[2]
+    if thrust:
+        v -= thrust * (T_fix @ poses[f"{thrust_side}_fan"])[2, 3]
+    return v
+
+
+def _posture(robot, rng):
+    q = rng.uniform(robot.lower_rad * 0.6, robot.upper_rad * 0.6)
+    q[[3, 9]] = rng.uniform(0.3, 1.5, 2)  # bent knees
+    return q
+
+
+def test_single_support_torques_equal_the_virtual_work(robot, reference):
+    """τ_j = ∂V/∂q_j with the support sole fixed, V = Σ m g z − F z_fan (central differences)."""
+    rng = np.random.default_rng(2)
+    wrapper = robot.wrapper()
+    for _ in range(6):
+        q = _posture(robot, rng)
+        yaw = rng.uniform(-1, 1)
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+        T[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q
+        wrapper.update_kinematics()
+        support = "right"
+        thrust = rng.uniform(0, 20)
+        tau, _ = static_torques(wrapper, {"left": thrust, "right": 0.0}, (support,))
+        pose = wrapper.get_T_world_frame(f"{support}_foot")
+        h = 1e-6
+        for j in range(12):
+            dq = np.zeros(12)
+            dq[j] = h
+            dv = (_potential(robot, reference, q + dq, support, pose, "left", thrust)
+                  - _potential(robot, reference, q - dq, support, pose, "left", thrust)) / (2 * h)
+            assert tau[j] == pytest.approx(dv, abs=1e-6)
+
+
+def test_support_wrench_balances_weight_and_thrust(robot):
+    rng = np.random.default_rng(3)
+    wrapper = robot.wrapper()
+    q = _posture(robot, rng)
+    wrapper.set_T_world_fbase(np.eye(4))
+    wrapper.state.q[7:] = q
+    wrapper.update_kinematics()
+    for supports in (("right",), ("left", "right")):
+        _, w = static_torques(wrapper, {"left": 12.0, "right": 0.0}, supports)
+        fz = w.reshape(-1, 6)[:, 2].sum()
+        assert fz == pytest.approx(robot.mass_kg * GRAVITY - 12.0, abs=1e-9)
+
+
+def test_kappa_from_an_independent_jacobian(robot):
+    """κ of each leg from a finite-difference Jacobian of the numpy FK (relative sole twist)."""
+    rng = np.random.default_rng(4)
+    wrapper = robot.wrapper()
+    q = _posture(robot, rng)
+    wrapper.set_T_world_fbase(np.eye(4))
+    wrapper.state.q[7:] = q
+    wrapper.update_kinematics()
+    kappa = leg_condition_numbers(wrapper)
+    h = 1e-7
+    for k, side in enumerate(("left", "right")):
+        def sole(qq, side=side):
+            R, p = link_poses(robot, np.zeros(3), 0.0, qq[None])[f"{side}_foot"]
+            return R[:, :, 0], p[:, 0]
+        R0, p0 = sole(q)
+        J = np.zeros((6, 6))
+        for j in range(6):
+            dq = np.zeros(12)
+            dq[6 * k + j] = h
+            R1, p1 = sole(q + dq)
+            W = (R1 @ R0.T - np.eye(3)) / h  # ≈ skew(ω), ω in the world frame
+            J[:3, j] = (p1 - p0) / h
+            J[3:, j] = [W[2, 1], W[0, 2], W[1, 0]]
+        s = np.linalg.svd(J, compute_uv=False)
+        assert kappa[side] == pytest.approx(s[0] / s[-1], rel=1e-4)
+
+
+def test_energy_counts_only_positive_power():
+    t = np.arange(0, 1.0001, 0.01)
+    q = np.stack([np.sin(2 * np.pi * t)] + [np.zeros_like(t)] * 11, axis=1)
+    tau = np.zeros_like(q)
+    tau[:, 0] = 2.0  # constant torque on a joint that goes up then down
+    e = energy_consumption(tau, q, 0.01)
+    # ∫ max(2·q̇, 0) dt = 2 × (total rise of sin over one period) = 2 × 2
+    assert e == pytest.approx(4.0, rel=2e-3)
