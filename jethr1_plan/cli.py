@@ -363,9 +363,11 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
 @click.option("--methods", default="gas,ga,gaex", show_default=True, help="Comma-separated optimisers.")
 @click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
 @click.option("--reference", is_flag=True, help="Also solve every sample exhaustively and report optimality gaps.")
+@click.option("--yaw-modes", default="eq4", show_default=True,
+              help="Comma-separated body-yaw modes (eq4, mpc, ...); later ones are reported as method+mode.")
 @click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
 @click.option("--no-progress", is_flag=True)
-def compare_cmd(scenario_path, outdir, methods, seed, reference, as_json, no_progress) -> None:
+def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_json, no_progress) -> None:
     """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
     from .atomic import staged_directory
     from .compare import compare, comparison_pngs
@@ -376,9 +378,14 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, as_json, no_pro
     unknown = [m for m in names if m not in METHODS]
     if unknown or not names:
         raise InputError("--methods", ",".join(unknown) or methods, f"unknown optimiser (known: {', '.join(METHODS)})")
+    from .scenario import YAW_MODES
+
+    modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
+    if not modes or any(m not in YAW_MODES for m in modes):
+        raise InputError("--yaw-modes", yaw_modes, f"expected modes among {', '.join(YAW_MODES)}")
     scenario = load_scenario(scenario_path)
     with _Progress(not no_progress, "compare") as progress:
-        doc = compare(scenario, names, seed, reference, progress)
+        doc = compare(scenario, names, seed, reference, progress, modes)
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
     with staged_directory(outdir) as tmp:
         (tmp / "compare.json").write_text(_dump(doc))
@@ -386,15 +393,19 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, as_json, no_pro
             (tmp / name).write_bytes(data)
     if as_json:
         click.echo(_dump(doc), nl=False)
+    def fmt(v, digits):
+        return "" if v is None else f"{v:.{digits}f}"
+
     t = Table(title=f"{scenario.name}: optimisers (seed {doc['seed']})")
     cols = ["method", "max F [N]", "mean F [N]", "Σ‖ΔP‖² [m²]", "max ‖ΔP‖ [m]", "max ΔF [N]", "evaluations",
-            "wall [s]", "feasible"] + (["gap max [N]", "gap mean [N]"] if reference else [])
+            "wall [s]", "feasible", "peak yaw rate [rad/s]", "peak yaw acc [rad/s²]"] + (
+        ["gap max [N]", "gap mean [N]"] if reference else [])
     for col in cols:
         t.add_column(col, justify="right")
     for name, m in doc["methods"].items():
         row = [name, f"{m['max_thrust_n']:.3f}", f"{m['mean_thrust_n']:.3f}", f"{m['smoothness_m2']:.2e}",
                f"{m['max_step_m']:.4f}", f"{m['max_thrust_jump_n']:.3f}", str(m["evaluations"]), f"{m['wall_s']:.2f}",
-               str(m["feasible"])]
+               str(m["feasible"]), fmt(m["peak_yaw_rate_rad_s"], 4), fmt(m["peak_yaw_accel_rad_s2"], 4)]
         if reference:
             row += [f"{m['gap_max_n']:.3f}", f"{m['gap_mean_n']:.3f}"]
         t.add_row(*row)

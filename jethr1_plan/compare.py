@@ -11,19 +11,23 @@ from __future__ import annotations
 
 import io
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from .balance_space import SweepSpec, _Evaluator, _exhaustive_cell
-from .planner import feet_before_each_step, plan, smoothness
+from .planner import feet_before_each_step, plan, plan_summary, smoothness
 from .scenario import Scenario
 
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
-    """One optimiser over every step (samples only; no output-rate sequence)."""
+    """One optimiser over every step; the wall time is the optimisation's, the yaw figures come from
+    the output-rate sequence."""
     t0 = time.perf_counter()
     result = plan(scenario, method=method, seed=seed, keep_going=True, build_rows=False)
     wall = time.perf_counter() - t0
+    rows = plan(scenario, method=method, seed=seed, keep_going=True) if result.feasible else None
+    yaw = plan_summary(rows).get("yaw", {}) if rows is not None else {}
     p_body = [st.p_body for st in result.steps]
     thrust = [st.thrust_n for st in result.steps]
     allt = np.concatenate(thrust)
@@ -36,6 +40,9 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
         "max_step_m": float(max(s["max_step_m"] for s in sm)),
         "max_thrust_jump_n": float(max(s["max_thrust_jump_n"] for s in sm)),
         "evaluations": int(result.evaluations),
+        "yaw_mode": scenario.yaw_mode,
+        "peak_yaw_rate_rad_s": yaw.get("peak_rate_rad_s"),
+        "peak_yaw_accel_rad_s2": yaw.get("peak_accel_rad_s2"),
         "wall_s": float(wall),
         "feasible": bool(result.feasible),
         "first_infeasible": result.first_infeasible,
@@ -65,19 +72,27 @@ def reference_thrust(scenario: Scenario, pbody_resolution_m: float = 0.01) -> li
 
 
 def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex"), seed: int | None = None,
-            reference: bool = False, progress=None) -> dict:
-    """The comparison document (``--json``)."""
+            reference: bool = False, progress=None, yaw_modes: tuple[str, ...] = ("eq4",)) -> dict:
+    """The comparison document (``--json``). Methods run under each body-yaw mode; a mode other
+    than the first is reported as ``method+mode`` (e.g. ``gas+mpc``) with its thrust cost."""
     doc = {"scenario": scenario.name, "seed": scenario.seed if seed is None else seed, "methods": {}}
-    for k, m in enumerate(methods):
-        doc["methods"][m] = run_method(scenario, m, seed)
+    runs = [(m, y) for y in yaw_modes for m in methods]
+    for k, (m, y) in enumerate(runs):
+        key = m if y == yaw_modes[0] else f"{m}+{y}"
+        doc["methods"][key] = run_method(replace(scenario, yaw_mode=y), m, seed)
+        if y != yaw_modes[0]:
+            base = doc["methods"][m]
+            r = doc["methods"][key]
+            r["thrust_cost_vs"] = {"against": m, "max_n": (r["max_thrust_n"] or 0) - (base["max_thrust_n"] or 0),
+                                   "mean_n": (r["mean_thrust_n"] or 0) - (base["mean_thrust_n"] or 0)}
         if progress:
-            progress(m, k + 1, len(methods) + int(reference))
+            progress(key, k + 1, len(runs) + int(reference))
     if reference:
         t0 = time.perf_counter()
         ref = reference_thrust(scenario)
         doc["reference"] = {"thrust_n": ref, "wall_s": time.perf_counter() - t0}
         limit = scenario.balance.thrust_max_n
-        for m in methods:
+        for m in doc["methods"]:
             gaps = [t - r for tt, rr in zip(doc["methods"][m]["thrust_n"], ref, strict=True)
                     for t, r in zip(tt, rr, strict=True) if t is not None and r is not None]
             g = np.array(gaps) if gaps else np.zeros(1)
@@ -85,7 +100,7 @@ def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex")
             doc["methods"][m]["gap_mean_n"] = float(g.mean())
             doc["methods"][m]["gap_max_pct_of_limit"] = float(100 * g.max() / limit) if limit > 0 else None
         if progress:
-            progress("reference", len(methods) + 1, len(methods) + 1)
+            progress("reference", len(runs) + 1, len(runs) + 1)
     return doc
 
 

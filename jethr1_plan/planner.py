@@ -73,7 +73,7 @@ def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xy
     """Body yaw [rad] as a function of the swing sole position, per the scenario's mode."""
     swing = "left" if support == "right" else "right"
     off = np.asarray(robot.fan_for(swing).offset_in_foot_m[:2])
-    if scenario.yaw_mode == "eq4":
+    if scenario.yaw_mode in ("eq4", "mpc"):  # mpc smooths this reference (yaw_mpc.build_schedule)
         return lambda sw: float(body_yaw_eq4(support_xyz[:2], sw[:2] + off, support))
     if scenario.yaw_mode == "forward_axis":
         return lambda sw: float(body_yaw_forward_axis(support_xyz[:2], sw[:2] + off))
@@ -104,6 +104,7 @@ def feet_before_each_step(scenario: Scenario) -> list[dict[str, np.ndarray]]:
 
 def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg, seed: int,
                   keep_going: bool, solver: PostureSolver | None = None, kinematics: str = "placo",
+                  sample_yaw: np.ndarray | None = None,
                   progress: Callable[[str, int, int], None] | None = None, done0: int = 0, total: int = 0
                   ) -> tuple[StepResult, dict | None]:
     """Optimise every sample of step ``si``; stops at its first infeasible sample unless ``keep_going``.
@@ -121,7 +122,8 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
     previous = None
     first_bad = None
     for i, swing_xyz in enumerate(step.path_m):
-        problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw_of(swing_xyz))
+        yaw = yaw_of(swing_xyz) if sample_yaw is None else float(sample_yaw[i])
+        problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw)
         nominal = np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
         res = optimise_sample(solver, problem, cfg, np.random.default_rng([seed, si, i]), previous, nominal)
         results.append(res)
@@ -137,8 +139,8 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
     return StepResult(si, step.swing, support, step.path_m, results), first_bad
 
 
-def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going, kinematics):
-    return optimise_step(scenario, si, feet, cfg, seed, keep_going, kinematics=kinematics)
+def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going, kinematics, sample_yaw):
+    return optimise_step(scenario, si, feet, cfg, seed, keep_going, kinematics=kinematics, sample_yaw=sample_yaw)
 
 
 def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
@@ -168,6 +170,8 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     seed = scenario.seed if seed is None else seed
     solver = solver or make_posture_solver(robot, kinematics)
     feet_at = feet_before_each_step(scenario)
+    schedule = yaw_schedule(scenario, robot) if scenario.yaw_mode == "mpc" else None
+    sample_yaws = schedule.sample_yaw if schedule else [None] * len(scenario.steps)
     total = sum(len(s.path_m) for s in scenario.steps)
     n = len(scenario.steps)
     if jobs > 1 and n > 1:
@@ -175,16 +179,16 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
 
         outcomes = []
         for k, out in enumerate(Parallel(n_jobs=min(jobs, n), return_as="generator")(
-                delayed(_optimise_step_job)(scenario, si, feet_at[si], cfg, seed, keep_going, kinematics)
-                for si in range(n))):
+                delayed(_optimise_step_job)(scenario, si, feet_at[si], cfg, seed, keep_going, kinematics,
+                                            sample_yaws[si]) for si in range(n))):
             outcomes.append(out)
             if progress:
                 progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
     else:
         outcomes, done = [], 0
         for si in range(n):
-            out = optimise_step(scenario, si, feet_at[si], cfg, seed, keep_going, solver, kinematics, progress, done,
-                                total)
+            out = optimise_step(scenario, si, feet_at[si], cfg, seed, keep_going, solver, kinematics, sample_yaws[si],
+                                progress, done, total)
             outcomes.append(out)
             done += len(out[0].samples)
             if out[1] is not None and not keep_going:
@@ -205,7 +209,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, solver, steps)
+        rows, bad_row = build_sequence(scenario, robot, solver, steps, schedule)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -273,12 +277,24 @@ def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float
     return p
 
 
-def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult]
-                   ) -> tuple[Rows, dict | None]:
+def yaw_schedule(scenario: Scenario, robot: RobotModel):
+    """The MPC-smoothed body yaw (yaw mode ``mpc``) at every row and swing sample."""
+    from .yaw_mpc import build_schedule
+
+    feet_at = feet_before_each_step(scenario)
+    eq4 = [yaw_function(scenario, robot, st.support, f[st.support]) for st, f in zip(scenario.steps, feet_at,
+                                                                                       strict=True)]
+    return build_schedule(scenario, robot, eq4, [st.path_m for st in scenario.steps], **scenario.yaw_mpc)
+
+
+def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
+                   schedule=None) -> tuple[Rows, dict | None]:
     """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate."""
     tm = scenario.timing
     b = scenario.balance
     seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m)
+    if schedule is not None:
+        seq.yaw_of_row = schedule.at_row
     feet = {k: v.copy() for k, v in scenario.start.items()}
     p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
     thrust_out = None
@@ -357,4 +373,9 @@ def plan_summary(result: PlanResult) -> dict:
                             "warning_threshold": KAPPA_WARNING,
                             "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
             out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
+        dt = 1.0 / sc.timing.rate_hz
+        yaw = np.unwrap(rows.array("yaw").astype(float))
+        rate = np.gradient(yaw, dt)
+        out["yaw"] = {"mode": sc.yaw_mode, "peak_rate_rad_s": float(np.abs(rate).max()),
+                      "peak_accel_rad_s2": float(np.abs(np.gradient(rate, dt)).max())}
     return out

@@ -9,6 +9,7 @@ checked (soles fully on cartons, swing paths that clear carton edges). Every pro
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from .swing_path import Carton, arc_path, first_collision, sole_on_carton
 
 DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
 F3_UNITS = {"mm": 0.001, "m": 1.0}
-YAW_MODES = ("eq4", "forward_axis", "fixed")
+YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
 
 _num = {"type": "number"}
 _pos = {"type": "number", "exclusiveMinimum": 0}
@@ -71,7 +72,8 @@ SCHEMA = _obj({
     }),
     "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0}, "rho_rad": {"type": "number", "minimum": 0},
                      "sole_margin_m": {"type": "number", "minimum": 0}}),
-    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": _num}),
+    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": _num, "horizon_s": _pos,
+                      "alpha": {"type": "number", "minimum": 0}, "beta": {"type": "number", "minimum": 0}}),
     "timing": _obj({"swing_s": _pos, "transfer_s": _pos, "rate_hz": _pos}),
     "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0}}),
 }, ("steps",))
@@ -125,6 +127,21 @@ class Scenario:
     timing: Timing
     nominal_height_m: float | None
     expect: dict = field(default_factory=dict)
+    yaw_mpc: dict = field(default_factory=lambda: {"horizon_s": 1.6, "alpha": 1.0, "beta": 1e-10})
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                  |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                  |\.[0-9_]+(?:[eE][-+][0-9]+)?
+                  |[-+]?\.(?:inf|Inf|INF)
+                  |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
 
 
 def _keypath(path) -> str:
@@ -178,7 +195,7 @@ def load_scenario(path: str | Path) -> Scenario:
     except OSError as exc:
         raise InputError(src, "", f"cannot read: {exc.strerror}") from None
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark else ""
@@ -284,4 +301,6 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         source=src, name=doc.get("name", Path(src).stem), robot=doc.get("robot", "jethr1"), seed=doc.get("seed", 0),
         start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
         yaw_mode=yaw.get("mode", "eq4"), yaw_fixed_rad=float(yaw.get("fixed_rad", 0.0)), timing=timing,
-        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
+        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})),
+        yaw_mpc={"horizon_s": float(yaw.get("horizon_s", 1.6)), "alpha": float(yaw.get("alpha", 1.0)),
+                 "beta": float(yaw.get("beta", 1e-10))})

@@ -79,6 +79,8 @@ class SequenceBuilder:
         self.t = 0.0
         self.q_prev: np.ndarray | None = None
         self.first_infeasible: dict | None = None
+        #: when set, the body yaw of row i (a smoothed schedule, e.g. the yaw MPC) instead of the blends
+        self.yaw_of_row = None
 
     def _fan_xy(self, side: str, sole_xyz: np.ndarray) -> np.ndarray:
         return sole_xyz[:2] + np.asarray(self.robot.fan_for(side).offset_in_foot_m[:2])
@@ -115,7 +117,7 @@ class SequenceBuilder:
             u = k / n
             s = float(min_jerk(u))
             p = p0 + s * (p1 - p0)
-            yaw = float(wrap_angle(yaw0 + s * dyaw))
+            yaw = float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
             stance = Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw)
             q, com, status = self._solve(stance, p)
             thrust = {"left": 0.0, "right": 0.0}
@@ -155,7 +157,7 @@ class SequenceBuilder:
             u = float(min_jerk(k / n)) * (len(path) - 1)
             swing = np.array([np.interp(u, idx, path[:, j]) for j in range(3)])
             p = np.array([np.interp(u, idx, p_samples[:, j]) for j in range(3)])
-            yaw = float(yaw_fn(swing))
+            yaw = float(yaw_fn(swing)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
             stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
             q, com, status = self._solve(stance, p)
             fan = self._fan_xy(swing_side, swing)

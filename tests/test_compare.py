@@ -45,3 +45,21 @@ def test_unknown_method_is_exit_2(tmp_path):
     assert run(["compare", str(ROOT / "configs" / "side_step.yaml"), "--methods", "gas,pso",
                 "-o", str(tmp_path / "x")]) == 2
     assert not (tmp_path / "x").exists()
+
+
+def test_yaw_modes_report_the_cost_of_smoothing(tmp_path, capsys):
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["optimiser"] = {"initial": {"population": 60, "generations": 12},
+                        "intermediate": {"population": 40, "generations": 5}}
+    doc["steps"][0]["path"]["samples"] = 8
+    doc["timing"] = {"swing_s": 2.0, "transfer_s": 1.0, "rate_hz": 20.0}
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["compare", str(path), "--methods", "gas", "--yaw-modes", "eq4,mpc", "-o", str(tmp_path / "c"),
+                "--json", "--no-progress"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["methods"]) == {"gas", "gas+mpc"}
+    eq4, mpc = d["methods"]["gas"], d["methods"]["gas+mpc"]
+    assert eq4["yaw_mode"] == "eq4" and mpc["yaw_mode"] == "mpc"
+    assert mpc["thrust_cost_vs"]["max_n"] == mpc["max_thrust_n"] - eq4["max_thrust_n"]
+    assert eq4["peak_yaw_rate_rad_s"] is not None and mpc["peak_yaw_rate_rad_s"] is not None
