@@ -201,6 +201,16 @@ def _report_plan(summary: dict, folder: Path) -> None:
             "/terrain shows the cartons.")
 
 
+def _require_dask(executor: str) -> None:
+    """Exit 2 with the install hint when --executor dask is asked for without the extra."""
+    if executor == "dask":
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise InputError("--executor", "dask",
+                             "needs the optional extra: pip install 'jethr1-plan[dask]'") from None
+
+
 def _pair(ctx, param, value):
     if value is None:
         return None
@@ -250,12 +260,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                      y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
                      z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
                      method=method, pbody_resolution_m=pbody_resolution)
-    if executor == "dask":
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            raise InputError("--executor", "dask",
-                             "needs the optional extra: pip install 'jethr1-plan[dask]'") from None
+    _require_dask(executor)
     with _Progress(not no_progress, "balance space") as progress:
         result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     checked = verify_members(result)
@@ -297,12 +302,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     stems = [p.stem for p in paths]
     if len(set(stems)) != len(stems):
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
-    if executor == "dask":
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            raise InputError("--executor", "dask",
-                             "needs the optional extra: pip install 'jethr1-plan[dask]'") from None
+    _require_dask(executor)
     with _Progress(not no_progress, "batch") as progress:
         records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     code = batch_exit_code(records)

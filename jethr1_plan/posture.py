@@ -33,6 +33,17 @@ def pose_matrix(xyz: np.ndarray, yaw_rad: float) -> np.ndarray:
     return T
 
 
+def pose_from_quaternion(xyz, quat_xyzw) -> np.ndarray:
+    """4×4 homogeneous transform from a position [m] and a unit quaternion (x, y, z, w)."""
+    qx, qy, qz, qw = quat_xyzw
+    T = np.eye(4)
+    T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                 [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                 [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
+    T[:3, 3] = xyz
+    return T
+
+
 @dataclass(frozen=True)
 class Stance:
     """What a swing sample fixes: both sole poses and the body yaw (SI units)."""

@@ -23,16 +23,6 @@ KAPPA_WARNING = 100.0  # leg Jacobian condition number above which a row is flag
 FORCE_DIRECTION = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # a vertical force, world-aligned
 
 
-def pose_matrix_xyzw(p: np.ndarray, quat_xyzw) -> np.ndarray:
-    qx, qy, qz, qw = quat_xyzw
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                 [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                 [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
-    T[:3, 3] = p
-    return T
-
-
 def static_torques(wrapper, thrust_n: dict[str, float], supports: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
     """Joint torques (12,) [N·m] and the support wrench(es) [N, N·m] holding the current posture.
 

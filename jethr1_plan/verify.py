@@ -24,6 +24,7 @@ import numpy as np
 
 from .balance import inside_polygon, sole_polygon
 from .errors import InputError
+from .posture import pose_from_quaternion
 from .robot_model import GRAVITY, JOINT_NAMES, SIDES, load_robot
 from .sequence import convex_hull
 
@@ -82,17 +83,37 @@ def _rows_from_mcap(data: bytes) -> tuple[dict[str, np.ndarray], list[np.ndarray
     return {k: np.array(v, dtype=object if k in ("phase", "support") else float) for k, v in cols.items()}, paths
 
 
+def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict:
+    """Per row, from the written pelvis pose and joints (fresh PlaCo robot): both sole poses (n, 4, 4),
+    the CoM (n, 3) and both fans' ground points (n, 2)."""
+    wrapper = robot.wrapper()
+    n = len(q)
+    out = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES}, "fans": {s: np.zeros((n, 2)) for s in SIDES},
+           "com": np.zeros((n, 3))}
+    for i in range(n):
+        quat = [float(c[f"pelvis_q{k}"][i]) for k in "xyzw"]
+        p = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
+        wrapper.set_T_world_fbase(pose_from_quaternion(p, quat))
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        for s in SIDES:
+            out["feet"][s][i] = wrapper.get_T_world_frame(f"{s}_foot")
+            out["fans"][s][i] = wrapper.get_T_world_frame(f"{s}_fan")[:2, 3]
+        out["com"][i] = wrapper.com_world()
+    return out
+
+
 def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_paths: list[np.ndarray] | None = None,
                 start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50) -> tuple[int, list[Failure]]:
     """Check every row; return (rows checked, failures)."""
     robot = load_robot(robot_name)
-    wrapper = robot.wrapper()
     w = robot.mass_kg * GRAVITY
     fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
     n = len(c["time_s"])
     q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1).astype(float)
+    fk = _forward_kinematics(c, robot, q)
+    reference = _ground_references(c, fk["feet"])
     failures: list[Failure] = []
-    reference = _ground_references(c, robot, q)
 
     def fail(i, check, detail):
         if len(failures) < max_failures:
@@ -100,22 +121,13 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
 
     for i in range(n):
         support = c["support"][i]
-        qx, qy, qz, qw = (float(c[f"pelvis_q{k}"][i]) for k in "xyzw")
-        T = np.eye(4)
-        T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                     [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                     [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
-        T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
-        wrapper.set_T_world_fbase(T)
-        wrapper.state.q[7:] = q[i]
-        wrapper.update_kinematics()
         low = q[i] < robot.lower_rad - 1e-9
         high = q[i] > robot.upper_rad + 1e-9
         if low.any() or high.any():
             j = int(np.flatnonzero(low | high)[0])
             fail(i, "joint limit", f"{JOINT_NAMES[j]} = {q[i, j]:.4f} rad outside "
                  f"[{robot.lower_rad[j]:.3f}, {robot.upper_rad[j]:.3f}]")
-        feet = {s: wrapper.get_T_world_frame(f"{s}_foot") for s in SIDES}
+        feet = {s: fk["feet"][s][i] for s in SIDES}
         for s, Tf in feet.items():
             if np.linalg.norm(Tf[:3, :3] - np.eye(3)) / np.sqrt(2) > TOL_RAD:
                 fail(i, "sole not flat", f"{s} sole turned by {np.linalg.norm(Tf[:3, :3] - np.eye(3)):.2e}")
@@ -145,10 +157,9 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
         for s, f in thrust.items():
             if not (0.0 <= f <= fmax[s] + 1e-9):
                 fail(i, "thrust out of range", f"{s} fan {f:.3f} N outside [0, {fmax[s]}] N")
-        com = wrapper.com_world()
-        fans = {s: wrapper.get_T_world_frame(f"{s}_fan")[:2, 3] for s in SIDES}
+        com = fk["com"][i]
         total = thrust["left"] + thrust["right"]
-        zmp = (w * com[:2] - sum(thrust[s] * fans[s] for s in SIDES)) / (w - total)
+        zmp = (w * com[:2] - sum(thrust[s] * fk["fans"][s][i] for s in SIDES)) / (w - total)
         polys = [sole_polygon(feet[s][:2, 3], 0.0, robot.sole_length_m, robot.sole_width_m) for s in supports]
         region = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
         # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
@@ -169,28 +180,14 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
     return n, failures
 
 
-def _ground_references(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict[str, np.ndarray]:
-    """Per foot and row, where that foot stands: the median of its FK position over each stretch of
+def _ground_references(c: dict[str, np.ndarray], feet: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Per foot and row, where that foot stands: the median of its position over each stretch of
     consecutive rows in which it is on the ground (so a single tampered row stands out)."""
-    wrapper = robot.wrapper()
-    n = len(q)
-    pos = {s: np.full((n, 3), np.nan) for s in SIDES}
-    for i in range(n):
-        qx, qy, qz, qw = (float(c[f"pelvis_q{k}"][i]) for k in "xyzw")
-        T = np.eye(4)
-        T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                     [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                     [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
-        T[:3, 3] = [c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]]
-        wrapper.set_T_world_fbase(T)
-        wrapper.state.q[7:] = q[i]
-        wrapper.update_kinematics()
-        for s in SIDES:
-            if c["support"][i] in (s, "both"):
-                pos[s][i] = wrapper.get_T_world_frame(f"{s}_foot")[:3, 3]
+    n = len(c["support"])
     ref = {}
     for s in SIDES:
-        grounded = ~np.isnan(pos[s][:, 0])
+        grounded = np.array([sup in (s, "both") for sup in c["support"]])
+        pos = feet[s][:, :3, 3]
         ref[s] = np.full((n, 3), np.nan)
         start = 0
         while start < n:
@@ -200,7 +197,7 @@ def _ground_references(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict[s
             end = start
             while end < n and grounded[end]:
                 end += 1
-            ref[s][start:end] = np.median(pos[s][start:end], axis=0)
+            ref[s][start:end] = np.median(pos[start:end], axis=0)
             start = end
     return ref
 
