@@ -52,10 +52,9 @@ def leg_condition_numbers(wrapper) -> dict[str, float]:
 def energy_consumption(tau: np.ndarray, q: np.ndarray, dt: float) -> float:
     """E_con [J] of (B-44): Σ_i ∫ max(τ_i·q̇_i, 0) dt, q̇ by central differences (one-sided at the
     ends), the integral by the trapezoidal rule."""
-    from scipy.integrate import trapezoid
-
     qdot = np.gradient(q, dt, axis=0)
-    return float(np.sum(trapezoid(np.maximum(tau * qdot, 0.0), dx=dt, axis=0)))
+    power = np.maximum(tau * qdot, 0.0).sum(axis=1)
+    return float(0.5 * dt * np.sum(power[1:] + power[:-1]))
 
 
 def generalized_velocities(p: np.ndarray, yaw: np.ndarray, q: np.ndarray, dt: float) -> np.ndarray:
