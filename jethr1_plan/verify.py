@@ -105,7 +105,7 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict:
 
 def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_paths: list[np.ndarray] | None = None,
                 start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50) -> tuple[int, list[Failure]]:
-    """Check every row; return (rows checked, failures)."""
+    """Check every row (vectorised over rows); return (rows checked, failures sorted by row)."""
     robot = load_robot(robot_name)
     w = robot.mass_kg * GRAVITY
     fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
@@ -113,71 +113,74 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
     q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1).astype(float)
     fk = _forward_kinematics(c, robot, q)
     reference = _ground_references(c, fk["feet"])
-    failures: list[Failure] = []
+    found: list[tuple[int, int, str, str]] = []  # (row, order, check, detail)
 
-    def fail(i, check, detail):
-        if len(failures) < max_failures:
-            failures.append(Failure(i, float(c["time_s"][i]), check, detail))
+    def fail(rows, order, check, detail):
+        for i in np.flatnonzero(rows):
+            found.append((int(i), order, check, detail(int(i))))
 
-    for i in range(n):
-        support = c["support"][i]
-        low = q[i] < robot.lower_rad - 1e-9
-        high = q[i] > robot.upper_rad + 1e-9
-        if low.any() or high.any():
-            j = int(np.flatnonzero(low | high)[0])
-            fail(i, "joint limit", f"{JOINT_NAMES[j]} = {q[i, j]:.4f} rad outside "
-                 f"[{robot.lower_rad[j]:.3f}, {robot.upper_rad[j]:.3f}]")
-        feet = {s: fk["feet"][s][i] for s in SIDES}
-        for s, Tf in feet.items():
-            if np.linalg.norm(Tf[:3, :3] - np.eye(3)) / np.sqrt(2) > TOL_RAD:
-                fail(i, "sole not flat", f"{s} sole turned by {np.linalg.norm(Tf[:3, :3] - np.eye(3)):.2e}")
-        supports = SIDES if support == "both" else (support,)
-        for s in supports:
-            p = feet[s][:3, 3]
-            if start_feet is not None and i == 0 and np.linalg.norm(p - start_feet[s]) > TOL_M:
-                fail(i, "support foot moved", f"{s} sole at {np.round(p, 6).tolist()} m, scenario says "
-                     f"{np.round(start_feet[s], 6).tolist()} m")
-            ref = reference[s][i]
-            if np.linalg.norm(p - ref) > TOL_M:
-                fail(i, "support foot moved", f"{s} sole {np.linalg.norm(p - ref):.2e} m from where it stands "
-                     f"over the rows it supports ({np.round(ref, 6).tolist()} m)")
-        if support != "both":
-            swing = "left" if support == "right" else "right"
-            p = feet[swing][:3, 3]
-            if "swing_x_m" in c:
-                sample = np.array([c["swing_x_m"][i], c["swing_y_m"][i], c["swing_z_m"][i]], dtype=float)
-                if not np.isfinite(sample).all() or np.linalg.norm(p - sample) > TOL_M:
-                    fail(i, "swing sole off its sample", f"{swing} sole at {np.round(p, 6).tolist()} m, sample "
-                         f"{np.round(sample, 6).tolist()} m")
-            elif swing_paths:
-                d = min(_distance_to_polyline(p, path) for path in swing_paths)
-                if d > TOL_M:
-                    fail(i, "swing sole off its path", f"{d:.2e} m from every swing path")
-        thrust = {"left": float(c["thrust_left_n"][i]), "right": float(c["thrust_right_n"][i])}
-        for s, f in thrust.items():
-            if not (0.0 <= f <= fmax[s] + 1e-9):
-                fail(i, "thrust out of range", f"{s} fan {f:.3f} N outside [0, {fmax[s]}] N")
-        com = fk["com"][i]
-        total = thrust["left"] + thrust["right"]
-        zmp = (w * com[:2] - sum(thrust[s] * fk["fans"][s][i] for s in SIDES)) / (w - total)
-        polys = [sole_polygon(feet[s][:2, 3], 0.0, robot.sole_length_m, robot.sole_width_m) for s in supports]
-        region = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
-        # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
-        # planned one by the IK tolerance, so the edge is given that much
-        if not inside_polygon(zmp, region, tol_m=TOL_M):
-            where = "the support sole" if len(polys) == 1 else "the hull of both soles"
-            fail(i, "ZMP outside support", f"ZMP {np.round(zmp, 4).tolist()} m with the written thrust "
-                 f"({total:.3f} N) is outside {where}")
-        if "com_x_m" in c:
-            written = np.array([c["com_x_m"][i], c["com_y_m"][i], c["com_z_m"][i]], dtype=float)
-            if np.linalg.norm(written - com) > 1e-9:
-                fail(i, "CoM column wrong", f"written {np.round(written, 6).tolist()}, recomputed "
-                     f"{np.round(com, 6).tolist()}")
-            wz = np.array([c["zmp_x_m"][i], c["zmp_y_m"][i]], dtype=float)
-            if np.linalg.norm(wz - zmp) > TOL_M:
-                fail(i, "ZMP column wrong", f"written {np.round(wz, 6).tolist()}, recomputed "
-                     f"{np.round(zmp, 6).tolist()}")
-    return n, failures
+    out = (q < robot.lower_rad - 1e-9) | (q > robot.upper_rad + 1e-9)
+    first = np.argmax(out, axis=1)
+    fail(out.any(axis=1), 0, "joint limit", lambda i: f"{JOINT_NAMES[first[i]]} = {q[i, first[i]]:.4f} rad outside "
+         f"[{robot.lower_rad[first[i]]:.3f}, {robot.upper_rad[first[i]]:.3f}]")
+    support = c["support"]
+    pos = {s: fk["feet"][s][:, :3, 3] for s in SIDES}
+    for s in SIDES:
+        tilt = np.linalg.norm(fk["feet"][s][:, :3, :3] - np.eye(3), axis=(1, 2)) / np.sqrt(2)
+        fail(tilt > TOL_RAD, 1, "sole not flat", lambda i, s=s, t=tilt: f"{s} sole turned by {t[i]:.2e}")
+        grounded = (support == s) | (support == "both")
+        dev = np.linalg.norm(pos[s] - reference[s], axis=1)
+        fail(grounded & (dev > TOL_M), 2, "support foot moved",
+             lambda i, s=s, d=dev: f"{s} sole {d[i]:.2e} m from where it stands over the rows it supports "
+             f"({np.round(reference[s][i], 6).tolist()} m)")
+        if start_feet is not None and n and grounded[0] and np.linalg.norm(pos[s][0] - start_feet[s]) > TOL_M:
+            fail(np.arange(n) == 0, 2, "support foot moved", lambda i, s=s: f"{s} sole at "
+                 f"{np.round(pos[s][0], 6).tolist()} m, scenario says {np.round(start_feet[s], 6).tolist()} m")
+    single = support != "both"
+    swing_pos = np.where((support == "right")[:, None], pos["left"], pos["right"])
+    if "swing_x_m" in c:
+        sample = np.stack([c["swing_x_m"], c["swing_y_m"], c["swing_z_m"]], axis=1).astype(float)
+        off = single & ~(np.isfinite(sample).all(axis=1) & (np.linalg.norm(swing_pos - sample, axis=1) <= TOL_M))
+        fail(off, 3, "swing sole off its sample", lambda i: f"swing sole at {np.round(swing_pos[i], 6).tolist()} m, "
+             f"sample {np.round(sample[i], 6).tolist()} m")
+    elif swing_paths:
+        for i in np.flatnonzero(single):
+            d = min(_distance_to_polyline(swing_pos[i], path) for path in swing_paths)
+            if d > TOL_M:
+                found.append((int(i), 3, "swing sole off its path", f"{d:.2e} m from every swing path"))
+    thrust = {"left": c["thrust_left_n"].astype(float), "right": c["thrust_right_n"].astype(float)}
+    for s in SIDES:
+        bad = ~((thrust[s] >= 0.0) & (thrust[s] <= fmax[s] + 1e-9))
+        fail(bad, 4, "thrust out of range", lambda i, s=s: f"{s} fan {thrust[s][i]:.3f} N outside [0, {fmax[s]}] N")
+    com = fk["com"]
+    total = thrust["left"] + thrust["right"]
+    zmp = (w * com[:, :2] - sum(thrust[s][:, None] * fk["fans"][s] for s in SIDES)) / (w - total)[:, None]
+    # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
+    # planned one by the IK tolerance, so the edge is given that much
+    half = np.array([robot.sole_length_m, robot.sole_width_m]) / 2
+    sup_xy = np.where((support == "left")[:, None], pos["left"][:, :2], pos["right"][:, :2])
+    outside = single & np.any(np.abs(zmp - sup_xy) > half + TOL_M, axis=1)
+    hulls: dict[bytes, np.ndarray] = {}
+    for i in np.flatnonzero(~single):
+        key = np.round(np.concatenate([pos["left"][i, :2], pos["right"][i, :2]]), 7).tobytes()
+        if key not in hulls:
+            hulls[key] = convex_hull(np.vstack([sole_polygon(pos[s][i, :2], 0.0, robot.sole_length_m,
+                                                             robot.sole_width_m) for s in SIDES]))
+        outside[i] = not inside_polygon(zmp[i], hulls[key], tol_m=TOL_M)
+    where = np.where(single, "the support sole", "the hull of both soles")
+    fail(outside, 5, "ZMP outside support", lambda i: f"ZMP {np.round(zmp[i], 4).tolist()} m with the written "
+         f"thrust ({total[i]:.3f} N) is outside {where[i]}")
+    if "com_x_m" in c:
+        written = np.stack([c["com_x_m"], c["com_y_m"], c["com_z_m"]], axis=1).astype(float)
+        bad = ~(np.linalg.norm(written - com, axis=1) <= 1e-9)
+        fail(bad, 6, "CoM column wrong", lambda i: f"written {np.round(written[i], 6).tolist()}, recomputed "
+             f"{np.round(com[i], 6).tolist()}")
+        wz = np.stack([c["zmp_x_m"], c["zmp_y_m"]], axis=1).astype(float)
+        bad = ~(np.linalg.norm(wz - zmp, axis=1) <= TOL_M)
+        fail(bad, 7, "ZMP column wrong", lambda i: f"written {np.round(wz[i], 6).tolist()}, recomputed "
+             f"{np.round(zmp[i], 6).tolist()}")
+    found.sort(key=lambda f: (f[0], f[1]))
+    return n, [Failure(i, float(c["time_s"][i]), check, detail) for i, _, check, detail in found[:max_failures]]
 
 
 def _ground_references(c: dict[str, np.ndarray], feet: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
