@@ -2,8 +2,9 @@
 
 The planner runs on one core with its PostureSolver recording every IK run; the bare PlaCo loop
 then replays exactly those runs (same candidates, same start joints, same iterations) in the same
-process. Target: total wall time (optimiser, sequence building and writing CSV + MCAP) at most 2×
-the bare cost.
+process. Both are repeated and each side's fastest run is compared (the per-run ratios are printed).
+Target: total wall time (optimiser, sequence building, analysis, self-check and writing CSV + MCAP)
+at most 2× the bare cost.
 """
 
 from __future__ import annotations
@@ -39,21 +40,32 @@ def run_once(robot, config: str):
     return result, wall, t_plan, bare_replay_seconds(robot, log), len(log)
 
 
-def main(config: str = "jet_hr1_trial", repeats: int = 3) -> None:
+def main(config: str = "jet_hr1_trial", repeats: int = 5) -> None:
     robot = load_robot("jethr1")
     runs = [run_once(robot, config) for _ in range(int(repeats))]
-    runs.sort(key=lambda r: r[1] / r[3])
-    result, wall, t_plan, bare, n_ik = runs[len(runs) // 2]
+    # this VM's timing is noisy (other tenants): each side's least-disturbed (fastest) run is compared
+    result, wall, t_plan, _, n_ik = min(runs, key=lambda r: r[1])
+    bare = min(r[3] for r in runs)
     s = plan_summary(result)
     print(f"{config}: {s['sample_count']} swing samples, {result.evaluations} evaluations "
           f"({n_ik} IK runs incl. {s['row_count']} output rows), feasible={s['feasible']}, "
           f"max thrust {s['max_thrust_n']:.2f} N, mean {s['mean_thrust_n']:.2f} N")
-    print(f"median run of {repeats}:")
+    print(f"best of {repeats} runs for each side:")
     print(f"planner wall time : {wall:6.2f} s (optimise + sequence {t_plan:.2f} s, write {wall - t_plan:.2f} s), "
           f"{result.evaluations / wall:,.0f} evaluations/s")
     print(f"bare PlaCo replay : {bare:6.2f} s")
     print(f"ratio wall / bare : {wall / bare:.2f} (target <= 2); per run: "
           + ", ".join(f"{r[1] / r[3]:.2f}" for r in runs))
+    # the optimiser alone (no 50 Hz sequence, analysis, self-check or files)
+    opt = []
+    for _ in range(int(repeats)):
+        solver = PostureSolver(robot)
+        solver.replay_log = []
+        t0 = time.perf_counter()
+        plan(load_scenario(ROOT / "configs" / f"{config}.yaml"), solver=solver, build_rows=False)
+        opt.append((time.perf_counter() - t0, bare_replay_seconds(robot, solver.replay_log)))
+    o, b = min(x[0] for x in opt), min(x[1] for x in opt)
+    print(f"optimiser alone   : {o:6.2f} s vs bare {b:.2f} s -> ratio {o / b:.2f}")
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ builds its own.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,10 +60,15 @@ class Stance:
     def swing_side(self) -> str:
         return "left" if self.support_side == "right" else "right"
 
+    @functools.cached_property
+    def _foot_poses(self) -> dict[str, np.ndarray]:
+        swing = "left" if self.support_side == "right" else "right"
+        return {self.support_side: pose_matrix(self.support_xyz, self.support_yaw),
+                swing: pose_matrix(self.swing_xyz, self.swing_yaw)}
+
     def foot_pose(self, side: str) -> np.ndarray:
-        if side == self.support_side:
-            return pose_matrix(self.support_xyz, self.support_yaw)
-        return pose_matrix(self.swing_xyz, self.swing_yaw)
+        """4×4 pose of the ``side`` sole (computed once per stance; do not modify)."""
+        return self._foot_poses[side]
 
 
 @dataclass
