@@ -159,9 +159,10 @@ def _objective(solver: PostureSolver, problem: SampleProblem, k: FitnessConstant
     return lambda p: fitness(evaluate_candidates(solver, problem, p), k, problem.thrust_max_n, previous)
 
 
-def _initial_phase(solver, problem, cfg, rng, nominal, previous_for_f3=None):
+def _initial_phase(solver, problem, cfg, rng, nominal):
+    """Table 2's phase: no f3, ±half_range around ``nominal``."""
     half = cfg.initial.half_range_m
-    p, f, n = run_ga(_objective(solver, problem, cfg.constants, previous_for_f3), nominal - half, nominal + half,
+    p, f, n = run_ga(_objective(solver, problem, cfg.constants, None), nominal - half, nominal + half,
                      cfg.initial, cfg.bits, rng, cfg.tournament_size, cfg.elites)
     return p, f, n
 
