@@ -134,3 +134,17 @@ def test_dask_executor_writes_identical_output(tmp_path):
     assert run([*args, "-o", str(tmp_path / "dask"), "--executor", "dask"]) == 0
     for name in ("balance_space.csv", "balance_space.mcap"):
         assert (tmp_path / "loky" / name).read_bytes() == (tmp_path / "dask" / name).read_bytes()
+
+
+def test_left_support_mirrors_the_space(tmp_path, capsys):
+    assert run(["balance-space", "--support", "left", "--resolution", "0.1", "--z-range", "0.0", "0.1",
+                "--no-progress", "--json", "-o", str(tmp_path / "left")]) == 0
+    left = json.loads(capsys.readouterr().out)
+    assert run(["balance-space", "--support", "right", "--resolution", "0.1", "--z-range", "0.0", "0.1",
+                "--no-progress", "--json", "-o", str(tmp_path / "right")]) == 0
+    right = json.loads(capsys.readouterr().out)
+    assert left["support"] == {"side": "left", "position_m": [0.0, 0.1125, 0.0]} and left["swing"] == "right"
+    # the robot is left-right symmetric: the mirrored sweep finds the same spaces
+    for space in ("with_thrust", "without_thrust"):
+        assert left[space]["cells"] == pytest.approx(right[space]["cells"], rel=0.05)
+        assert left[space]["max_sideways_m"] == pytest.approx(right[space]["max_sideways_m"], abs=0.1001)

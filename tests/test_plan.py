@@ -271,3 +271,22 @@ def test_strict_torque_makes_weak_servos_infeasible(tmp_path):
     assert run(["plan", str(path), "-o", str(tmp_path / "o2"), "--no-progress", "--strict-torque"]) == 3
     s = json.loads((tmp_path / "o2" / "small_two_step" / "summary.json").read_text())
     assert "servo limit" in s["first_infeasible"]["reason"]
+
+
+def test_explicit_point_path_plans(tmp_path):
+    """A `kind: points` swing path is followed sample by sample."""
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    from jethr1_plan.swing_path import arc_path
+
+    pts = arc_path(np.array([0.0, 0.1125, 0.0]), np.array([0.0, 0.35, 0.0]), 0.08, 12)
+    doc["steps"][0]["path"] = {"kind": "points", "points_m": pts.tolist()}
+    doc["optimiser"] = {"initial": {"population": 60, "generations": 12},
+                        "intermediate": {"population": 40, "generations": 5}}
+    doc["timing"] = {"swing_s": 1.0, "transfer_s": 0.5, "rate_hz": 20.0}
+    path = tmp_path / "points.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"]) == 0
+    c = read_trajectory_csv((tmp_path / "o" / "points" / "trajectory.csv").read_text())
+    swing = np.stack([c["swing_x_m"], c["swing_y_m"], c["swing_z_m"]], axis=1)[c["phase"] == "swing"]
+    assert max(_distance_to_polyline(p, pts) for p in swing) < 1e-9
+    assert swing[:, 2].max() > 0.06  # it follows the raised points, not the chord
