@@ -59,3 +59,16 @@ def test_bad_input_is_exit_2_and_manifest(tmp_path):
     assert [r["status"] for r in s["scenarios"]] == ["feasible", "bad input"]
     assert "steps" in s["scenarios"][1]["error"]
     assert good.exists()
+
+
+def test_dask_executor_gives_the_same_files(tmp_path):
+    import pytest
+
+    pytest.importorskip("distributed")
+    a = _small(tmp_path, "a", expect={"feasible": True})
+    b = _small(tmp_path, "b", expect={"feasible": True}, seed=7)
+    assert run(["batch", str(a), str(b), "-o", str(tmp_path / "loky"), "--no-progress"]) == 0
+    assert run(["batch", str(a), str(b), "-o", str(tmp_path / "dask"), "--no-progress", "--executor", "dask"]) == 0
+    for name in ("a", "b"):
+        for f in ("trajectory.csv", "trajectory.mcap"):
+            assert (tmp_path / "loky" / name / f).read_bytes() == (tmp_path / "dask" / name / f).read_bytes()
