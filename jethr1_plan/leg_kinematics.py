@@ -223,14 +223,40 @@ def _leg_mass_model(robot: RobotModel):
     return trunk, legs
 
 
+def _mul(a, b):
+    """a·b where either may be the exact scalar 0.0 or 1.0 (then no array work is done)."""
+    if isinstance(a, float):
+        return 0.0 if a == 0.0 else (b if a == 1.0 else a * b)
+    if isinstance(b, float):
+        return 0.0 if b == 0.0 else (a if b == 1.0 else a * b)
+    return a * b
+
+
+def _add(a, b):
+    if isinstance(a, float) and a == 0.0:
+        return b
+    if isinstance(b, float) and b == 0.0:
+        return a
+    return a + b
+
+
+def _rot(c, s, u, w):
+    """(c·u − s·w, s·u + c·w): a plane rotation, skipping the work on exact zeros."""
+    return _add(_mul(c, u), -_mul(s, w)), _add(_mul(s, u), _mul(c, w))
+
+
 def _rot_zxyx(cz, sz, cx, sx, cy, sy, v, cx2=None, sx2=None):
-    """Rz·Rx·Ry (·Rx2) applied to a constant vector ``v`` (3,), elementwise over the angle arrays."""
-    x, y, z = v[0], v[1], v[2]
+    """Rz·Rx·Ry (·Rx2) applied to a constant vector ``v`` (3,), elementwise over the angle arrays.
+
+    Angles may be given as the floats 1.0/0.0 (cos/sin of zero): the zero terms of the usually
+    sparse link vectors then cost nothing.
+    """
+    x, y, z = float(v[0]), float(v[1]), float(v[2])
     if cx2 is not None:  # innermost Rx2
-        y, z = cx2 * y - sx2 * z, sx2 * y + cx2 * z
-    x, z = cy * x + sy * z, -sy * x + cy * z  # Ry
-    y, z = cx * y - sx * z, sx * y + cx * z  # Rx
-    x, y = cz * x - sz * y, sz * x + cz * y  # Rz
+        y, z = _rot(cx2, sx2, y, z)
+    z, x = _rot(cy, sy, z, x)  # Ry: x' = c x + s z, z' = −s x + c z
+    y, z = _rot(cx, sx, y, z)  # Rx
+    x, y = _rot(cz, sz, x, y)  # Rz
     return x, y, z
 
 
@@ -246,7 +272,7 @@ def fast_com(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, q:
     yaw = np.broadcast_to(np.asarray(trunk_yaw, dtype=float), (n,))
     p = np.broadcast_to(np.asarray(trunk_xyz, dtype=float), (n, 3))
     cyaw, syaw = np.cos(yaw), np.sin(yaw)
-    one, zero = np.ones(n), np.zeros(n)
+    one, zero = 1.0, 0.0
     x, y, z = _rot_zxyx(cyaw, syaw, one, zero, one, zero, c_t)
     mx, my, mz = m_t * (p[:, 0] + x), m_t * (p[:, 1] + y), m_t * (p[:, 2] + z)
     total = m_t
