@@ -22,12 +22,10 @@ from .scenario import Scenario
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
     """One optimiser over every step; the wall time is the optimisation's, the yaw figures come from
-    the output-rate sequence."""
-    t0 = time.perf_counter()
-    result = plan(scenario, method=method, seed=seed, keep_going=True, build_rows=False)
-    wall = time.perf_counter() - t0
-    rows = plan(scenario, method=method, seed=seed, keep_going=True) if result.feasible else None
-    yaw = plan_summary(rows).get("yaw", {}) if rows is not None else {}
+    the output-rate sequence (feasible plans only)."""
+    result = plan(scenario, method=method, seed=seed, keep_going=True)
+    wall = result.optimise_s
+    yaw = plan_summary(result).get("yaw", {}) if result.feasible else {}
     p_body = [st.p_body for st in result.steps]
     thrust = [st.thrust_n for st in result.steps]
     allt = np.concatenate(thrust)

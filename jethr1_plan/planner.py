@@ -54,6 +54,7 @@ class PlanResult:
     first_infeasible: dict | None
     evaluations: int
     wall_s: float
+    optimise_s: float = 0.0  # the optimisation alone (no output-rate sequence) [s]
 
     @property
     def feasible(self) -> bool:
@@ -202,6 +203,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
             if not keep_going:
                 break
     evaluations = sum(s.evaluations for st in steps for s in st.samples)
+    optimise_s = time.perf_counter() - t0
     if first_bad is not None and not keep_going:
         result = PlanResult(scenario, robot, cfg.method, seed, steps, None, first_bad, evaluations,
                             time.perf_counter() - t0)
@@ -218,7 +220,8 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
                 result = PlanResult(scenario, robot, cfg.method, seed, steps, None, first_bad, evaluations,
                                     time.perf_counter() - t0)
                 raise InfeasiblePlan(_describe(first_bad), plan_summary(result))
-    return PlanResult(scenario, robot, cfg.method, seed, steps, rows, first_bad, evaluations, time.perf_counter() - t0)
+    return PlanResult(scenario, robot, cfg.method, seed, steps, rows, first_bad, evaluations, time.perf_counter() - t0,
+                      optimise_s)
 
 
 def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) -> dict | None:

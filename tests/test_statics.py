@@ -29,6 +29,15 @@ def _posture(robot, rng):
     return q
 
 
+def _robot_at(robot, q):
+    """A PlaCo robot with its trunk at the origin and joints ``q``, kinematics updated."""
+    wrapper = robot.wrapper()
+    wrapper.set_T_world_fbase(np.eye(4))
+    wrapper.state.q[7:] = q
+    wrapper.update_kinematics()
+    return wrapper
+
+
 def test_single_support_torques_equal_the_virtual_work(robot, reference):
     """τ_j = ∂V/∂q_j with the support sole fixed, V = Σ m g z − F z_fan (central differences)."""
     rng = np.random.default_rng(2)
@@ -56,12 +65,7 @@ def test_single_support_torques_equal_the_virtual_work(robot, reference):
 
 
 def test_support_wrench_balances_weight_and_thrust(robot):
-    rng = np.random.default_rng(3)
-    wrapper = robot.wrapper()
-    q = _posture(robot, rng)
-    wrapper.set_T_world_fbase(np.eye(4))
-    wrapper.state.q[7:] = q
-    wrapper.update_kinematics()
+    wrapper = _robot_at(robot, _posture(robot, np.random.default_rng(3)))
     for supports in (("right",), ("left", "right")):
         _, w = static_torques(wrapper, {"left": 12.0, "right": 0.0}, supports)
         fz = w.reshape(-1, 6)[:, 2].sum()
@@ -70,12 +74,8 @@ def test_support_wrench_balances_weight_and_thrust(robot):
 
 def test_kappa_from_an_independent_jacobian(robot):
     """κ of each leg from a finite-difference Jacobian of the numpy FK (relative sole twist)."""
-    rng = np.random.default_rng(4)
-    wrapper = robot.wrapper()
-    q = _posture(robot, rng)
-    wrapper.set_T_world_fbase(np.eye(4))
-    wrapper.state.q[7:] = q
-    wrapper.update_kinematics()
+    q = _posture(robot, np.random.default_rng(4))
+    wrapper = _robot_at(robot, q)
     kappa = leg_condition_numbers(wrapper)
     h = 1e-7
     for k, side in enumerate(("left", "right")):
