@@ -16,6 +16,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .errors import InfeasiblePlan, InputError, Jethr1Error
+from .optimiser import METHODS
 
 err_console = Console(stderr=True)
 if not err_console.is_terminal:  # logs and CI: no terminal width to respect, keep tables readable
@@ -144,7 +145,7 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
 @click.argument("scenario_path", metavar="SCENARIO.yaml", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "outdir", default="out", show_default=True, type=click.Path(file_okay=False,
               path_type=Path), help="Output directory; files go to OUTDIR/<scenario stem>/.")
-@click.option("--optimiser", type=click.Choice(["gas", "ga", "gaex"]), help="Override optimiser.method.")
+@click.option("--optimiser", type=click.Choice(list(METHODS)), help="Override optimiser.method.")
 @click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
@@ -360,7 +361,7 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
 @click.argument("scenario_path", metavar="SCENARIO.yaml", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "outdir", default=None, type=click.Path(file_okay=False, path_type=Path),
               help="Write compare.json and the figures here (default: out/compare/<scenario stem>).")
-@click.option("--methods", default="gas,ga,gaex", show_default=True, help="Comma-separated optimisers.")
+@click.option("--methods", default="gas,ga,gaex,sqp", show_default=True, help="Comma-separated optimisers.")
 @click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
 @click.option("--reference", is_flag=True, help="Also solve every sample exhaustively and report optimality gaps.")
 @click.option("--yaw-modes", default="eq4", show_default=True,
@@ -371,7 +372,6 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
     """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
     from .atomic import staged_directory
     from .compare import compare, comparison_pngs
-    from .optimiser import METHODS
     from .scenario import load_scenario
 
     names = tuple(m.strip() for m in methods.split(",") if m.strip())

@@ -69,7 +69,7 @@ def reference_thrust(scenario: Scenario, pbody_resolution_m: float = 0.01) -> li
     return out
 
 
-def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex"), seed: int | None = None,
+def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex", "sqp"), seed: int | None = None,
             reference: bool = False, progress=None, yaw_modes: tuple[str, ...] = ("eq4",)) -> dict:
     """The comparison document (``--json``). Methods run under each body-yaw mode; a mode other
     than the first is reported as ``method+mode`` (e.g. ``gas+mpc``) with its thrust cost."""

@@ -25,7 +25,7 @@ import numpy as np
 from .fitness import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
 from .posture import PostureSolver
 
-METHODS = ("gas", "ga", "gaex")
+METHODS = ("gas", "ga", "gaex", "sqp")  # sqp: sqp_optimiser.optimise_path_sqp (whole paths)
 
 
 @dataclass(frozen=True)
@@ -199,8 +199,8 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
         previous: P_body at the previous sample of the same step, or None at the step's first sample.
         nominal: centre of the initial phase's search box [m].
     """
-    if cfg.method not in METHODS:
-        raise ValueError(f"unknown method {cfg.method!r}")
+    if cfg.method not in METHODS or cfg.method == "sqp":
+        raise ValueError(f"method {cfg.method!r} is not a per-sample optimiser")
     evals = 0
     if previous is None:
         p, f, n = _initial_phase(solver, problem, cfg, rng, nominal)

@@ -122,11 +122,23 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
     results: list[SampleResult] = []
     previous = None
     first_bad = None
+    problems, nominals = [], []
     for i, swing_xyz in enumerate(step.path_m):
         yaw = yaw_of(swing_xyz) if sample_yaw is None else float(sample_yaw[i])
-        problem = sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw)
-        nominal = np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
-        res = optimise_sample(solver, problem, cfg, np.random.default_rng([seed, si, i]), previous, nominal)
+        problems.append(sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw))
+        nominals.append(np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom]))
+    path_results = None
+    if cfg.method == "sqp":  # optimises the whole path at once (forward and backward passes)
+        from .sqp_optimiser import optimise_path_sqp
+
+        path_results = optimise_path_sqp(solver, robot, problems, nominals, cfg,
+                                         [np.random.default_rng([seed, si, i]) for i in range(len(problems))])
+    for i, swing_xyz in enumerate(step.path_m):
+        problem, nominal = problems[i], nominals[i]
+        if path_results is not None:
+            res = path_results[i]
+        else:
+            res = optimise_sample(solver, problem, cfg, np.random.default_rng([seed, si, i]), previous, nominal)
         results.append(res)
         previous = res.p_body
         if progress:

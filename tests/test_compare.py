@@ -22,7 +22,7 @@ def test_compare_reports_and_reference(tmp_path, capsys):
     out = tmp_path / "cmp"
     assert run(["compare", str(path), "-o", str(out), "--reference", "--json", "--no-progress"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert set(d["methods"]) == {"gas", "ga", "gaex"}
+    assert set(d["methods"]) == {"gas", "ga", "gaex", "sqp"}
     ref = np.array([np.nan if v is None else v for v in d["reference"]["thrust_n"][0]])
     for m in d["methods"].values():
         p = np.array(m["p_body_m"][0])

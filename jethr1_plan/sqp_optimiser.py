@@ -1,0 +1,341 @@
+"""A better optimiser for P_body than a binary GA: SLSQP along the swing path, forward then backward.
+
+For one swing sample the problem is 3-variable, bounded and smooth almost everywhere: minimise the
+exact minimal thrust H(P_body) (A-5) subject to (A-8) joint limits, the legs' reach, (A-9)
+0 ≤ F ≤ F_max and (A-10) the edge angle. Sequential quadratic programming (scipy's SLSQP) solves
+such a problem in a few iterations when it starts near the answer, and along a swing path the
+neighbouring sample's P_body is such a start (continuation). Written with the thrust as a variable,
+the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
+closed-form kinematics (``leg_kinematics``), exact to rounding, four postures per gradient.
+
+Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a weight that
+makes it a tie-break (ε = 100 N/m²: a 1 cm move costs 0.01 N) instead of a price (the paper's
+ω = 50 per mm² against 10 per N is 5·10⁶ N/m², which holds P_body back by up to 3 N of thrust).
+An exact optimiser needs no more: wherever the optimum is unique P_body moves continuously with
+the sample; where it is not (no thrust needed) the tie-break keeps P_body still. Two passes make
+the path smooth where a greedy pass cannot know what is coming:
+
+1. *forward*: each sample from the previous sample's P_body, inside a ±15 mm trust box (SLSQP's
+   linearisation is poor far away: the closed-form legs change branch in deep crouches); the first
+   sample, or one where that fails, from the three best points of a coarse grid;
+2. *backward*: each sample again, now from the next sample's final P_body with the tie-break
+   towards it. The result replaces the forward one when its thrust is no higher (within
+   ``ACCEPT_N``). Where no thrust is needed the postures so line up behind the first sample that
+   needs thrust, and the pelvis moves once instead of twice;
+3. *smoothing*: a few sweeps move each P_body towards the midpoint of its neighbours where that
+   holds every constraint and costs at most ``SMOOTH_N`` of thrust (jitter in directions where the
+   thrust is flat).
+
+Constraints keep small margins, so that postures interpolated between samples (the 50 Hz rows)
+and PlaCo's check of the chosen postures pass too: ZMP 0.1 mm inside the sole, 0.002 rad inside
+the (A-10) cone, 0.005 rad inside the joint limits, the knees bent by at least about 0.05 rad. Each chosen P_body is finally evaluated
+with the planner's posture solver (PlaCo by default); a sample that fails there falls back to GAS's
+initial phase around it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+
+from .balance import _halfplanes, edge_angle_error, minimal_thrust
+from .fitness import SampleProblem, evaluate_candidates, fitness
+from .leg_kinematics import check_structure, solve_postures
+from .optimiser import OptimiserConfig, SampleResult, _initial_phase
+from .posture import UNREACHABLE, PostureSolver
+from .robot_model import GRAVITY, SIDES, RobotModel
+
+EPS_SMOOTH = 100.0  # [N/m²] the smoothness tie-break towards the neighbouring sample's P_body
+TRUST_M = 0.015  # half-width of the box around the neighbour's P_body [m]
+ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
+MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
+EDGE_MARGIN_RAD = 0.002  # (A-10) margin [rad]
+JOINT_MARGIN_RAD = 0.005  # joint-limit margin [rad]
+ZMP_MARGIN_M = 1e-4  # ZMP margin inside the support polygon [m]
+REACH_MARGIN_M2 = 1e-4  # L² − ‖hip − ankle‖² ≥ this: the knee stays bent by about 0.05 rad
+FD_STEP = 1e-7  # forward-difference step [m]
+GRID = (7, 7, 5)
+MAX_ITER = 25  # SLSQP iterations
+SMOOTH_N = 0.03  # smoothing may raise a sample's thrust by this much [N]
+SMOOTH_SWEEPS = 4  # coarse grid of starting points (x, y, z)
+
+
+class AnalyticSample:
+    """One sample as a smooth program in x = (P_body [m], u = F / (M·g)), on the closed-form legs.
+
+    With the thrust as a variable, the balance condition ZMP ∈ S becomes, for each edge n·z ≤ b of
+    the support polygon, b·(1 − u) − n·(CoM − u·P_T) ≥ 0 (the moment balance multiplied by
+    M·g − F > 0): smooth in x, where the closed-form H(P_body) has kinks. Objective u plus the
+    tie-break ε/(M·g)·‖P_body − anchor‖²; constraints: the polygon, (A-10), the legs' reach and the
+    joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
+    """
+
+    def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None):
+        self.robot, self.problem, self.anchor = robot, problem, anchor
+        st = problem.stance
+        self.feet = {s: (st.foot_pose(s)[:3, 3], st.support_yaw if s == st.support_side else st.swing_yaw)
+                     for s in SIDES}
+        g = check_structure(robot)
+        self.reach = g.thigh_m + g.shank_m
+        self.hip = g.hip_offset_m
+        self.up = np.array([0.0, 0.0, g.ankle_height_m])
+        self.weight = problem.mass_kg * GRAVITY
+        self.normals, offsets = _halfplanes(problem.support_polygon)
+        self.offsets = offsets - ZMP_MARGIN_M
+        self.u_max = problem.thrust_max_n / self.weight
+        self.evaluations = 0
+        self._cache: dict[bytes, tuple] = {}
+        # a straight knee (lower limit 0) is the legs' reach, which the reach constraint (with its
+        # margin) already keeps: the two together would be degenerate at full stretch
+        knee_straight = np.array([n.endswith("_knee") and lo <= 1e-9 for n, lo in
+                                  zip(robot.joint_names, robot.lower_rad, strict=True)])
+        self._limit_mask = np.concatenate([~knee_straight, np.ones(12, dtype=bool)])
+
+    def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CoM (M, 3) [m], the P-only constraints (M, K) (≥ 0 when held) and the exact minimal
+        thrust (M,) [N] for P_body (M, 3) [m]."""
+        pr = self.problem
+        self.evaluations += len(P)
+        q, com, status = solve_postures(self.robot, P, pr.stance.body_yaw, self.feet)
+        edge = edge_angle_error(pr.edge_origin_xy, com[:, :2], pr.ankle_xy)
+        c, s = np.cos(pr.stance.body_yaw), np.sin(pr.stance.body_yaw)
+        reach = []
+        for side, sgn in (("left", 1.0), ("right", -1.0)):
+            d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
+            reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - REACH_MARGIN_M2)
+        lo, hi = self.robot.lower_rad, self.robot.upper_rad
+        # out of reach the closed form returns a stretched leg whose knee sits on its limit with no
+        # gradient; there the reach constraints alone (which have one) lead back
+        limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - JOINT_MARGIN_RAD)
+        cons = np.column_stack([pr.rho_rad - edge - EDGE_MARGIN_RAD, *reach, limits[:, self._limit_mask]])
+        thrust, _ = minimal_thrust(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg)
+        return com, cons, thrust
+
+    def _constraints(self, x: np.ndarray, com_xy: np.ndarray, cons: np.ndarray) -> np.ndarray:
+        """All constraint values (≥ 0 when held) at x, from the CoM and the P-only constraints."""
+        u = x[3]
+        n, b = self.normals, self.offsets
+        poly = b * (1 - u) - com_xy @ n.T + u * (n @ self.problem.fan_xy)
+        return np.concatenate([poly, cons])
+
+    def _values(self, x: np.ndarray) -> np.ndarray:
+        key = x.tobytes()
+        if key not in self._cache:
+            com, cons, _ = self.posture_terms(x[None, :3])
+            self._cache[key] = self._constraints(x, com[0, :2], cons[0])
+        return self._cache[key]
+
+    def _jacobian(self, x: np.ndarray) -> np.ndarray:
+        """(C, 4): forward differences in P_body (three postures in one batch), exact in u."""
+        g0 = self._values(x)
+        com, cons, _ = self.posture_terms(x[:3] + FD_STEP * np.eye(3))
+        g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
+        n, b = self.normals, self.offsets
+        dg_du = np.concatenate([-b + n @ self.problem.fan_xy, np.zeros(len(g0) - len(b))])
+        return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
+
+    def _objective(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """u plus the tie-break, and its gradient: no posture needed."""
+        obj, grad = float(x[3]), np.array([0.0, 0.0, 0.0, 1.0])
+        if self.anchor is not None:
+            d = x[:3] - self.anchor
+            k = EPS_SMOOTH / self.weight
+            obj += k * float(d @ d)
+            grad[:3] += 2 * k * d
+        return obj, grad
+
+    def feasible(self, P: np.ndarray) -> tuple[bool, float]:
+        """Whether P_body (3,) holds every constraint (within MARGIN), and its exact thrust [N]."""
+        _, cons, thrust = self.posture_terms(P[None])
+        t = float(thrust[0])
+        ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and t <= self.problem.thrust_max_n
+        return ok, t
+
+    def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6) -> np.ndarray:
+        """Least-norm Gauss-Newton steps that bring slightly violated P-only constraints back to
+        ``target`` (the constraints' own units); four postures per step."""
+        P = P.copy()
+        for _ in range(iterations):
+            _, cons, _ = self.posture_terms(np.vstack([P, P + FD_STEP * np.eye(3)]))
+            bad = cons[0] < target
+            if not bad.any():
+                break
+            J = ((cons[1:] - cons[0]) / FD_STEP).T[bad]  # (V, 3)
+            step, *_ = np.linalg.lstsq(J, target - cons[0][bad], rcond=None)
+            if not np.all(np.isfinite(step)) or np.linalg.norm(step) > 0.005:
+                break
+            P = P + step
+        return P
+
+    def solve(self, p0: np.ndarray, bounds: list[tuple[float, float]] | None = None
+              ) -> tuple[np.ndarray, float, bool]:
+        """SLSQP from P_body ``p0`` [m]; returns (P_body, exact minimal thrust [N], feasible)."""
+        _, _, thrust0 = self.posture_terms(p0[None])
+        u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
+        box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
+        res = minimize(self._objective, np.append(p0, u0), jac=True, method="SLSQP", bounds=box,
+                       options={"maxiter": MAX_ITER, "ftol": 1e-7},
+                       constraints=[{"type": "ineq", "fun": self._values, "jac": self._jacobian}])
+        P = np.asarray(res.x[:3], dtype=float)
+        ok, t = self.feasible(P)
+        if not ok:  # SLSQP often ends a hair outside (at a leg's full stretch it zig-zags): step back in
+            P = self.restore(P)
+            ok, t = self.feasible(P)
+        return P, t, ok
+
+
+DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0
+
+
+def _penalised(sample: AnalyticSample, P: np.ndarray) -> np.ndarray:
+    """Thrust [N] plus exact penalties for violated constraints, plus the tie-break (M,)."""
+    _, cons, thrust = sample.posture_terms(P)
+    viol = np.maximum(-cons, 0.0)
+    obj = np.where(np.isfinite(thrust), thrust, 1e3) + 5e3 * viol[:, 0] + 1e3 * viol[:, 1:].sum(axis=1)
+    if sample.anchor is not None:
+        obj = obj + EPS_SMOOTH * np.sum((P - sample.anchor) ** 2, axis=1)
+    return obj
+
+
+def compass(sample: AnalyticSample, p0: np.ndarray, step: float = 0.004, min_step: float = 0.0005,
+            max_iter: int = 40) -> np.ndarray:
+    """A 26-neighbour pattern search on the penalised thrust: the fallback where SLSQP stalls."""
+    p = np.asarray(p0, dtype=float)
+    f = float(_penalised(sample, p[None])[0])
+    for _ in range(max_iter):
+        if step < min_step:
+            break
+        cand = p + step * DIRECTIONS
+        obj = _penalised(sample, cand)
+        j = int(np.argmin(obj))
+        if obj[j] < f - 1e-12:
+            p, f = cand[j], float(obj[j])
+        else:
+            step *= 0.5
+    return p
+
+
+def grid_starts(sample: AnalyticSample, centre: np.ndarray, half: float, k: int = 3) -> list[np.ndarray]:
+    """The ``k`` best points of a coarse grid (``GRID``) over the box ``centre`` ± ``half`` [m]:
+    least thrust among the feasible ones, then the least constraint violation."""
+    axes = [np.linspace(-half, half, n) for n in GRID]
+    grid = centre + np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    _, cons, thrust = sample.posture_terms(grid)
+    violation = np.sum(np.minimum(cons, 0.0) ** 2, axis=1) + np.where(np.isfinite(thrust), 0.0, 1.0)
+    order = np.lexsort((np.where(np.isfinite(thrust), thrust, np.inf), violation))
+    return [grid[i] for i in order[:k]]
+
+
+def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
+    return [(float(c) - half, float(c) + half) for c in centre]
+
+
+def solve_from_neighbour(sample: AnalyticSample, start: np.ndarray) -> tuple[np.ndarray, float, bool] | None:
+    """SLSQP inside the trust box around ``start``; the compass search where SLSQP ends infeasible.
+
+    Returns (P_body, thrust [N], settled) or None; ``settled``: SLSQP's answer lies inside the box,
+    so the box did not hold it back.
+    """
+    x, f, ok = sample.solve(start.copy(), _box(start, TRUST_M))
+    if ok:
+        return x, f, bool(np.all(np.abs(x - start) < TRUST_M - 1e-4))
+    x = compass(sample, start)
+    ok, f = sample.feasible(x)
+    return (x, f, False) if ok else None
+
+
+def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> tuple[np.ndarray, float] | None:
+    """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
+    best = None
+    for x0 in grid_starts(sample, centre, half):
+        x, f, ok = sample.solve(x0, _box(centre, half))
+        if not ok:
+            x = compass(sample, x0, step=0.016)
+            ok, f = sample.feasible(x)
+        if ok and (best is None or f < best[1] - 1e-9):
+            best = (x, f)
+    return best
+
+
+def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list, evals: np.ndarray,
+                sweeps: int = SMOOTH_SWEEPS) -> None:
+    """Sweeps that move each P_body towards the midpoint of its neighbours (full, half or quarter
+    way, the first that holds), as long as every constraint holds and the thrust rises by at most
+    ``SMOOTH_N``: the jitter a local optimum leaves in directions where the thrust is flat goes,
+    the thrust stays within SMOOTH_N of what was found. Updates ``found`` and ``evals`` in place."""
+    n = len(found)
+    for _ in range(sweeps):
+        for i in range(1, n - 1):
+            a, b, cur = found[i - 1], found[i + 1], found[i]
+            if a is None or b is None or cur is None:
+                continue
+            mid = 0.5 * (a[0] + b[0])
+            sample = AnalyticSample(robot, problems[i], None)
+            cand = cur[0] + np.array([1.0, 0.5, 0.25])[:, None] * (mid - cur[0])
+            _, cons, thrust = sample.posture_terms(cand)
+            evals[i] += sample.evaluations
+            base = cur[3] if len(cur) > 3 else cur[1]  # the thrust the optimiser found here
+            ok = np.all(cons >= -MARGIN, axis=1) & np.isfinite(thrust) & (thrust <= base + SMOOTH_N)
+            ok &= thrust <= problems[i].thrust_max_n
+            if ok.any():
+                j = int(np.argmax(ok))
+                found[i] = (cand[j], float(thrust[j]), cur[2], base)
+
+
+def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
+                      nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator]
+                      ) -> list[SampleResult]:
+    """P_body at every sample of one swing path (see the module docstring).
+
+    Args:
+        problems: the samples in path order.
+        nominals: per sample, the centre of the search box where no neighbour helps [m].
+        rngs: per sample, the random stream of the GA fallback.
+    """
+    n = len(problems)
+    half = cfg.initial.half_range_m
+    found: list[tuple[np.ndarray, float, bool] | None] = [None] * n
+    evals = np.zeros(n, dtype=np.int64)
+    phase = ["sqp"] * n
+    # forward pass
+    for i in range(n):
+        prev = found[i - 1] if i else None
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev[0])
+        r = solve_from_neighbour(sample, prev[0]) if prev is not None else None
+        if r is None:
+            r = solve_from_grid(sample, nominals[i] if prev is None else prev[0], half)
+            r = None if r is None else (*r, False)
+            phase[i] = "sqp-grid"
+        found[i] = r
+        evals[i] += sample.evaluations
+    # backward pass
+    for i in range(n - 2, -1, -1):
+        nxt, cur = found[i + 1], found[i]
+        if nxt is None:
+            continue
+        sample = AnalyticSample(robot, problems[i], nxt[0])
+        ok, f = sample.feasible(nxt[0])  # the next posture itself, when it serves as well, is the answer
+        if ok and cur is not None and f <= cur[1] + ACCEPT_N:
+            r = (nxt[0].copy(), f, True)
+        elif cur is not None and cur[1] > 0 and cur[2]:
+            r = None  # the forward pass settled on a thrust optimum there: nothing to gain
+        else:
+            r = solve_from_neighbour(sample, nxt[0])
+        evals[i] += sample.evaluations
+        if r is not None and (cur is None or r[1] <= cur[1] + ACCEPT_N):
+            found[i] = r
+    smooth_path(robot, problems, found, evals)
+    # the chosen postures, evaluated with the planner's solver
+    out = []
+    for i, pr in enumerate(problems):
+        p = found[i][0] if found[i] is not None else nominals[i]
+        cand = evaluate_candidates(solver, pr, p[None])
+        evals[i] += 1
+        if not cand.feasible[0]:
+            p, _, m = _initial_phase(solver, pr, cfg, rngs[i], p)
+            cand = evaluate_candidates(solver, pr, p[None])
+            evals[i] += m + 1
+            phase[i] = "restart"
+        f = float(fitness(cand, cfg.constants, pr.thrust_max_n)[0])
+        out.append(SampleResult(cand, f, int(evals[i]), phase[i]))
+    return out
