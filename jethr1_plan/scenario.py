@@ -68,6 +68,7 @@ SCHEMA = _obj({
         "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num, "omega": {"type": "number", "minimum": 0},
                          "f3_unit": {"enum": list(F3_UNITS)}, "graded": {"type": "boolean"}}),
         "gaex": _obj({"half_m": _pos, "step_m": _pos}),
+        "sqp": _obj({"smoothness_n_per_m2": {"type": "number", "minimum": 0}}),
         "nominal_height_m": _pos,
     }),
     "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0}, "rho_rad": {"type": "number", "minimum": 0},
@@ -286,7 +287,8 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         method=opt.get("method", "gas"), initial=phase(opt.get("initial"), dflt.initial),
         intermediate=phase(opt.get("intermediate"), dflt.intermediate), bits=opt.get("bits", 10), constants=constants,
         gaex_half_m=float(gaex.get("half_m", dflt.gaex_half_m)),
-        gaex_step_m=float(gaex.get("step_m", dflt.gaex_step_m)))
+        gaex_step_m=float(gaex.get("step_m", dflt.gaex_step_m)),
+        sqp_smoothness_n_per_m2=float(opt.get("sqp", {}).get("smoothness_n_per_m2", dflt.sqp_smoothness_n_per_m2)))
     if optimiser.gaex_step_m > optimiser.gaex_half_m:
         raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
     bal = doc.get("balance", {})

@@ -8,29 +8,36 @@ neighbouring sample's P_body is such a start (continuation). Written with the th
 the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
 closed-form kinematics (``leg_kinematics``), exact to rounding, four postures per gradient.
 
-Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a weight that
-makes it a tie-break (ε = 100 N/m²: a 1 cm move costs 0.01 N) instead of a price (the paper's
+Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
+that makes it a tie-break (ε = 100 N/m²: a 1 cm move costs 0.01 N; ``optimiser.sqp.
+smoothness_n_per_m2`` in a scenario trades thrust for smoothness) instead of a price (the paper's
 ω = 50 per mm² against 10 per N is 5·10⁶ N/m², which holds P_body back by up to 3 N of thrust).
 An exact optimiser needs no more: wherever the optimum is unique P_body moves continuously with
 the sample; where it is not (no thrust needed) the tie-break keeps P_body still. Two passes make
 the path smooth where a greedy pass cannot know what is coming:
 
-1. *forward*: each sample from the previous sample's P_body, inside a ±15 mm trust box (SLSQP's
-   linearisation is poor far away: the closed-form legs change branch in deep crouches); the first
-   sample, or one where that fails, from the three best points of a coarse grid;
-2. *backward*: each sample again, now from the next sample's final P_body with the tie-break
-   towards it. The result replaces the forward one when its thrust is no higher (within
-   ``ACCEPT_N``). Where no thrust is needed the postures so line up behind the first sample that
-   needs thrust, and the pelvis moves once instead of twice;
+1. *forward*: each sample from the previous sample's P_body (kept when it needs no thrust and
+   holds every constraint; else a predictor, the last move repeated, then the previous P_body
+   itself), inside a ±20 mm trust box (SLSQP's linearisation is poor far away: the closed-form
+   legs change branch in deep crouches); the first sample, or one where that fails, from the three
+   best points of a coarse grid;
+2. *backward*: each sample again (except where the forward pass settled on a thrust optimum
+   inside its box), now from the next sample's final P_body with the tie-break towards it. The
+   result replaces the forward one when its thrust is no higher (within ``ACCEPT_N``). Where no
+   thrust is needed the postures so line up behind the first sample that needs thrust, and the
+   pelvis moves once instead of twice;
 3. *smoothing*: a few sweeps move each P_body towards the midpoint of its neighbours where that
    holds every constraint and costs at most ``SMOOTH_N`` of thrust (jitter in directions where the
    thrust is flat).
 
+SLSQP starts are first brought inside the constraints by least-norm Gauss-Newton steps (the
+neighbour's posture is often just outside them: the foot has moved), and an answer that ends a
+hair outside is stepped back in the same way; where SLSQP still fails, a compass search follows.
 Constraints keep small margins, so that postures interpolated between samples (the 50 Hz rows)
 and PlaCo's check of the chosen postures pass too: ZMP 0.1 mm inside the sole, 0.002 rad inside
-the (A-10) cone, 0.005 rad inside the joint limits, the knees bent by at least about 0.05 rad. Each chosen P_body is finally evaluated
-with the planner's posture solver (PlaCo by default); a sample that fails there falls back to GAS's
-initial phase around it.
+the (A-10) cone, 0.005 rad inside the joint limits, the knees bent by at least about 0.05 rad.
+Each chosen P_body is finally evaluated with the planner's posture solver (PlaCo by default); a
+sample that fails there falls back to GAS's initial phase around it.
 """
 
 from __future__ import annotations
@@ -45,8 +52,7 @@ from .optimiser import OptimiserConfig, SampleResult, _initial_phase
 from .posture import UNREACHABLE, PostureSolver
 from .robot_model import GRAVITY, SIDES, RobotModel
 
-EPS_SMOOTH = 100.0  # [N/m²] the smoothness tie-break towards the neighbouring sample's P_body
-TRUST_M = 0.015  # half-width of the box around the neighbour's P_body [m]
+TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
 MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
 EDGE_MARGIN_RAD = 0.002  # (A-10) margin [rad]
@@ -54,10 +60,11 @@ JOINT_MARGIN_RAD = 0.005  # joint-limit margin [rad]
 ZMP_MARGIN_M = 1e-4  # ZMP margin inside the support polygon [m]
 REACH_MARGIN_M2 = 1e-4  # L² − ‖hip − ankle‖² ≥ this: the knee stays bent by about 0.05 rad
 FD_STEP = 1e-7  # forward-difference step [m]
-GRID = (7, 7, 5)
-MAX_ITER = 25  # SLSQP iterations
-SMOOTH_N = 0.03  # smoothing may raise a sample's thrust by this much [N]
-SMOOTH_SWEEPS = 4  # coarse grid of starting points (x, y, z)
+MAX_ITER = 25  # SLSQP iterations per solve
+RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside the constraints
+GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
+SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
+SMOOTH_SWEEPS = 4
 
 
 class AnalyticSample:
@@ -66,12 +73,14 @@ class AnalyticSample:
     With the thrust as a variable, the balance condition ZMP ∈ S becomes, for each edge n·z ≤ b of
     the support polygon, b·(1 − u) − n·(CoM − u·P_T) ≥ 0 (the moment balance multiplied by
     M·g − F > 0): smooth in x, where the closed-form H(P_body) has kinks. Objective u plus the
-    tie-break ε/(M·g)·‖P_body − anchor‖²; constraints: the polygon, (A-10), the legs' reach and the
-    joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
+    tie-break ε/(M·g)·‖P_body − anchor‖² (ε: ``smoothness_n_per_m2``); constraints: the polygon,
+    (A-10), the legs' reach and the joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
     """
 
-    def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None):
+    def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None,
+                 smoothness_n_per_m2: float = 100.0):
         self.robot, self.problem, self.anchor = robot, problem, anchor
+        self.eps = smoothness_n_per_m2
         st = problem.stance
         self.feet = {s: (st.foot_pose(s)[:3, 3], st.support_yaw if s == st.support_side else st.swing_yaw)
                      for s in SIDES}
@@ -139,7 +148,7 @@ class AnalyticSample:
         obj, grad = float(x[3]), np.array([0.0, 0.0, 0.0, 1.0])
         if self.anchor is not None:
             d = x[:3] - self.anchor
-            k = EPS_SMOOTH / self.weight
+            k = self.eps / self.weight
             obj += k * float(d @ d)
             grad[:3] += 2 * k * d
         return obj, grad
@@ -151,25 +160,31 @@ class AnalyticSample:
         ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and t <= self.problem.thrust_max_n
         return ok, t
 
-    def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6) -> np.ndarray:
+    def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6, max_step: float = 0.005
+                ) -> np.ndarray:
         """Least-norm Gauss-Newton steps that bring slightly violated P-only constraints back to
         ``target`` (the constraints' own units); four postures per step."""
         P = P.copy()
         for _ in range(iterations):
-            _, cons, _ = self.posture_terms(np.vstack([P, P + FD_STEP * np.eye(3)]))
-            bad = cons[0] < target
+            _, c0, _ = self.posture_terms(P[None])
+            bad = c0[0] < target
             if not bad.any():
                 break
-            J = ((cons[1:] - cons[0]) / FD_STEP).T[bad]  # (V, 3)
-            step, *_ = np.linalg.lstsq(J, target - cons[0][bad], rcond=None)
-            if not np.all(np.isfinite(step)) or np.linalg.norm(step) > 0.005:
+            _, c1, _ = self.posture_terms(P + FD_STEP * np.eye(3))
+            J = ((c1 - c0) / FD_STEP).T[bad]  # (V, 3)
+            step, *_ = np.linalg.lstsq(J, target - c0[0][bad], rcond=None)
+            if not np.all(np.isfinite(step)) or np.linalg.norm(step) > max_step:
                 break
             P = P + step
         return P
 
     def solve(self, p0: np.ndarray, bounds: list[tuple[float, float]] | None = None
               ) -> tuple[np.ndarray, float, bool]:
-        """SLSQP from P_body ``p0`` [m]; returns (P_body, exact minimal thrust [N], feasible)."""
+        """SLSQP from P_body ``p0`` [m] (first brought inside the P-only constraints by ``restore``
+        where it is outside them); returns (P_body, exact minimal thrust [N], feasible)."""
+        p0 = self.restore(p0, iterations=RESTORE_START_ITER, max_step=TRUST_M)
+        if bounds is not None:
+            p0 = np.clip(p0, [b[0] for b in bounds], [b[1] for b in bounds])
         _, _, thrust0 = self.posture_terms(p0[None])
         u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
         box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
@@ -193,7 +208,7 @@ def _penalised(sample: AnalyticSample, P: np.ndarray) -> np.ndarray:
     viol = np.maximum(-cons, 0.0)
     obj = np.where(np.isfinite(thrust), thrust, 1e3) + 5e3 * viol[:, 0] + 1e3 * viol[:, 1:].sum(axis=1)
     if sample.anchor is not None:
-        obj = obj + EPS_SMOOTH * np.sum((P - sample.anchor) ** 2, axis=1)
+        obj = obj + sample.eps * np.sum((P - sample.anchor) ** 2, axis=1)
     return obj
 
 
@@ -230,16 +245,23 @@ def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
     return [(float(c) - half, float(c) + half) for c in centre]
 
 
-def solve_from_neighbour(sample: AnalyticSample, start: np.ndarray) -> tuple[np.ndarray, float, bool] | None:
-    """SLSQP inside the trust box around ``start``; the compass search where SLSQP ends infeasible.
+def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.ndarray | None = None
+                         ) -> tuple[np.ndarray, float, bool] | None:
+    """SLSQP inside the trust box around the neighbour's P_body ``centre``, from ``guess`` and then,
+    if that fails, from the centre; the compass search from the centre where both end infeasible.
 
     Returns (P_body, thrust [N], settled) or None; ``settled``: SLSQP's answer lies inside the box,
     so the box did not hold it back.
     """
-    x, f, ok = sample.solve(start.copy(), _box(start, TRUST_M))
-    if ok:
-        return x, f, bool(np.all(np.abs(x - start) < TRUST_M - 1e-4))
-    x = compass(sample, start)
+    box = _box(centre, TRUST_M)
+    starts = [centre.copy()]
+    if guess is not None:
+        starts.insert(0, np.clip(guess, centre - TRUST_M, centre + TRUST_M))
+    for start in starts:
+        x, f, ok = sample.solve(start, box)
+        if ok:
+            return x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4))
+    x = compass(sample, centre)
     ok, f = sample.feasible(x)
     return (x, f, False) if ok else None
 
@@ -270,16 +292,17 @@ def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list, e
             if a is None or b is None or cur is None:
                 continue
             mid = 0.5 * (a[0] + b[0])
+            if np.linalg.norm(mid - cur[0]) < 1e-5:
+                continue
             sample = AnalyticSample(robot, problems[i], None)
-            cand = cur[0] + np.array([1.0, 0.5, 0.25])[:, None] * (mid - cur[0])
-            _, cons, thrust = sample.posture_terms(cand)
-            evals[i] += sample.evaluations
             base = cur[3] if len(cur) > 3 else cur[1]  # the thrust the optimiser found here
-            ok = np.all(cons >= -MARGIN, axis=1) & np.isfinite(thrust) & (thrust <= base + SMOOTH_N)
-            ok &= thrust <= problems[i].thrust_max_n
-            if ok.any():
-                j = int(np.argmax(ok))
-                found[i] = (cand[j], float(thrust[j]), cur[2], base)
+            for alpha in (1.0, 0.5, 0.25):
+                p = cur[0] + alpha * (mid - cur[0])
+                ok, t = sample.feasible(p)
+                if ok and t <= base + SMOOTH_N:
+                    found[i] = (p, t, cur[2], base)
+                    break
+            evals[i] += sample.evaluations
 
 
 def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
@@ -294,14 +317,23 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
     """
     n = len(problems)
     half = cfg.initial.half_range_m
+    eps = cfg.sqp_smoothness_n_per_m2
     found: list[tuple[np.ndarray, float, bool] | None] = [None] * n
     evals = np.zeros(n, dtype=np.int64)
     phase = ["sqp"] * n
     # forward pass
     for i in range(n):
         prev = found[i - 1] if i else None
-        sample = AnalyticSample(robot, problems[i], None if prev is None else prev[0])
-        r = solve_from_neighbour(sample, prev[0]) if prev is not None else None
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev[0], eps)
+        r = None
+        if prev is not None:
+            ok, f = sample.feasible(prev[0])
+            if ok and f == 0.0:  # no thrust needed and no move: the optimum of u + tie-break
+                r = (prev[0].copy(), 0.0, True)
+            else:  # predictor: the last move repeated; corrector: SLSQP
+                before = found[i - 2] if i >= 2 else None
+                guess = 2 * prev[0] - before[0] if before is not None and before[1] > 0 else None
+                r = solve_from_neighbour(sample, prev[0], guess)
         if r is None:
             r = solve_from_grid(sample, nominals[i] if prev is None else prev[0], half)
             r = None if r is None else (*r, False)
@@ -313,7 +345,7 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         nxt, cur = found[i + 1], found[i]
         if nxt is None:
             continue
-        sample = AnalyticSample(robot, problems[i], nxt[0])
+        sample = AnalyticSample(robot, problems[i], nxt[0], eps)
         ok, f = sample.feasible(nxt[0])  # the next posture itself, when it serves as well, is the answer
         if ok and cur is not None and f <= cur[1] + ACCEPT_N:
             r = (nxt[0].copy(), f, True)

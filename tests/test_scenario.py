@@ -51,6 +51,8 @@ BAD = {
     "NaN": (lambda d: d["balance"].update(thrust_max_n=float("nan")), "balance.thrust_max_n", "finite"),
     "negative thrust": (lambda d: d["balance"].update(thrust_max_n=-1), "balance.thrust_max_n", "minimum"),
     "unknown method": (lambda d: d["optimiser"].update(method="pso"), "optimiser.method", "pso"),
+    "negative sqp smoothness": (lambda d: d["optimiser"].update(sqp={"smoothness_n_per_m2": -1}),
+                                "optimiser.sqp.smoothness_n_per_m2", "minimum"),
     "population of one": (lambda d: d["optimiser"].update(initial={"population": 1}),
                           "optimiser.initial.population", "minimum"),
     "short landing vector": (lambda d: d["steps"][0].update(landing_m=[0.6, 0.0]), "steps[0].landing_m", "short"),
