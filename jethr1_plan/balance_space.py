@@ -41,6 +41,7 @@ REASONS = {MEMBER: "", OVERLAP: "overlaps the support sole", OUT_OF_REACH: "out 
 SEED_EVERY = 4  # continuation: generic seeds on every 4th x slice
 RELAX_PASSES = 3  # continuation: rounds of neighbour relaxation
 EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the penalty is exact
+REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
 LAYERS_PER_TASK = 4  # the fixed partition of the work: output never depends on the number of workers
 def has_posture(reason: np.ndarray) -> np.ndarray:
     """Cells whose best P_body is a kinematically valid posture (legs reach, within limits)."""
@@ -334,25 +335,33 @@ def pelvis_box(ev: _Evaluator, c: _Cells, i: int, res: float) -> np.ndarray:
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
-def _exhaustive_cell(ev: _Evaluator, c: _Cells, i: int):
-    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid around the best point."""
+def _exhaustive_cell(ev: _Evaluator, c: _Cells, i: int, basins: int = REFINE_BASINS):
+    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid (±2 coarse steps) around
+    each of the ``basins`` best coarse points that lie at least 2.5 coarse steps apart (a thin
+    feasible sliver can hold the optimum in a basin whose best coarse point is not the best)."""
     grid = pelvis_box(ev, c, i, ev.spec.pbody_resolution_m)
-    best_p, best_f = None, np.inf
-    for s in range(0, len(grid), 20000):
-        chunk = grid[s:s + 20000]
-        obj, _, _ = ev(c, np.full(len(chunk), i), chunk)
-        j = int(np.argmin(obj))
-        if obj[j] < best_f:
-            best_f, best_p = obj[j], chunk[j]
-    if best_p is None:
+    if not len(grid):
         return np.full(3, np.nan), np.inf, OUT_OF_REACH
+    obj = np.concatenate([ev(c, np.full(len(chunk), i), chunk)[0]
+                          for chunk in (grid[s:s + 20000] for s in range(0, len(grid), 20000))])
     r = ev.spec.pbody_resolution_m
+    centres: list[np.ndarray] = []
+    for j in np.argsort(obj, kind="stable"):
+        if centres and obj[j] >= 2000:  # only kinematically valid, balanced points beyond the first
+            break
+        if all(np.max(np.abs(grid[j] - q)) > 2.5 * r for q in centres):
+            centres.append(grid[j])
+            if len(centres) == basins:
+                break
+    best_p, best_f = centres[0], float(obj[np.argsort(obj, kind="stable")[0]])
     fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
-    local = best_p + np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
-    obj, _, _ = ev(c, np.full(len(local), i), local)
-    j = int(np.argmin(obj))
-    if obj[j] < best_f:
-        best_p = local[j]
+    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
+    for q in centres:
+        local = q + offsets
+        o, _, _ = ev(c, np.full(len(local), i), local)
+        j = int(np.argmin(o))
+        if o[j] < best_f:
+            best_f, best_p = float(o[j]), local[j]
     _, t, rr = ev(c, np.array([i]), best_p[None])
     return best_p, float(t[0]), int(rr[0])
 
