@@ -9,7 +9,7 @@ the space *without* when F* = 0: one sweep gives both.
 Two inner searches over P_body:
 
 * ``exhaustive`` (the paper's): a P_body grid over every pelvis position from which both legs
-  reach, at ``pbody_resolution_m``, then the best point refined on a 1 mm grid (±2 steps).
+  reach, at ``pbody_resolution_m``, then the six best coarse basins refined on a 1 mm grid (±2 steps).
 * ``continuation`` (default): cells are visited in slices along x, each seeded with the best
   P_body of its neighbour in the previous slice and with a few generic postures; a compass
   (pattern) search then shrinks its step from 16 mm to 0.5 mm. A test checks that it agrees with

@@ -3,8 +3,8 @@
 Runs each optimiser on the same scenario and seed and reports, per method, the thrust (max, mean),
 the smoothness of P_body (Σ‖ΔP_body‖², the largest single step) and of the thrust (largest jump),
 the evaluations and the wall time. With ``reference``, every swing sample is also solved by a dense
-exhaustive search (every pelvis position from which the legs reach, on a 1 cm grid, refined on a
-1 mm grid), and each method's optimality gap is reported against it.
+exhaustive search (every pelvis position from which the legs reach, on a 1 cm grid, the six best
+basins refined on a 1 mm grid), and each method's optimality gap is reported against it.
 """
 
 from __future__ import annotations

@@ -131,8 +131,14 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
     if cfg.method == "sqp":  # optimises the whole path at once (forward and backward passes)
         from .sqp_optimiser import optimise_path_sqp
 
+        def between(i: int, lam: float):
+            swing_xyz = (1 - lam) * step.path_m[i] + lam * step.path_m[i + 1]
+            yaw = (yaw_of(swing_xyz) if sample_yaw is None
+                   else float((1 - lam) * sample_yaw[i] + lam * sample_yaw[i + 1]))
+            return sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw)
+
         path_results = optimise_path_sqp(solver, robot, problems, nominals, cfg,
-                                         [np.random.default_rng([seed, si, i]) for i in range(len(problems))])
+                                         [np.random.default_rng([seed, si, i]) for i in range(len(problems))], between)
     for i, swing_xyz in enumerate(step.path_m):
         problem, nominal = problems[i], nominals[i]
         if path_results is not None:

@@ -42,6 +42,8 @@ sample that fails there falls back to GAS's initial phase around it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from scipy.optimize import minimize
 
@@ -56,7 +58,7 @@ TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
 MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
 EDGE_MARGIN_RAD = 0.002  # (A-10) margin [rad]
-JOINT_MARGIN_RAD = 0.005  # joint-limit margin [rad]
+JOINT_MARGIN_RAD = 0.002  # joint-limit margin [rad]
 ZMP_MARGIN_M = 1e-4  # ZMP margin inside the support polygon [m]
 REACH_MARGIN_M2 = 1e-4  # L² − ‖hip − ankle‖² ≥ this: the knee stays bent by about 0.05 rad
 FD_STEP = 1e-7  # forward-difference step [m]
@@ -65,6 +67,8 @@ RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside th
 GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
 SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
 SMOOTH_SWEEPS = 4
+BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples
+BETWEEN_ROUNDS = 6  # rounds of wider margins (×2 each) for segments that fail
 
 
 class AnalyticSample:
@@ -78,9 +82,10 @@ class AnalyticSample:
     """
 
     def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None,
-                 smoothness_n_per_m2: float = 100.0):
+                 smoothness_n_per_m2: float = 100.0, margin_scale: float = 1.0):
         self.robot, self.problem, self.anchor = robot, problem, anchor
         self.eps = smoothness_n_per_m2
+        self.margins = margin_scale * np.array([EDGE_MARGIN_RAD, REACH_MARGIN_M2, JOINT_MARGIN_RAD, ZMP_MARGIN_M])
         st = problem.stance
         self.feet = {s: (st.foot_pose(s)[:3, 3], st.support_yaw if s == st.support_side else st.swing_yaw)
                      for s in SIDES}
@@ -90,7 +95,7 @@ class AnalyticSample:
         self.up = np.array([0.0, 0.0, g.ankle_height_m])
         self.weight = problem.mass_kg * GRAVITY
         self.normals, offsets = _halfplanes(problem.support_polygon)
-        self.offsets = offsets - ZMP_MARGIN_M
+        self.offsets = offsets - self.margins[3]
         self.u_max = problem.thrust_max_n / self.weight
         self.evaluations = 0
         self._cache: dict[bytes, tuple] = {}
@@ -111,12 +116,12 @@ class AnalyticSample:
         reach = []
         for side, sgn in (("left", 1.0), ("right", -1.0)):
             d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
-            reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - REACH_MARGIN_M2)
+            reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - self.margins[1])
         lo, hi = self.robot.lower_rad, self.robot.upper_rad
         # out of reach the closed form returns a stretched leg whose knee sits on its limit with no
         # gradient; there the reach constraints alone (which have one) lead back
-        limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - JOINT_MARGIN_RAD)
-        cons = np.column_stack([pr.rho_rad - edge - EDGE_MARGIN_RAD, *reach, limits[:, self._limit_mask]])
+        limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
+        cons = np.column_stack([pr.rho_rad - edge - self.margins[0], *reach, limits[:, self._limit_mask]])
         thrust, _ = minimal_thrust(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg)
         return com, cons, thrust
 
@@ -305,15 +310,37 @@ def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list, e
             evals[i] += sample.evaluations
 
 
+def infeasible_between(robot: RobotModel, found: list, between: Callable[[int, float], SampleProblem],
+                       evals: np.ndarray) -> list[int]:
+    """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
+    the sequence builds there interpolate P_body and the swing sole linearly (checked at a quarter,
+    half and three quarters of the way, without margins)."""
+    bad = []
+    for i in range(len(found) - 1):
+        if found[i] is None or found[i + 1] is None:
+            continue
+        for lam in BETWEEN:
+            sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
+            ok, _ = sample.feasible((1 - lam) * found[i][0] + lam * found[i + 1][0])
+            evals[i] += sample.evaluations
+            if not ok:
+                bad.append(i)
+                break
+    return bad
+
+
 def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
-                      nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator]
-                      ) -> list[SampleResult]:
+                      nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator],
+                      between: Callable[[int, float], SampleProblem] | None = None) -> list[SampleResult]:
     """P_body at every sample of one swing path (see the module docstring).
 
     Args:
         problems: the samples in path order.
         nominals: per sample, the centre of the search box where no neighbour helps [m].
         rngs: per sample, the random stream of the GA fallback.
+        between: ``between(i, λ)``, the problem at the fraction λ of the way from sample i to i + 1
+            (the swing sole interpolated as the sequence does); with it, segments whose interpolated
+            postures break a constraint get their two samples re-solved with wider margins.
     """
     n = len(problems)
     half = cfg.initial.half_range_m
@@ -334,6 +361,8 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
                 before = found[i - 2] if i >= 2 else None
                 guess = 2 * prev[0] - before[0] if before is not None and before[1] > 0 else None
                 r = solve_from_neighbour(sample, prev[0], guess)
+                if r is None and guess is not None:  # the box moved on along the path
+                    r = solve_from_neighbour(sample, guess)
         if r is None:
             r = solve_from_grid(sample, nominals[i] if prev is None else prev[0], half)
             r = None if r is None else (*r, False)
@@ -357,6 +386,20 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         if r is not None and (cur is None or r[1] <= cur[1] + ACCEPT_N):
             found[i] = r
     smooth_path(robot, problems, found, evals)
+    scale = np.ones(n)
+    for _ in range(BETWEEN_ROUNDS if between is not None else 0):
+        bad = infeasible_between(robot, found, between, evals)
+        if not bad:
+            break
+        redo = sorted({j for i in bad for j in (i, i + 1)})
+        scale[redo] *= 2.0
+        for j in redo:
+            anchor = found[j - 1][0] if j and found[j - 1] is not None else None
+            sample = AnalyticSample(robot, problems[j], anchor, eps, margin_scale=scale[j])
+            r = solve_from_neighbour(sample, found[j][0])
+            evals[j] += sample.evaluations
+            if r is not None:
+                found[j] = r
     # the chosen postures, evaluated with the planner's solver
     out = []
     for i, pr in enumerate(problems):

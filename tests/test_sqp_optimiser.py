@@ -131,3 +131,45 @@ def test_sqp_crosses_the_ditch_with_a_20_5_n_fan_and_verify_agrees(tmp_path, cap
     assert summary["optimiser"] == "sqp"
     assert summary["max_thrust_n"] <= 20.5
     assert run(["verify", str(out / path.stem)]) == 0
+
+
+@pytest.mark.parametrize("name", ["side_step", "jet_hr1_trial"])
+def test_sqp_plans_every_config_and_its_rows_between_samples_hold(tmp_path, name):
+    """The 50 Hz rows interpolate P_body between samples; sqp's postures sit on constraint
+    boundaries, so the segments between them are checked (and margins widened where needed): the
+    whole trajectory must pass the planner's own check and the independent one."""
+    out = tmp_path / "p"
+    assert run(["plan", str(ROOT / "configs" / f"{name}.yaml"), "--optimiser", "sqp", "-o", str(out),
+                "--no-progress"]) == 0
+    assert run(["verify", str(out / name)]) == 0
+
+
+def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
+    """Two feasible postures whose straight-line interpolation leaves the (A-10) cone are flagged."""
+    sc = load_scenario(DITCH)
+    st = sc.steps[0]
+    feet = feet_before_each_step(sc)[0]
+    yaw_of = yaw_function(sc, robot, st.support, feet[st.support])
+
+    def between(i, lam):
+        s = (1 - lam) * st.path_m[i] + lam * st.path_m[i + 1]
+        return sample_problem(sc, robot, st.support, feet[st.support], s, yaw_of(s))
+
+    found = [(p, 0.0, True) for p in plan(sc, method="sqp", build_rows=False).steps[0].p_body]
+    evals = np.zeros(len(found), dtype=np.int64)
+    assert sqp.infeasible_between(robot, found, between, evals) == []
+    assert evals.sum() > 0
+    # a detour at one sample: its own posture moved to where it still holds, far from both neighbours
+    i = 30
+    sample = sqp.AnalyticSample(robot, _problem(sc, robot, i), None, margin_scale=0.0)
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        p = found[i][0] + rng.uniform(-0.06, 0.06, 3)
+        if sample.feasible(p)[0]:
+            bent = list(found)
+            bent[i] = (p, 0.0, True)
+            if sqp.infeasible_between(robot, bent, between, evals):
+                break
+    else:
+        pytest.fail("no detour found")
+    assert set(sqp.infeasible_between(robot, bent, between, evals)) <= {i - 1, i}
