@@ -6,7 +6,9 @@ can hold at once on a scenario: per swing sample, every pelvis position on a gri
 inside a window (± ``--half``) around the `sqp` optimiser's P_body that holds every constraint with
 a thrust within ``--tol`` of the least thrust known for that sample (the lower of `sqp`'s and the
 window's); then the path through these sets with the least Σ‖ΔP_body‖², by dynamic programming.
-No path within the tolerance (inside the windows, on the grid) is smoother than the printed bound.
+No path within the tolerance (inside the windows, on the grid) is smoother than the printed bound;
+a continuous path can be somewhat smoother, so run a series of ``--step`` values and extrapolate
+to zero (README, "Thrust against smoothness").
 
     .venv/bin/python bench/smoothness_bound.py configs/forward_ditch_450.yaml --tol 0.115
 """
