@@ -22,9 +22,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from jethr1_plan.balance_space import MEMBER, SweepSpec, _Evaluator
-from jethr1_plan.planner import feet_before_each_step, plan
-from jethr1_plan.robot_model import load_robot
+from jethr1_plan.balance_space import MEMBER, _Evaluator
+from jethr1_plan.compare import step_evaluator
+from jethr1_plan.planner import plan
 from jethr1_plan.scenario import load_scenario
 
 
@@ -63,17 +63,12 @@ def main() -> None:
     ap.add_argument("--half", type=float, default=0.018, help="window half-width [m]")
     args = ap.parse_args()
     sc = load_scenario(args.scenario)
-    robot = load_robot(sc.robot)
     t0 = time.perf_counter()
     opt = plan(replace(sc, optimiser=replace(sc.optimiser, method="sqp")), build_rows=False)
     gas = plan(replace(sc, optimiser=replace(sc.optimiser, method="gas")), build_rows=False)
     total = 0.0
-    for si, (st, feet) in enumerate(zip(sc.steps, feet_before_each_step(sc), strict=True)):
-        spec = SweepSpec(robot=sc.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
-                         thrust_max_n=sc.balance.thrust_max_n, rho_rad=sc.balance.rho_rad,
-                         sole_margin_m=sc.balance.sole_margin_m)
-        ev = _Evaluator(robot, spec)
-        cells = ev.cells(st.path_m)
+    for si in range(len(sc.steps)):
+        ev, cells = step_evaluator(sc, si)
         sets = near_optimal_sets(ev, cells, opt.steps[si].p_body, opt.steps[si].thrust_n, args.tol, args.step,
                                  args.half)
         bound = smoothest_path(sets)

@@ -44,7 +44,7 @@ def sole_polygon(centre_xy: np.ndarray, yaw_rad: float, length_m: float, width_m
     return local @ np.array([[c, s], [-s, c]]) + np.asarray(centre_xy, dtype=float)[:2]
 
 
-def _halfplanes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def halfplanes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward normals n (K, 2) and offsets b (K,) with n·x ≤ b inside a CCW convex polygon."""
     polygon = np.asarray(polygon, dtype=float)
     return _halfplanes_of(polygon.tobytes(), len(polygon))
@@ -64,7 +64,7 @@ def _halfplanes_of(data: bytes, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 def inside_polygon(p_xy: np.ndarray, polygon: np.ndarray, tol_m: float = 1e-12) -> np.ndarray:
     """True where ``p_xy`` (..., 2) lies in the convex CCW ``polygon`` (boundary included)."""
-    n, b = _halfplanes(polygon)
+    n, b = halfplanes(polygon)
     return np.all(np.einsum("...d,kd->...k", np.asarray(p_xy, dtype=float), n) <= b + tol_m, axis=-1)
 
 
@@ -87,7 +87,7 @@ def minimal_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, 
     """
     com = np.asarray(com_xy, dtype=float)
     d = com - np.asarray(fan_xy, dtype=float)
-    n, b = _halfplanes(polygon)
+    n, b = halfplanes(polygon)
     nc = com @ n.T
     nd = d @ n.T
     slack = b - nc  # ≥ 0 on the inner side of edge k

@@ -31,7 +31,7 @@ import numpy as np
 from .balance import body_yaw_eq4, edge_angle_excess, minimal_thrust, sole_polygon
 from .leg_kinematics import check_structure, solve_postures
 from .posture import JOINT_LIMIT, OK, UNREACHABLE
-from .robot_model import GRAVITY, RobotModel, load_robot
+from .robot_model import GRAVITY, RobotModel, load_robot, reach_centre
 
 # reason codes of a cell
 MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)
@@ -125,15 +125,9 @@ class _Evaluator:
         """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
         around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
         g = self.geom
-        reach = g.thigh_m + g.shank_m
-        u = np.stack([-np.sin(c.yaw), np.cos(c.yaw), np.zeros_like(c.yaw)], axis=1) * g.hip_offset_m
-        sgn_sw = 1.0 if self.spec.swing_side == "left" else -1.0
-        up = np.array([0.0, 0.0, g.ankle_height_m])
-        ankle_s = self.support + up
-        ankle_w = c.swing + up
-        centre_s = ankle_s + sgn_sw * u  # P_body = ankle − hip offset (support hip is at −sgn_sw·u)
-        centre_w = ankle_w - sgn_sw * u
-        return np.linalg.norm(centre_w - centre_s, axis=1) <= 2 * reach
+        centre_s = reach_centre(g, self.spec.support_side, self.support, c.yaw)
+        centre_w = reach_centre(g, self.spec.swing_side, c.swing, c.yaw)
+        return np.linalg.norm(centre_w - centre_s, axis=1) <= 2 * (g.thigh_m + g.shank_m)
 
     def __call__(self, c: _Cells, idx: np.ndarray, P: np.ndarray):
         """Objective, thrust and reason code of candidates P (M, 3) for cells ``idx`` (M,)."""
@@ -160,13 +154,9 @@ class _Evaluator:
 
     def _reach_excess(self, P, yaw, swing):
         g = self.geom
-        L = g.thigh_m + g.shank_m
-        u = np.stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)], axis=1) * g.hip_offset_m
-        sgn_sw = 1.0 if self.spec.swing_side == "left" else -1.0
-        up = np.array([0.0, 0.0, g.ankle_height_m])
-        d_s = np.linalg.norm(P - sgn_sw * u - (self.support + up), axis=1)
-        d_w = np.linalg.norm(P + sgn_sw * u - (swing + up), axis=1)
-        return np.maximum(np.maximum(d_s, d_w) - L, 0.0)
+        d_s = np.linalg.norm(P - reach_centre(g, self.spec.support_side, self.support, yaw), axis=1)
+        d_w = np.linalg.norm(P - reach_centre(g, self.spec.swing_side, swing, yaw), axis=1)
+        return np.maximum(np.maximum(d_s, d_w) - (g.thigh_m + g.shank_m), 0.0)
 
 
 def _generic_seeds(ev: _Evaluator, c: _Cells, idx: np.ndarray) -> np.ndarray:
@@ -324,10 +314,8 @@ def pelvis_box(ev: _Evaluator, c: _Cells, i: int, res: float) -> np.ndarray:
     intersection of the two reach spheres) at spacing ``res``."""
     g = ev.geom
     L = g.thigh_m + g.shank_m
-    u = np.array([-np.sin(c.yaw[i]), np.cos(c.yaw[i]), 0.0]) * g.hip_offset_m
-    sgn_sw = 1.0 if ev.spec.swing_side == "left" else -1.0
-    cs = ev.support + [0, 0, g.ankle_height_m] + sgn_sw * u
-    cw = c.swing[i] + [0, 0, g.ankle_height_m] - sgn_sw * u
+    cs = reach_centre(g, ev.spec.support_side, ev.support, c.yaw[i])
+    cw = reach_centre(g, ev.spec.swing_side, c.swing[i], c.yaw[i])
     lo = np.maximum(cs - L, cw - L)
     hi = np.minimum(cs + L, cw + L)
     lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
@@ -345,15 +333,16 @@ def _exhaustive_cell(ev: _Evaluator, c: _Cells, i: int, basins: int = REFINE_BAS
     obj = np.concatenate([ev(c, np.full(len(chunk), i), chunk)[0]
                           for chunk in (grid[s:s + 20000] for s in range(0, len(grid), 20000))])
     r = ev.spec.pbody_resolution_m
+    order = np.argsort(obj, kind="stable")
     centres: list[np.ndarray] = []
-    for j in np.argsort(obj, kind="stable"):
+    for j in order:
         if centres and obj[j] >= 2000:  # only kinematically valid, balanced points beyond the first
             break
         if all(np.max(np.abs(grid[j] - q)) > 2.5 * r for q in centres):
             centres.append(grid[j])
             if len(centres) == basins:
                 break
-    best_p, best_f = centres[0], float(obj[np.argsort(obj, kind="stable")[0]])
+    best_p, best_f = centres[0], float(obj[order[0]])
     fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
     offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
     for q in centres:

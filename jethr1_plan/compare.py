@@ -15,8 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .balance_space import SweepSpec, _Evaluator, _exhaustive_cell
+from .balance_space import SweepSpec, _Cells, _Evaluator, _exhaustive_cell
 from .planner import feet_before_each_step, plan, plan_summary, smoothness
+from .robot_model import load_robot
 from .scenario import Scenario
 
 
@@ -49,18 +50,24 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
     }
 
 
+def step_evaluator(scenario: Scenario, si: int, pbody_resolution_m: float = 0.01) -> tuple[_Evaluator, _Cells]:
+    """The balance-space evaluator of step ``si`` (its support sole, balance settings and body yaw
+    (A-4)) and its swing samples as cells: what the exhaustive search runs on."""
+    st = scenario.steps[si]
+    feet = feet_before_each_step(scenario)[si]
+    spec = SweepSpec(robot=scenario.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
+                     thrust_max_n=scenario.balance.thrust_max_n, rho_rad=scenario.balance.rho_rad,
+                     sole_margin_m=scenario.balance.sole_margin_m, method="exhaustive",
+                     pbody_resolution_m=pbody_resolution_m)
+    ev = _Evaluator(load_robot(scenario.robot), spec)
+    return ev, ev.cells(st.path_m)
+
+
 def reference_thrust(scenario: Scenario, pbody_resolution_m: float = 0.01) -> list[list[float | None]]:
     """Per step and sample, the least thrust [N] found by the dense exhaustive search (None: none)."""
     out = []
-    for st, feet in zip(scenario.steps, feet_before_each_step(scenario), strict=True):
-        spec = SweepSpec(robot=scenario.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
-                         thrust_max_n=scenario.balance.thrust_max_n, rho_rad=scenario.balance.rho_rad,
-                         sole_margin_m=scenario.balance.sole_margin_m, method="exhaustive",
-                         pbody_resolution_m=pbody_resolution_m)
-        from .robot_model import load_robot
-
-        ev = _Evaluator(load_robot(scenario.robot), spec)
-        cells = ev.cells(st.path_m)
+    for si, st in enumerate(scenario.steps):
+        ev, cells = step_evaluator(scenario, si, pbody_resolution_m)
         row = []
         for i in range(len(st.path_m)):
             _, f, reason = _exhaustive_cell(ev, cells, i)

@@ -15,7 +15,7 @@ from .fitness import VIOLATIONS, SampleProblem
 from .leg_kinematics import make_posture_solver
 from .optimiser import SampleResult, optimise_sample
 from .posture import PostureSolver, Stance
-from .robot_model import RobotModel, load_robot
+from .robot_model import SIDES, RobotModel, load_robot, reach_centre
 from .scenario import Scenario
 from .sequence import Rows, SequenceBuilder
 from .statics import KAPPA_WARNING, analyse_rows
@@ -93,6 +93,24 @@ def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_
                          rho_rad=scenario.balance.rho_rad)
 
 
+def path_problems(scenario: Scenario, robot: RobotModel, si: int, feet: dict[str, np.ndarray],
+                  sample_yaw: np.ndarray | None = None) -> Callable[[float], SampleProblem]:
+    """``problem_at(u)``: the problem with the swing sole at path parameter ``u`` of step ``si``
+    (sample index, fractional between samples, interpolated as the sequence's rows are); the body
+    yaw from the scenario's mode, or interpolated in ``sample_yaw`` (the MPC schedule's samples)."""
+    step = scenario.steps[si]
+    support = step.support
+    yaw_of = yaw_function(scenario, robot, support, feet[support])
+    idx = np.arange(len(step.path_m))
+
+    def problem_at(u: float) -> SampleProblem:
+        swing = np.array([np.interp(u, idx, step.path_m[:, j]) for j in range(3)])
+        yaw = yaw_of(swing) if sample_yaw is None else float(np.interp(u, idx, sample_yaw))
+        return sample_problem(scenario, robot, support, feet[support], swing, yaw)
+
+    return problem_at
+
+
 def feet_before_each_step(scenario: Scenario) -> list[dict[str, np.ndarray]]:
     """Both sole positions [m] at the start of every step."""
     feet = {k: v.copy() for k, v in scenario.start.items()}
@@ -117,28 +135,21 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
     solver = solver or make_posture_solver(robot, kinematics)
     step = scenario.steps[si]
     support = step.support
-    yaw_of = yaw_function(scenario, robot, support, feet[support])
+    problem_at = path_problems(scenario, robot, si, feet, sample_yaw)
     z_nom = scenario.nominal_height_m or NOMINAL_HEIGHT_FRACTION * robot.leg_length_m
     results: list[SampleResult] = []
     previous = None
     first_bad = None
-    problems, nominals = [], []
-    for i, swing_xyz in enumerate(step.path_m):
-        yaw = yaw_of(swing_xyz) if sample_yaw is None else float(sample_yaw[i])
-        problems.append(sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw))
-        nominals.append(np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom]))
+    problems = [problem_at(i) for i in range(len(step.path_m))]
+    nominals = [np.array([*(0.5 * (feet[support][:2] + swing_xyz[:2])), feet[support][2] + z_nom])
+                for swing_xyz in step.path_m]
     path_results = None
     if cfg.method == "sqp":  # optimises the whole path at once (forward and backward passes)
         from .sqp_optimiser import optimise_path_sqp
 
-        def between(i: int, lam: float):
-            swing_xyz = (1 - lam) * step.path_m[i] + lam * step.path_m[i + 1]
-            yaw = (yaw_of(swing_xyz) if sample_yaw is None
-                   else float((1 - lam) * sample_yaw[i] + lam * sample_yaw[i + 1]))
-            return sample_problem(scenario, robot, support, feet[support], swing_xyz, yaw)
-
         path_results = optimise_path_sqp(solver, robot, problems, nominals, cfg,
-                                         [np.random.default_rng([seed, si, i]) for i in range(len(problems))], between)
+                                         [np.random.default_rng([seed, si, i]) for i in range(len(problems))],
+                                         lambda i, lam: problem_at(i + lam))
     for i, swing_xyz in enumerate(step.path_m):
         problem, nominal = problems[i], nominals[i]
         if path_results is not None:
@@ -284,15 +295,12 @@ def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float
     """
     mid = 0.5 * (feet["left"] + feet["right"])
     base = max(feet["left"][2], feet["right"][2])
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
     reach = 0.95 * (robot.thigh_m + robot.shank_m)
     for frac in np.arange(STANDING_HEIGHT_FRACTION, 0.3, -0.01):
         p = np.array([mid[0], mid[1], base + frac * robot.leg_length_m])
         ok = True
-        for side, sgn in (("left", 1.0), ("right", -1.0)):
-            hip = p + sgn * robot.hip_offset_m * np.array([-s, c, 0.0])
-            ankle = feet[side] + np.array([0.0, 0.0, robot.ankle_height_m])
-            ok &= bool(np.linalg.norm(hip - ankle) <= reach)
+        for side in SIDES:
+            ok &= bool(np.linalg.norm(p - reach_centre(robot, side, feet[side], yaw_rad)) <= reach)
         if ok:
             return p
     return p

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .robot_model import RobotModel
+from .robot_model import SIDES, RobotModel, reach_centre
 
 OK, UNREACHABLE, JOINT_LIMIT, NOT_CONVERGED = 0, 1, 2, 3
 REASONS = {OK: "ok", UNREACHABLE: "unreachable", JOINT_LIMIT: "joint limit", NOT_CONVERGED: "ik not converged"}
@@ -86,13 +86,9 @@ def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.nd
     """(N,) True where both hip–ankle distances are within the leg's geometric range."""
     longest_sq = (model.thigh_m + model.shank_m) ** 2
     shortest_sq = (abs(model.thigh_m - model.shank_m) + 0.05) ** 2  # the knee limit keeps it well above
-    c, s = np.cos(stance.body_yaw), np.sin(stance.body_yaw)
     ok = np.ones(len(p_body), dtype=bool)
-    for side, sgn in (("left", 1.0), ("right", -1.0)):
-        T_foot = stance.foot_pose(side)
-        ankle = T_foot[:3, 3] + T_foot[:3, 2] * model.ankle_height_m
-        # hip − ankle = p_body + R_trunk·(0, ±w, 0) − ankle
-        d = p_body + (np.array([-s, c, 0.0]) * (sgn * model.hip_offset_m) - ankle)
+    for side in SIDES:  # flat feet: the ankle is straight above the sole
+        d = p_body - reach_centre(model, side, stance.foot_pose(side)[:3, 3], stance.body_yaw)
         dist_sq = np.einsum("ij,ij->i", d, d)
         ok &= (dist_sq <= longest_sq) & (dist_sq >= shortest_sq)
     return ok

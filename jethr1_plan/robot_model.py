@@ -18,6 +18,25 @@ import yaml
 from .errors import RobotModelError
 
 SIDES = ("left", "right")
+
+
+def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray:
+    """Centre [m] of the ball of trunk positions from which the ``side`` leg reaches its ankle.
+
+    The hip sits at trunk + s·w·(−sin γ, cos γ, 0) (s = +1 left, −1 right, w the hip offset, γ the
+    trunk yaw) and reaches a flat foot's ankle (sole + ankle height) when ‖hip − ankle‖ ≤ thigh +
+    shank: the trunk must lie within that distance of ankle − s·w·(−sin γ, cos γ, 0).
+
+    Args:
+        legs: anything with ``hip_offset_m`` and ``ankle_height_m`` (a RobotModel, a LegGeometry).
+        foot_xyz: (3,) or (N, 3) sole centre(s) [m]; trunk_yaw: scalar or (N,) [rad].
+    Returns:
+        (3,) or (N, 3) [m], broadcast over the inputs.
+    """
+    sgn = 1.0 if side == "left" else -1.0
+    yaw = np.asarray(trunk_yaw, dtype=float)
+    offset = np.stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)], axis=-1) * (sgn * legs.hip_offset_m)
+    return np.asarray(foot_xyz, dtype=float) + np.array([0.0, 0.0, legs.ankle_height_m]) - offset
 JOINT_TYPES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 #: the 12 joints in URDF order (left leg then right leg)
 JOINT_NAMES = tuple(f"{side}_{j}" for side in SIDES for j in JOINT_TYPES)

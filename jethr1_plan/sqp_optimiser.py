@@ -6,7 +6,7 @@ exact minimal thrust H(P_body) (A-5) subject to (A-8) joint limits, the legs' re
 such a problem in a few iterations when it starts near the answer, and along a swing path the
 neighbouring sample's P_body is such a start (continuation). Written with the thrust as a variable,
 the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
-closed-form kinematics (``leg_kinematics``), exact to rounding, four postures per gradient.
+closed-form kinematics (``leg_kinematics``), exact to rounding, three postures per gradient.
 
 Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
 that makes it a tie-break (ε = 100 N/m²: a 1 cm move costs 0.01 N; ``optimiser.sqp.
@@ -35,19 +35,22 @@ neighbour's posture is often just outside them: the foot has moved), and an answ
 hair outside is stepped back in the same way; where SLSQP still fails, a compass search follows.
 Constraints keep small margins, so that postures interpolated between samples (the 50 Hz rows)
 and PlaCo's check of the chosen postures pass too: ZMP 0.1 mm inside the sole, 0.002 rad inside
-the (A-10) cone, 0.005 rad inside the joint limits, the knees bent by at least about 0.05 rad.
+the (A-10) cone, 0.002 rad inside the joint limits, the knees bent by at least about 0.05 rad.
 Each chosen P_body is finally evaluated with the planner's posture solver (PlaCo by default); a
 sample that fails there falls back to GAS's initial phase around it.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import minimize
 
-from .balance import _halfplanes, edge_angle_error, minimal_thrust
+from .balance import edge_angle_error, halfplanes, minimal_thrust
+from .balance_space import DIRECTIONS
 from .fitness import SampleProblem, evaluate_candidates, fitness
 from .leg_kinematics import check_structure, solve_postures
 from .optimiser import OptimiserConfig, SampleResult, _initial_phase
@@ -69,6 +72,16 @@ SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much
 SMOOTH_SWEEPS = 4
 BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples
 BETWEEN_ROUNDS = 6  # rounds of wider margins (×2 each) for segments that fail
+
+
+@functools.cache
+def limit_mask(robot: RobotModel) -> np.ndarray:
+    """(24,) which of the rows q − lower, upper − q are joint-limit constraints: all but a knee's
+    straight-leg limit, which is the legs' reach; the reach constraint (with its margin) keeps it,
+    and the two together would be degenerate at full stretch."""
+    knee_straight = np.array([n.endswith("_knee") and lo <= 1e-9 for n, lo in
+                              zip(robot.joint_names, robot.lower_rad, strict=True)])
+    return np.concatenate([~knee_straight, np.ones(len(knee_straight), dtype=bool)])
 
 
 class AnalyticSample:
@@ -94,16 +107,12 @@ class AnalyticSample:
         self.hip = g.hip_offset_m
         self.up = np.array([0.0, 0.0, g.ankle_height_m])
         self.weight = problem.mass_kg * GRAVITY
-        self.normals, offsets = _halfplanes(problem.support_polygon)
+        self.normals, offsets = halfplanes(problem.support_polygon)
         self.offsets = offsets - self.margins[3]
         self.u_max = problem.thrust_max_n / self.weight
         self.evaluations = 0
         self._cache: dict[bytes, tuple] = {}
-        # a straight knee (lower limit 0) is the legs' reach, which the reach constraint (with its
-        # margin) already keeps: the two together would be degenerate at full stretch
-        knee_straight = np.array([n.endswith("_knee") and lo <= 1e-9 for n, lo in
-                                  zip(robot.joint_names, robot.lower_rad, strict=True)])
-        self._limit_mask = np.concatenate([~knee_straight, np.ones(12, dtype=bool)])
+        self._limit_mask = limit_mask(robot)
 
     def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CoM (M, 3) [m], the P-only constraints (M, K) (≥ 0 when held) and the exact minimal
@@ -114,7 +123,7 @@ class AnalyticSample:
         edge = edge_angle_error(pr.edge_origin_xy, com[:, :2], pr.ankle_xy)
         c, s = np.cos(pr.stance.body_yaw), np.sin(pr.stance.body_yaw)
         reach = []
-        for side, sgn in (("left", 1.0), ("right", -1.0)):
+        for side, sgn in (("left", 1.0), ("right", -1.0)):  # hip − ankle, as in leg_kinematics.leg_ik
             d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
             reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - self.margins[1])
         lo, hi = self.robot.lower_rad, self.robot.upper_rad
@@ -204,9 +213,6 @@ class AnalyticSample:
         return P, t, ok
 
 
-DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0
-
-
 def _penalised(sample: AnalyticSample, P: np.ndarray) -> np.ndarray:
     """Thrust [N] plus exact penalties for violated constraints, plus the tie-break (M,)."""
     _, cons, thrust = sample.posture_terms(P)
@@ -246,17 +252,25 @@ def grid_starts(sample: AnalyticSample, centre: np.ndarray, half: float, k: int 
     return [grid[i] for i in order[:k]]
 
 
+class Found(NamedTuple):
+    """A sample's chosen P_body [m], its exact minimal thrust [N], and whether SLSQP settled inside
+    its trust box (the box did not hold it back)."""
+
+    p: np.ndarray
+    thrust: float
+    settled: bool
+
+
 def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
     return [(float(c) - half, float(c) + half) for c in centre]
 
 
 def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.ndarray | None = None
-                         ) -> tuple[np.ndarray, float, bool] | None:
+                         ) -> Found | None:
     """SLSQP inside the trust box around the neighbour's P_body ``centre``, from ``guess`` and then,
     if that fails, from the centre; the compass search from the centre where both end infeasible.
 
-    Returns (P_body, thrust [N], settled) or None; ``settled``: SLSQP's answer lies inside the box,
-    so the box did not hold it back.
+    Returns None where nothing feasible was found.
     """
     box = _box(centre, TRUST_M)
     starts = [centre.copy()]
@@ -265,13 +279,13 @@ def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.n
     for start in starts:
         x, f, ok = sample.solve(start, box)
         if ok:
-            return x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4))
+            return Found(x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4)))
     x = compass(sample, centre)
     ok, f = sample.feasible(x)
-    return (x, f, False) if ok else None
+    return Found(x, f, False) if ok else None
 
 
-def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> tuple[np.ndarray, float] | None:
+def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> Found | None:
     """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
     best = None
     for x0 in grid_starts(sample, centre, half):
@@ -279,38 +293,38 @@ def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> 
         if not ok:
             x = compass(sample, x0, step=0.016)
             ok, f = sample.feasible(x)
-        if ok and (best is None or f < best[1] - 1e-9):
-            best = (x, f)
+        if ok and (best is None or f < best.thrust - 1e-9):
+            best = Found(x, f, False)
     return best
 
 
-def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list, evals: np.ndarray,
+def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
                 sweeps: int = SMOOTH_SWEEPS) -> None:
     """Sweeps that move each P_body towards the midpoint of its neighbours (full, half or quarter
     way, the first that holds), as long as every constraint holds and the thrust rises by at most
     ``SMOOTH_N``: the jitter a local optimum leaves in directions where the thrust is flat goes,
     the thrust stays within SMOOTH_N of what was found. Updates ``found`` and ``evals`` in place."""
     n = len(found)
+    base = [None if f is None else f.thrust for f in found]  # the thrusts the optimiser found
     for _ in range(sweeps):
         for i in range(1, n - 1):
             a, b, cur = found[i - 1], found[i + 1], found[i]
             if a is None or b is None or cur is None:
                 continue
-            mid = 0.5 * (a[0] + b[0])
-            if np.linalg.norm(mid - cur[0]) < 1e-5:
+            mid = 0.5 * (a.p + b.p)
+            if np.linalg.norm(mid - cur.p) < 1e-5:
                 continue
             sample = AnalyticSample(robot, problems[i], None)
-            base = cur[3] if len(cur) > 3 else cur[1]  # the thrust the optimiser found here
             for alpha in (1.0, 0.5, 0.25):
-                p = cur[0] + alpha * (mid - cur[0])
+                p = cur.p + alpha * (mid - cur.p)
                 ok, t = sample.feasible(p)
-                if ok and t <= base + SMOOTH_N:
-                    found[i] = (p, t, cur[2], base)
+                if ok and t <= base[i] + SMOOTH_N:
+                    found[i] = Found(p, t, cur.settled)
                     break
             evals[i] += sample.evaluations
 
 
-def infeasible_between(robot: RobotModel, found: list, between: Callable[[int, float], SampleProblem],
+def infeasible_between(robot: RobotModel, found: list[Found | None], between: Callable[[int, float], SampleProblem],
                        evals: np.ndarray) -> list[int]:
     """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
     the sequence builds there interpolate P_body and the swing sole linearly (checked at a quarter,
@@ -321,7 +335,7 @@ def infeasible_between(robot: RobotModel, found: list, between: Callable[[int, f
             continue
         for lam in BETWEEN:
             sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
-            ok, _ = sample.feasible((1 - lam) * found[i][0] + lam * found[i + 1][0])
+            ok, _ = sample.feasible((1 - lam) * found[i].p + lam * found[i + 1].p)
             evals[i] += sample.evaluations
             if not ok:
                 bad.append(i)
@@ -345,27 +359,26 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
     n = len(problems)
     half = cfg.initial.half_range_m
     eps = cfg.sqp_smoothness_n_per_m2
-    found: list[tuple[np.ndarray, float, bool] | None] = [None] * n
+    found: list[Found | None] = [None] * n
     evals = np.zeros(n, dtype=np.int64)
     phase = ["sqp"] * n
     # forward pass
     for i in range(n):
         prev = found[i - 1] if i else None
-        sample = AnalyticSample(robot, problems[i], None if prev is None else prev[0], eps)
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps)
         r = None
         if prev is not None:
-            ok, f = sample.feasible(prev[0])
+            ok, f = sample.feasible(prev.p)
             if ok and f == 0.0:  # no thrust needed and no move: the optimum of u + tie-break
-                r = (prev[0].copy(), 0.0, True)
+                r = Found(prev.p.copy(), 0.0, True)
             else:  # predictor: the last move repeated; corrector: SLSQP
                 before = found[i - 2] if i >= 2 else None
-                guess = 2 * prev[0] - before[0] if before is not None and before[1] > 0 else None
-                r = solve_from_neighbour(sample, prev[0], guess)
+                guess = 2 * prev.p - before.p if before is not None and before.thrust > 0 else None
+                r = solve_from_neighbour(sample, prev.p, guess)
                 if r is None and guess is not None:  # the box moved on along the path
                     r = solve_from_neighbour(sample, guess)
         if r is None:
-            r = solve_from_grid(sample, nominals[i] if prev is None else prev[0], half)
-            r = None if r is None else (*r, False)
+            r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, half)
             phase[i] = "sqp-grid"
         found[i] = r
         evals[i] += sample.evaluations
@@ -374,16 +387,16 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         nxt, cur = found[i + 1], found[i]
         if nxt is None:
             continue
-        sample = AnalyticSample(robot, problems[i], nxt[0], eps)
-        ok, f = sample.feasible(nxt[0])  # the next posture itself, when it serves as well, is the answer
-        if ok and cur is not None and f <= cur[1] + ACCEPT_N:
-            r = (nxt[0].copy(), f, True)
-        elif cur is not None and cur[1] > 0 and cur[2]:
+        sample = AnalyticSample(robot, problems[i], nxt.p, eps)
+        ok, f = sample.feasible(nxt.p)  # the next posture itself, when it serves as well, is the answer
+        if ok and cur is not None and f <= cur.thrust + ACCEPT_N:
+            r = Found(nxt.p.copy(), f, True)
+        elif cur is not None and cur.thrust > 0 and cur.settled:
             r = None  # the forward pass settled on a thrust optimum there: nothing to gain
         else:
-            r = solve_from_neighbour(sample, nxt[0])
+            r = solve_from_neighbour(sample, nxt.p)
         evals[i] += sample.evaluations
-        if r is not None and (cur is None or r[1] <= cur[1] + ACCEPT_N):
+        if r is not None and (cur is None or r.thrust <= cur.thrust + ACCEPT_N):
             found[i] = r
     smooth_path(robot, problems, found, evals)
     scale = np.ones(n)
@@ -394,16 +407,16 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         redo = sorted({j for i in bad for j in (i, i + 1)})
         scale[redo] *= 2.0
         for j in redo:
-            anchor = found[j - 1][0] if j and found[j - 1] is not None else None
+            anchor = found[j - 1].p if j and found[j - 1] is not None else None
             sample = AnalyticSample(robot, problems[j], anchor, eps, margin_scale=scale[j])
-            r = solve_from_neighbour(sample, found[j][0])
+            r = solve_from_neighbour(sample, found[j].p)
             evals[j] += sample.evaluations
             if r is not None:
                 found[j] = r
     # the chosen postures, evaluated with the planner's solver
     out = []
     for i, pr in enumerate(problems):
-        p = found[i][0] if found[i] is not None else nominals[i]
+        p = found[i].p if found[i] is not None else nominals[i]
         cand = evaluate_candidates(solver, pr, p[None])
         evals[i] += 1
         if not cand.feasible[0]:

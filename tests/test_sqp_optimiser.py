@@ -10,9 +10,10 @@ import pytest
 import yaml
 
 from jethr1_plan import sqp_optimiser as sqp
-from jethr1_plan.balance_space import SweepSpec, _Evaluator, _exhaustive_cell
+from jethr1_plan.balance_space import _exhaustive_cell
 from jethr1_plan.cli import run
-from jethr1_plan.planner import feet_before_each_step, plan, sample_problem, yaw_function
+from jethr1_plan.compare import step_evaluator
+from jethr1_plan.planner import feet_before_each_step, path_problems, plan
 from jethr1_plan.robot_model import GRAVITY
 from jethr1_plan.scenario import load_scenario
 
@@ -28,10 +29,7 @@ def ditch_plans():
 
 
 def _problem(sc, robot, i):
-    st = sc.steps[0]
-    feet = feet_before_each_step(sc)[0]
-    yaw = yaw_function(sc, robot, st.support, feet[st.support])(st.path_m[i])
-    return sample_problem(sc, robot, st.support, feet[st.support], st.path_m[i], yaw)
+    return path_problems(sc, robot, 0, feet_before_each_step(sc)[0])(i)
 
 
 def test_smooth_balance_rows_reproduce_the_exact_minimal_thrust(robot, monkeypatch):
@@ -104,13 +102,7 @@ def test_sqp_is_within_half_a_percent_of_the_exhaustive_minimum(ditch_plans, rob
     no posture that needs 0.5 % of the thrust limit less than the optimiser's, on samples along
     the part of the swing that needs thrust."""
     sc, plans = ditch_plans
-    st = sc.steps[0]
-    feet = feet_before_each_step(sc)[0]
-    spec = SweepSpec(robot=sc.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
-                     thrust_max_n=sc.balance.thrust_max_n, rho_rad=sc.balance.rho_rad,
-                     sole_margin_m=sc.balance.sole_margin_m, method="exhaustive", pbody_resolution_m=0.01)
-    ev = _Evaluator(robot, spec)
-    cells = ev.cells(st.path_m)
+    ev, cells = step_evaluator(sc, 0)
     thrust = plans["sqp"].steps[0].thrust_n
     for i in (41, 47, 53, 59):
         _, ref, reason = _exhaustive_cell(ev, cells, i)
@@ -147,15 +139,12 @@ def test_sqp_plans_every_config_and_its_rows_between_samples_hold(tmp_path, name
 def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
     """Two feasible postures whose straight-line interpolation leaves the (A-10) cone are flagged."""
     sc = load_scenario(DITCH)
-    st = sc.steps[0]
-    feet = feet_before_each_step(sc)[0]
-    yaw_of = yaw_function(sc, robot, st.support, feet[st.support])
+    problem_at = path_problems(sc, robot, 0, feet_before_each_step(sc)[0])
 
     def between(i, lam):
-        s = (1 - lam) * st.path_m[i] + lam * st.path_m[i + 1]
-        return sample_problem(sc, robot, st.support, feet[st.support], s, yaw_of(s))
+        return problem_at(i + lam)
 
-    found = [(p, 0.0, True) for p in plan(sc, method="sqp", build_rows=False).steps[0].p_body]
+    found = [sqp.Found(p, 0.0, True) for p in plan(sc, method="sqp", build_rows=False).steps[0].p_body]
     evals = np.zeros(len(found), dtype=np.int64)
     assert sqp.infeasible_between(robot, found, between, evals) == []
     assert evals.sum() > 0
@@ -164,10 +153,10 @@ def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
     sample = sqp.AnalyticSample(robot, _problem(sc, robot, i), None, margin_scale=0.0)
     rng = np.random.default_rng(0)
     for _ in range(2000):
-        p = found[i][0] + rng.uniform(-0.06, 0.06, 3)
+        p = found[i].p + rng.uniform(-0.06, 0.06, 3)
         if sample.feasible(p)[0]:
             bent = list(found)
-            bent[i] = (p, 0.0, True)
+            bent[i] = sqp.Found(p, 0.0, True)
             if sqp.infeasible_between(robot, bent, between, evals):
                 break
     else:
