@@ -52,7 +52,7 @@ class OptimiserConfig:
     gaex_step_m: float = 0.001
     tournament_size: int = 2
     elites: int = 1
-    sqp_smoothness_n_per_m2: float = 100.0  # sqp: ε of the tie-break ε·‖ΔP_body‖² [N/m²]
+    sqp_smoothness_n_per_m2: float = 10.0  # sqp: ε of the tie-break ε·‖ΔP_body‖² [N/m²]
 
 
 @dataclass

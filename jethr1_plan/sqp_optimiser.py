@@ -9,7 +9,7 @@ the balance condition is smooth (``AnalyticSample``); gradients are forward diff
 closed-form kinematics (``leg_kinematics``), exact to rounding, three postures per gradient.
 
 Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
-that makes it a tie-break (ε = 100 N/m²: a 1 cm move costs 0.01 N; ``optimiser.sqp.
+that makes it a tie-break (ε = 10 N/m²: a 1 cm move costs 0.001 N; ``optimiser.sqp.
 smoothness_n_per_m2`` in a scenario trades thrust for smoothness) instead of a price (the paper's
 ω = 50 per mm² against 10 per N is 5·10⁶ N/m², which holds P_body back by up to 3 N of thrust).
 An exact optimiser needs no more: wherever the optimum is unique P_body moves continuously with
@@ -95,7 +95,7 @@ class AnalyticSample:
     """
 
     def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None,
-                 smoothness_n_per_m2: float = 100.0, margin_scale: float = 1.0):
+                 smoothness_n_per_m2: float = 10.0, margin_scale: float = 1.0):
         self.robot, self.problem, self.anchor = robot, problem, anchor
         self.eps = smoothness_n_per_m2
         self.margins = margin_scale * np.array([EDGE_MARGIN_RAD, REACH_MARGIN_M2, JOINT_MARGIN_RAD, ZMP_MARGIN_M])

@@ -103,28 +103,30 @@ def test_mcap_point_clouds(swept):
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20000
 
 
-def test_continuation_against_exhaustive_on_sampled_cells(robot):
-    """The default search against the paper's exhaustive search on randomly sampled cells.
+@pytest.mark.parametrize("z", [0.05, 0.15])
+def test_continuation_against_exhaustive_on_sampled_cells(robot, z):
+    """The default search against the paper's exhaustive search (its P_body grid refined to 1 mm, grid
+    points beyond a leg's reach moved onto it) on randomly sampled cells of a 1 cm sweep across the
+    edge of the space with thrust: same membership and thrust within 0.1 N (the issue's criterion).
 
-    Measured agreement (README, "Balance space"): most cells agree within 0.1 N with the same
-    membership; the rest differ by at most about 1.5 N (either way: the exhaustive grid is not a
-    true minimum either). This test guards that level; it does not claim the issue's 0.1 N target.
+    Measured on 1,000 cells of the default sweep (README, "Balance space"): 992 agree; the others lie
+    higher, with the swing sole 0.13 to 0.27 m up, where two joint limits and a straight leg meet.
     """
-    spec = SweepSpec(resolution_m=0.05, x_range=(-0.6, 0.7), y_range=(-0.4, 0.6))
-    layer = sweep_layers(spec, (0.05,))
+    spec = SweepSpec(x_range=(0.25, 0.75), y_range=(-0.35, 0.35))
+    layer = sweep_layers(spec, (z,))
     ev = _Evaluator(robot, spec)
     cells = ev.cells(layer.swing)
     rng = np.random.default_rng(4)
-    picks = rng.choice(np.flatnonzero(layer.reason != OVERLAP), 14, replace=False)
-    close, worst = 0, 0.0
+    reachable = np.flatnonzero((layer.reason != OVERLAP) & ev.reach_possible(cells))
+    picks = rng.choice(reachable, 24, replace=False)
+    members = 0
     for i in picks:
         _, f_ex, r_ex = _exhaustive_cell(ev, cells, i)
-        same = (layer.reason[i] == MEMBER) == (r_ex == MEMBER)
-        gap = abs(layer.thrust[i] - f_ex) if r_ex == MEMBER and layer.reason[i] == MEMBER else 0.0
-        close += same and gap <= 0.1
-        worst = max(worst, gap)
-    assert close >= 0.75 * len(picks)
-    assert worst < 2.0
+        assert (layer.reason[i] == MEMBER) == (r_ex == MEMBER), (layer.swing[i], layer.thrust[i], f_ex)
+        if r_ex == MEMBER:
+            members += 1
+            assert abs(layer.thrust[i] - f_ex) <= 0.1, (layer.swing[i], layer.thrust[i], f_ex)
+    assert 6 <= members <= 18  # the window straddles the space's edge: both kinds are sampled
 
 
 def test_dask_executor_writes_identical_output(tmp_path):

@@ -1,0 +1,75 @@
+"""The compiled balance-space objective against the numpy functions it fuses.
+
+The reference composes the public numpy path independently: closed-form IK + CoM
+(``leg_kinematics.solve_postures``, itself checked against PlaCo), the minimal thrust by the ZMP ray
+(``balance.minimal_thrust``), the edge angle (``balance.edge_angle_excess``) and the reach balls
+(``robot_model.reach_centre``). Candidates are random pelvis positions around random swing cells, so
+every reason code occurs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jethr1_plan.balance import edge_angle_excess, minimal_thrust
+from jethr1_plan.balance_space import (
+    ABOVE_MAX,
+    EDGE,
+    EDGE_PENALTY_N_PER_DEG,
+    LIMITS,
+    MEMBER,
+    NO_BALANCE,
+    OUT_OF_REACH,
+    SweepSpec,
+    _Evaluator,
+)
+from jethr1_plan.leg_kinematics import solve_postures
+from jethr1_plan.posture import JOINT_LIMIT, UNREACHABLE
+from jethr1_plan.robot_model import load_robot, reach_centre
+
+
+def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
+    spec, robot = ev.spec, ev.robot
+    swing, yaw, fan = cells.swing[idx], cells.yaw[idx], cells.fan[idx]
+    feet = {spec.support_side: (ev.support, 0.0), spec.swing_side: (swing, 0.0)}
+    q, com, status = solve_postures(robot, P, yaw, feet)
+    thrust, _ = minimal_thrust(com[:, :2], fan, ev.poly, robot.mass_kg)
+    edge = edge_angle_excess(ev.support[:2], com[:, :2], swing[:, :2], spec.rho_rad)
+    limit_excess = np.sum(np.maximum(robot.lower_rad - q, 0) + np.maximum(q - robot.upper_rad, 0), axis=1)
+    g = ev.geom
+    d_s = np.linalg.norm(P - reach_centre(g, spec.support_side, ev.support, yaw), axis=1)
+    d_w = np.linalg.norm(P - reach_centre(g, spec.swing_side, swing, yaw), axis=1)
+    reach_excess = np.maximum(np.maximum(d_s, d_w) - (g.thigh_m + g.shank_m), 0.0)
+    dist = np.linalg.norm(com[:, :2] - ev.support[:2], axis=1)
+    balanced = np.isfinite(thrust)
+    obj = np.select([status == UNREACHABLE, status == JOINT_LIMIT, ~balanced],
+                    [4000 + 1e4 * reach_excess, 3000 + 1e3 * limit_excess, 2000 + 1e3 * dist],
+                    thrust + EDGE_PENALTY_N_PER_DEG * np.degrees(edge))
+    reason = np.select([status == UNREACHABLE, status == JOINT_LIMIT, ~balanced, edge > 0,
+                        thrust > spec.thrust_max_n], [OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX], MEMBER)
+    return obj, np.where((reason == MEMBER) | (reason == ABOVE_MAX), thrust, np.inf), reason
+
+
+@pytest.mark.parametrize("side, support", [("right", (0.0, -0.1125, 0.0)), ("left", (0.05, 0.1, 0.04))])
+def test_compiled_objective_equals_the_numpy_functions(side, support):
+    spec = SweepSpec(support_side=side, support_xyz=support, thrust_max_n=18.0)
+    ev = _Evaluator(load_robot(spec.robot), spec)
+    rng = np.random.default_rng(3)
+    n_cells, m = 400, 40_000
+    swing = np.column_stack([rng.uniform(-0.6, 0.7, n_cells), rng.uniform(-0.7, 0.7, n_cells),
+                             rng.uniform(0.0, 0.3, n_cells)])
+    cells = ev.cells(swing)
+    idx = rng.integers(0, n_cells, m)
+    mid = (np.asarray(support) + swing[idx]) / 2
+    P = mid + np.column_stack([rng.normal(0, 0.08, m), rng.normal(0, 0.08, m), rng.uniform(0.15, 0.45, m)])
+    obj, thrust, reason = ev(cells, idx, P)
+    obj_ref, thrust_ref, reason_ref = numpy_objective(ev, cells, idx, P)
+    # every reason occurs, so every branch is compared
+    assert set(np.unique(reason_ref)) == {MEMBER, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX}
+    np.testing.assert_array_equal(reason, reason_ref)
+    np.testing.assert_allclose(obj, obj_ref, rtol=0, atol=1e-8)
+    finite = np.isfinite(thrust_ref)
+    np.testing.assert_array_equal(np.isfinite(thrust), finite)
+    np.testing.assert_allclose(thrust[finite], thrust_ref[finite], rtol=0, atol=1e-10)
+    assert ev.evaluations == m
