@@ -275,9 +275,14 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     if as_json:
         click.echo(_dump(doc), nl=False)
     w, wo = doc["with_thrust"], doc["without_thrust"]
-    err_console.print(f"balance space: {w['cells']} cells with thrust (reach forward {w['max_forward_m']} m, "
-                      f"sideways {w['max_sideways_m']} m), {wo['cells']} without (forward {wo['max_forward_m']} m, "
-                      f"sideways {wo['max_sideways_m']} m) in {doc['wall_s']:.1f} s; wrote {outdir}/")
+
+    def metres(v: float | None) -> str:
+        return "-" if v is None else f"{v:.3f} m"
+
+    err_console.print(f"balance space: {w['cells']} cells with thrust (reach forward {metres(w['max_forward_m'])}, "
+                      f"sideways {metres(w['max_sideways_m'])}), {wo['cells']} without (forward "
+                      f"{metres(wo['max_forward_m'])}, sideways {metres(wo['max_sideways_m'])}) "
+                      f"in {doc['wall_s']:.1f} s; wrote {outdir}/")
 
 
 @main.command()
