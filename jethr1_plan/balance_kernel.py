@@ -271,6 +271,15 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
     return obj, thrust_out, reason
 
 
+@numba.njit(cache=True, inline="always")
+def _onto_ball(p0, p1, p2, c0, c1, c2, d, radius, o0, o1, o2):
+    """P at distance ``d`` from centre c moved onto c's ball of ``radius``; and whether it lands
+    within ``radius`` of the other centre o."""
+    s = radius / d
+    q0, q1, q2 = c0 + (p0 - c0) * s, c1 + (p1 - c1) * s, c2 + (p2 - c2) * s
+    return (q0 - o0) ** 2 + (q1 - o1) ** 2 + (q2 - o2) ** 2 <= radius * radius, q0, q1, q2
+
+
 @numba.njit(cache=True)
 def into_reach(P, idx, centre_w, centre_s, radius):
     """P (M, 3) [m] projected onto the intersection of the two legs' reach balls (radius ``radius``
@@ -289,15 +298,13 @@ def into_reach(P, idx, centre_w, centre_s, radius):
         if da <= radius and db <= radius:
             continue
         if da > radius:  # onto the swing ball; done if that lands inside the support ball
-            s = radius / da
-            q0, q1, q2 = a0 + (p0 - a0) * s, a1 + (p1 - a1) * s, a2 + (p2 - a2) * s
-            if (q0 - b0) ** 2 + (q1 - b1) ** 2 + (q2 - b2) ** 2 <= radius * radius:
+            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, a0, a1, a2, da, radius, b0, b1, b2)
+            if inside:
                 out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
                 continue
         if db > radius:  # onto the support ball; done if that lands inside the swing ball
-            s = radius / db
-            q0, q1, q2 = b0 + (p0 - b0) * s, b1 + (p1 - b1) * s, b2 + (p2 - b2) * s
-            if (q0 - a0) ** 2 + (q1 - a1) ** 2 + (q2 - a2) ** 2 <= radius * radius:
+            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, b0, b1, b2, db, radius, a0, a1, a2)
+            if inside:
                 out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
                 continue
         # onto the circle where the two spheres meet: centre halfway, radius √(R² − (h/2)²), in the
