@@ -16,13 +16,11 @@ enters the support polygon, which makes H(P_body) of (A-5) exact and closed-form
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 
 from .robot_model import GRAVITY
-
-#: sentinel thrust for a posture no thrust can balance (ray misses the sole)
-NO_BALANCE = np.inf
 
 
 def zmp_with_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, mass_kg: float,
@@ -70,10 +68,9 @@ def inside_polygon(p_xy: np.ndarray, polygon: np.ndarray, tol_m: float = 1e-12) 
 
 def minimal_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
                    g: float = GRAVITY) -> tuple[np.ndarray, np.ndarray]:
-    """Exact minimal thrust H(P_body) of (A-5) and the ZMP it gives.
-
-    The ZMP ray ZMP(s) = CoM + s·(CoM − P_T), s ≥ 0, is clipped against the polygon's half-planes
-    (Cyrus–Beck); the smallest admissible s gives F = M·g·s / (1 + s).
+    """Exact minimal thrust H(P_body) of (A-5) and the ZMP it gives: the lower end of the nominal
+    :func:`thrust_window`, where the ZMP ray ZMP(s) = CoM + s·(CoM − P_T), s = F/(M·g − F),
+    enters the polygon.
 
     Args:
         com_xy: (..., 2) CoM ground projection [m].
@@ -85,25 +82,98 @@ def minimal_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, 
         thrust_n (...,) [N], ``inf`` where no thrust balances (the ray misses the polygon);
         zmp_xy (..., 2) [m], the ray's entry point (the CoM if it is inside), NaN where ``inf``.
     """
-    com = np.asarray(com_xy, dtype=float)
-    d = com - np.asarray(fan_xy, dtype=float)
+    lo, _ = thrust_window(com_xy, fan_xy, polygon, mass_kg, NOMINAL, g)
+    with np.errstate(invalid="ignore"):
+        zmp = zmp_with_thrust(com_xy, fan_xy, np.where(np.isfinite(lo), lo, np.nan), mass_kg, g)
+    return lo, zmp
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """Model errors a balanced posture must survive (the robust policy; all zero: Paper A's).
+
+    ``thrust``: relative error of each fan's thrust (0.1: the fan gives 90..110 % of its command);
+    ``mass``: relative error of the total mass, the CoM unchanged (a uniform scale of every link);
+    ``com_m``: error of the CoM's ground position, in any direction [m].
+    """
+
+    thrust: float = 0.0
+    mass: float = 0.0
+    com_m: float = 0.0
+
+    def scaled(self, k: float) -> Tolerance:
+        """Every tolerance times ``k``."""
+        return Tolerance(self.thrust * k, self.mass * k, self.com_m * k)
+
+
+NOMINAL = Tolerance()
+
+
+def thrust_window(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
+                  tol: Tolerance = NOMINAL, g: float = GRAVITY) -> tuple[np.ndarray, np.ndarray]:
+    """The thrusts [N] of one fan that keep the ZMP in ``polygon`` under every error within ``tol``.
+
+    With d_k = n_k·CoM − b_k (how far the CoM lies beyond edge k) and a_k = n_k·P_T − b_k (the same
+    for the fan), moment balance (A-1, A-2) puts the ZMP inside edge k exactly when
+    F·a_k ≥ M·g·d_k. With the fan giving F(1 + e), |e| ≤ X, the mass M(1 + m), |m| ≤ Y, and the CoM
+    off by a vector of length ≤ ε, the worst case of each side is taken separately (both are linear
+    in the errors):
+
+        F·(a_k − X·|a_k|)  ≥  M·g·((d_k + ε) + Y·|d_k + ε|)                          for every edge k.
+
+    Each edge gives a lower bound (a_k − X|a_k| > 0), an upper bound (< 0) or a condition on the
+    posture alone (= 0); the window is their intersection with F ≥ 0 and F(1 + X) < M·g(1 − Y)
+    (the ZMP formula needs thrust below weight). With ``tol`` zero its lower end is the minimal
+    thrust H(P_body) of (A-5), where the ZMP ray enters the polygon, and its upper end where the ray
+    leaves it on the far side.
+
+    Args:
+        com_xy, fan_xy: (..., 2) ground projections of the CoM and the thrust point [m].
+        polygon: (K, 2) support polygon, convex, counter-clockwise [m].
+        mass_kg: the model's total mass [kg].
+
+    Returns:
+        lo, hi (...,) [N]: the window; lo = inf and hi = nan where it is empty (no thrust balances).
+        The fan's maximum is not applied here.
+    """
     n, b = halfplanes(polygon)
-    nc = com @ n.T
-    nd = d @ n.T
-    slack = b - nc  # ≥ 0 on the inner side of edge k
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = slack / nd
-    lower = np.where(nd < 0, ratio, -np.inf)
-    upper = np.where(nd > 0, ratio, np.inf)
-    parallel_out = (nd == 0) & (slack < 0)
-    s_lo = np.maximum(lower.max(axis=-1), 0.0)
-    s_hi = upper.min(axis=-1)
-    ok = (s_lo <= s_hi) & ~parallel_out.any(axis=-1)
-    s = np.where(ok, s_lo, np.nan)
     w = mass_kg * g
-    thrust = np.where(ok, w * s / (1.0 + s), NO_BALANCE)
-    zmp = com + s[..., None] * d
-    return thrust, zmp
+    d = np.asarray(com_xy, dtype=float) @ n.T - b + tol.com_m  # (..., K)
+    a = np.asarray(fan_xy, dtype=float) @ n.T - b
+    rhs = w * (d + tol.mass * np.abs(d))
+    coef = a - tol.thrust * np.abs(a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = rhs / coef
+    lo = np.maximum(np.where(coef > 0, bound, -np.inf).max(axis=-1), 0.0)
+    hi = np.minimum(np.where(coef < 0, bound, np.inf).min(axis=-1),
+                    w * (1.0 - tol.mass) / (1.0 + tol.thrust) * (1.0 - 1e-9))
+    empty = (lo > hi) | np.any((coef == 0) & (rhs > 0), axis=-1)
+    return np.where(empty, np.inf, lo), np.where(empty, np.nan, hi)
+
+
+def balance_slack(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, polygon: np.ndarray,
+                  mass_kg: float, tol: Tolerance = NOMINAL, g: float = GRAVITY) -> np.ndarray:
+    """How well given thrusts of several fans balance a posture under every error within ``tol`` [N]:
+    min over the polygon's edges of Σ_i F_i·(a_ik − X·|a_ik|) − M·g·((d_k + ε) + Y·|d_k + ε|), the
+    inequality of :func:`thrust_window` for each fan's thrust F_i at ``fan_xy[..., i, :]``. It is ≥ 0
+    exactly when the ZMP stays in the polygon for every error (each fan's error independent).
+
+    Args:
+        com_xy: (..., 2) [m]; fan_xy: (..., F, 2) [m]; thrust_n: (..., F) [N].
+    """
+    n, b = halfplanes(polygon)
+    d = np.asarray(com_xy, dtype=float) @ n.T - b + tol.com_m  # (..., K)
+    a = np.asarray(fan_xy, dtype=float) @ n.T - b  # (..., F, K)
+    lift = np.einsum("...f,...fk->...k", np.asarray(thrust_n, dtype=float), a - tol.thrust * np.abs(a))
+    return (lift - mass_kg * g * (d + tol.mass * np.abs(d))).min(axis=-1)
+
+
+def polygon_margin(p_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Signed distance [m] from ``p_xy`` (..., 2) to the nearest edge line of a convex CCW polygon:
+    positive inside (the distance to the nearest edge), negative outside (how far beyond the worst
+    edge)."""
+    n, b = halfplanes(polygon)
+    return (b - np.asarray(p_xy, dtype=float) @ n.T).min(axis=-1)
 
 
 def direction_from_y_axis(v_xy: np.ndarray) -> np.ndarray:

@@ -156,14 +156,21 @@ def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) ->
 @click.option("--kinematics", type=click.Choice(["placo", "analytic"]), default="placo", show_default=True,
               help="Leg IK: PlaCo's solver, or the closed form (same postures to 1e-9 m, faster).")
 @click.option("--strict-torque", is_flag=True, help="Rows whose static torque exceeds a servo limit are infeasible.")
+@click.option("--policy", type=click.Choice(["robust", "minimal"]),
+              help="Override balance.policy: robust (thrust that survives model errors) or minimal (Paper A).")
 def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
-         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str, strict_torque: bool) -> None:
+         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str, strict_torque: bool,
+         policy: str | None) -> None:
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
+    from dataclasses import replace
+
     from .planner import plan as run_plan
     from .planner import plan_summary
     from .scenario import load_scenario
 
     scenario = load_scenario(scenario_path)
+    if policy is not None:
+        scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
     try:
         with _Progress(not no_progress, scenario.name) as progress:
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
@@ -463,6 +470,165 @@ def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as
         c.print(out["note"])
     for name, n in (numeric or {}).items():
         c.print(f"numerical reach, pelvis {name}: {n['step_m']:.3f} m (PlaCo IK converged: {n['placo_converged']})")
+
+
+def _range_spec(text: str, option: str, max_count: int = 200) -> list[float]:
+    """``LO:HI:STEP`` [m] (inclusive) to its values; InputError naming ``option`` when malformed."""
+    parts = text.split(":")
+    try:
+        lo, hi, step = (float(v) for v in parts)
+    except ValueError:
+        raise InputError(option, text, "expected LO:HI:STEP, three numbers") from None
+    if not all(math.isfinite(v) for v in (lo, hi, step)) or step <= 0 or hi < lo or lo <= 0:
+        raise InputError(option, text, "expected finite 0 < LO <= HI and STEP > 0")
+    count = math.floor((hi - lo) / step + 1e-9) + 1
+    if count > max_count:
+        raise InputError(option, text, f"{count} values: at most {max_count}")
+    return [round(lo + k * step, 9) for k in range(count)]
+
+
+@main.command("ditch-curve")
+@click.option("--gaps", default="0.30:0.50:0.01", show_default=True, help="Ditch widths LO:HI:STEP [m].")
+@click.option("--scales", default="0,0.25,0.5,0.75,1", show_default=True,
+              help="Tolerances as multiples of the scenario's robust tolerance (0: Paper A's minimal thrust).")
+@click.option("--scenario", "base_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Take the robot, optimiser, timing and robust tolerance from this scenario (default: defaults).")
+@click.option("--optimiser", type=click.Choice(list(METHODS)), help="Override the optimiser.")
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("-o", "--output", "outdir", default="out/ditch_curve", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print ditch_curve.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, no_progress) -> None:
+    """The widest ditch crossable at each tolerance, and the thrust it needs (Paper A's forward step)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from .atomic import staged_directory
+    from .ditch_curve import curve, curve_png, default_base
+    from .robot_model import load_robot
+    from .scenario import load_scenario
+
+    gap_values = np.array(_range_spec(gaps, "--gaps"))
+    try:
+        scale_values = tuple(float(v) for v in scales.split(","))
+    except ValueError:
+        raise InputError("--scales", scales, "expected comma-separated numbers") from None
+    if not scale_values or any(not math.isfinite(v) or v < 0 or v > 5 for v in scale_values):
+        raise InputError("--scales", scales, "expected numbers in [0, 5]")
+    base = load_scenario(base_path) if base_path else default_base()
+    if optimiser:
+        base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
+    robot = load_robot(base.robot)
+    with _Progress(not no_progress, "ditch curve") as progress:
+        doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
+    with staged_directory(outdir) as tmp:
+        (tmp / "ditch_curve.json").write_text(_dump(doc))
+        (tmp / "ditch_curve.png").write_bytes(curve_png(doc))
+    if as_json:
+        click.echo(_dump(doc), nl=False)
+    t = Table(title=f"widest ditch per tolerance ({doc['optimiser']}, F_max {doc['thrust_max_n']:g} N)")
+    for col in ("thrust error", "mass error", "CoM error [m]", "widest gap [m]", "max thrust there [N]"):
+        t.add_column(col, justify="right")
+    for row in doc["tolerances"]:
+        t.add_row(f"±{100 * row['thrust_error']:.1f} %", f"±{100 * row['mass_error']:.1f} %",
+                  f"{row['com_error_m']:.4f}", "-" if row["widest_gap_m"] is None else f"{row['widest_gap_m']:.3f}",
+                  "-" if row["thrust_at_widest_n"] is None else f"{row['thrust_at_widest_n']:.2f}")
+    err_console.print(t)
+    err_console.print(f"wrote {outdir}/ditch_curve.json, ditch_curve.png")
+
+
+class FiniteFloat(click.ParamType):
+    """A finite float within [lo, hi] (click's FloatRange lets NaN through: NaN < lo is False)."""
+
+    name = "float"
+
+    def __init__(self, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False):
+        self.lo, self.hi, self.lo_open = lo, hi, lo_open
+
+    def convert(self, value, param, ctx):
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(x):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if x < self.lo or (self.lo_open and x == self.lo) or x > self.hi:
+            self.fail(f"{x:g} is outside {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]", param, ctx)
+        return x
+
+
+@main.command("simulate")
+@click.argument("plan_dir", metavar="PLAN_DIR", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--controller", type=click.Choice(["feedforward", "feedback"]), default="feedforward", show_default=True,
+              help="The planned thrust alone, or corrected by the plan's feedback law on the centre of pressure.")
+@click.option("--mass-scale", type=FiniteFloat(0.5, 2.0), default=1.0, show_default=True,
+              help="Every link's mass and inertia times this.")
+@click.option("--thrust-scale", type=FiniteFloat(0.0, 2.0), default=1.0, show_default=True,
+              help="Every fan gives this times its command.")
+@click.option("--fan-lag-s", type=FiniteFloat(0.0, 1.0, lo_open=True), default=0.05, show_default=True,
+              help="Time constant of the fans' first-order lag [s].")
+@click.option("--trials", type=click.IntRange(1, 10000), default=None,
+              help="Randomised trials instead of one run: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, "
+                   "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the trials.")
+@click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Processes for the trials (results do not depend on it).")
+@click.option("--json", "as_json", is_flag=True, help="Print simulation.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, seed, jobs, as_json,
+                 no_progress) -> None:
+    """Rehearse a written plan in a MuJoCo twin of the robot and its cartons (physics, not the planner's model).
+
+    Writes PLAN_DIR/simulation.json and simulation.mcap. Exit 0 when every run succeeds (no fall,
+    both soles on carton tops at the end), 6 when any fails, 2 on bad input.
+    """
+    import numpy as np
+
+    from .atomic import write_bytes_atomic, write_text_atomic
+    from .mcap_writer import simulation_mcap
+    from .sim.rehearsal import Perturbation, load_plan, simulate
+
+    track = load_plan(plan_dir)
+    if trials is None:
+        perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
+    else:
+        perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
+    with _Progress(not no_progress, f"simulate {plan_dir}") as progress:
+        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress)
+    from .sim.controller import Gains
+
+    ok = sum(r.survived for r in runs)
+    simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)
+    doc = {"plan": str(plan_dir), "controller": controller, "gains": Gains.of(track.robot).__dict__,
+           "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
+           "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
+           "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
+    write_text_atomic(plan_dir / "simulation.json", _dump(doc))
+    if runs[0].record is not None:
+        write_bytes_atomic(plan_dir / "simulation.mcap", simulation_mcap(track.robot, runs[0].record, track.cartons))
+    if as_json:
+        click.echo(_dump(doc), nl=False)
+    t = Table(title=f"{plan_dir}: {controller} in the twin")
+    for col in ("run", "mass ×", "thrust ×", "lag [s]", "result", "max tilt [deg]", "landing [m]", "slip [m]",
+                "CoP margin [m]", "max thrust [N]"):
+        t.add_column(col, justify="right")
+    for k, r in enumerate(runs):
+        p = r.perturbation
+        land = max((e["xy_m"] for e in r.landing_errors_m), default=None)
+        verdict = "survived" if r.survived else (f"fell: {r.fell['reason']} at {r.fell['phase']} row "
+                                                 f"{r.fell['row']}" if r.fell else "off the cartons")
+        t.add_row(str(k), f"{p['mass_scale']:.3f}", f"{p['thrust_gain']:.3f}", f"{p['fan_lag_s']:.3f}", verdict,
+                  f"{r.max_trunk_tilt_deg:.2f}", "-" if land is None else f"{land:.4f}", f"{r.support_max_slip_m:.4f}",
+                  "-" if r.least_cop_margin_m is None else f"{r.least_cop_margin_m:.4f}", f"{r.max_thrust_n:.2f}")
+    err_console.print(t)
+    rtf = doc["timing"]["realtime_factor"]
+    line = (f"simulate: {ok}/{len(runs)} runs survived ({controller}); "
+            f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); wrote {plan_dir}/simulation.json")
+    err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
+    if ok < len(runs):
+        raise click.exceptions.Exit(6)
 
 
 def run(argv: list[str] | None = None) -> int:

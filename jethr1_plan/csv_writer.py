@@ -25,6 +25,7 @@ def columns() -> list[str]:
             *(f"{j}_rad" for j in JOINT_NAMES),
             "swing_x_m", "swing_y_m", "swing_z_m", "thrust_left_n", "thrust_right_n",
             "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m",
+            "thrust_window_lo_n", "thrust_window_hi_n", "zmp_margin_m",
             *(f"{j}_tau_nm" for j in JOINT_NAMES), "kappa_left", "kappa_right", "yaw_momentum_nms", "reason"]
 
 
@@ -47,6 +48,7 @@ def trajectory_csv(rows: Rows) -> str:
                 "true" if c["feasible"][i] else "false", *map(_num, c["p_body"][i]), *map(_num, (qx, qy, qz, qw)),
                 *map(_num, np.asarray(c["q"][i])), *map(_num, c["swing"][i]), _num(c["thrust_left"][i]),
                 _num(c["thrust_right"][i]), *map(_num, c["com"][i]), *map(_num, c["zmp"][i]),
+                *map(_num, c["window"][i]), _num(c["zmp_margin"][i]),
                 *map(_num, c["tau"][i]), _num(c["kappa"][i][0]), _num(c["kappa"][i][1]), _num(c["yaw_momentum"][i]),
                 c["reason"][i]]
         out.write(",".join(vals) + "\n")

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balance import edge_angle_excess, minimal_thrust
+from .balance import NOMINAL, Tolerance, edge_angle_excess, thrust_window, zmp_with_thrust
 from .posture import OK, REASONS, PostureSolver, Stance
 from .robot_model import GRAVITY
 
@@ -19,7 +19,7 @@ from .robot_model import GRAVITY
 FEASIBLE, NO_BALANCE, THRUST_MAX, EDGE_ANGLE = 0, 10, 11, 12
 VIOLATIONS = {
     FEASIBLE: "feasible",
-    NO_BALANCE: "no thrust can balance (ZMP ray misses the sole)",
+    NO_BALANCE: "no thrust can balance (within the tolerance)",
     THRUST_MAX: "thrust above its maximum",
     EDGE_ANGLE: "edge angle (A-10) above rho",
     **{k: v for k, v in REASONS.items() if k != OK},
@@ -38,6 +38,7 @@ class SampleProblem:
     mass_kg: float
     thrust_max_n: float
     rho_rad: float
+    tolerance: Tolerance = NOMINAL  # model errors the thrust must survive (balance.thrust_window)
 
 
 @dataclass
@@ -47,7 +48,7 @@ class Candidates:
     p_body: np.ndarray  # (N, 3) [m]
     q: np.ndarray  # (N, 12) [rad]
     com: np.ndarray  # (N, 3) [m]
-    thrust_n: np.ndarray  # (N,) exact minimal thrust; inf where no thrust balances or IK failed [N]
+    thrust_n: np.ndarray  # (N,) least thrust balancing within the tolerance; inf where none does or IK failed [N]
     zmp_xy: np.ndarray  # (N, 2) [m]
     edge_excess_rad: np.ndarray  # (N,) max(|θ_ZC − θ_CA| − ρ, 0) [rad]
     violation: np.ndarray  # (N,) first violated constraint: 0 feasible, IK status 1..3, or 10..12
@@ -65,8 +66,12 @@ def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: n
     """Postures, thrust, ZMP and constraint status for candidates ``p_body`` (N, 3) [m]."""
     batch = solver.solve_batch(problem.stance, p_body)
     ik_ok = batch.status == OK
-    thrust, zmp = minimal_thrust(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg)
+    thrust, _ = thrust_window(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg,
+                              problem.tolerance)
     thrust = np.where(ik_ok, thrust, np.inf)
+    with np.errstate(invalid="ignore"):
+        zmp = zmp_with_thrust(batch.com[:, :2], problem.fan_xy, np.where(np.isfinite(thrust), thrust, np.nan),
+                              problem.mass_kg)
     excess = edge_angle_excess(problem.edge_origin_xy, batch.com[:, :2], problem.ankle_xy, problem.rho_rad)
     excess = np.where(ik_ok, excess, np.inf)
     violation = np.where(ik_ok, FEASIBLE, batch.status.astype(np.int64))

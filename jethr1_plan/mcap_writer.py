@@ -64,7 +64,9 @@ SCHEMAS: dict[str, dict] = {
                                    "yaw_momentum_nms": NUMBER}),
     "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
                               "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
-                              "feasible": {"type": "boolean"}}),
+                              "feasible": {"type": "boolean"},
+                              "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
+                              "zmp_margin_m": NUMBER}),
 }
 for _name, _schema in SCHEMAS.items():
     _schema.setdefault("title", _name)
@@ -158,16 +160,20 @@ def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def frame_transforms(robot: RobotModel, t: float, p_body, yaw: float, q: np.ndarray,
-                     rotations: list[np.ndarray] | None = None) -> dict:
-    """/tf at one instant: world→trunk and each joint's parent→child (``rotations``: precomputed rows)."""
+def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np.ndarray,
+                     rotations: list[np.ndarray] | None = None, prefix: str = "") -> dict:
+    """/tf at one instant: world→trunk and each joint's parent→child (``rotations``: precomputed rows).
+
+    ``prefix`` goes before every frame of the robot (``sim/`` for a rehearsal), so two robots can
+    play in one scene; Foxglove's URDF layer takes the same prefix.
+    """
     ts = stamp(t)
-    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": "trunk", "translation": _vec(p_body),
-            "rotation": _quat(quat_axis_angle((0, 0, 1), yaw))}]
+    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + "trunk",
+            "translation": _vec(p_body), "rotation": _quat(trunk_quat_xyzw)}]
     if rotations is None:
         rotations = [r[0] for r in joint_rotations(robot, q)]
     for j, rot in zip(urdf_joints(robot.urdf_path), rotations, strict=True):
-        tfs.append({"timestamp": ts, "parent_frame_id": j.parent, "child_frame_id": j.child,
+        tfs.append({"timestamp": ts, "parent_frame_id": prefix + j.parent, "child_frame_id": prefix + j.child,
                     "translation": _vec(j.xyz), "rotation": _quat(rot)})
     return {"transforms": tfs}
 
@@ -200,7 +206,7 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
     for i in range(len(rows)):
         t = float(c["time_s"][i])
         p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
-        put("/tf", t, frame_transforms(robot, t, p, yaw, q, [r[i] for r in rotations]))
+        put("/tf", t, frame_transforms(robot, t, p, quat_axis_angle((0, 0, 1), yaw), q, [r[i] for r in rotations]))
         put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q],
                                  "effort_nm": [float(v) for v in c["tau"][i]]})
         put("/analysis", t, {"timestamp": stamp(t), "kappa_left": float(c["kappa"][i][0]),
@@ -208,7 +214,9 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
                              "yaw_momentum_nms": float(c["yaw_momentum"][i])})
         put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
                            "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
-                           "support": c["support"][i], "step": int(c["step"][i]), "feasible": bool(c["feasible"][i])})
+                           "support": c["support"][i], "step": int(c["step"][i]), "feasible": bool(c["feasible"][i]),
+                           "window_lo_n": _or_none(c["window"][i][0]), "window_hi_n": _or_none(c["window"][i][1]),
+                           "zmp_margin_m": float(c["zmp_margin"][i])})
         put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
                            "pose": _pose(p, quat_axis_angle((0, 0, 1), yaw))})
         put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(c["com"][i])})
@@ -216,6 +224,59 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose((zmp[0], zmp[1], _ground(c, i)))})
     w.finish()
     return buf.getvalue()
+
+
+def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
+    """The MCAP bytes of a rehearsal: ``/tf`` with every robot frame prefixed ``sim/`` (the plan's
+    ``trajectory.mcap`` uses the bare names, so both files play side by side in one scene),
+    ``/sim/thrust`` (applied per fan [N]), ``/sim/cop`` and ``/sim/com`` (foxglove.PoseInFrame),
+    ``/terrain``. Times as in ``trajectory.mcap``: seconds from the plan's start."""
+    from mcap.writer import CompressionType, Writer
+
+    schemas = {"foxglove.FrameTransforms": SCHEMAS["foxglove.FrameTransforms"],
+               "foxglove.PoseInFrame": SCHEMAS["foxglove.PoseInFrame"],
+               "foxglove.SceneUpdate": SCHEMAS["foxglove.SceneUpdate"],
+               "jethr1.SimThrust": _object({"timestamp": TIME, "frame": {"type": "array", "items": {"type": "string"}},
+                                            "thrust_n": {"type": "array", "items": NUMBER}})}
+    schemas["jethr1.SimThrust"].setdefault("title", "jethr1.SimThrust")
+    topics = {"/tf": "foxglove.FrameTransforms", "/sim/thrust": "jethr1.SimThrust", "/sim/cop": "foxglove.PoseInFrame",
+              "/sim/com": "foxglove.PoseInFrame", "/terrain": "foxglove.SceneUpdate"}
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.ZSTD)
+    w.start(profile="", library="jethr1-plan")
+    ids = {name: w.register_schema(name=name, encoding="jsonschema", data=json.dumps(s, sort_keys=True).encode())
+           for name, s in schemas.items()}
+    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=ids[name])
+                for topic, name in topics.items()}
+    seq = 0
+
+    def put(topic: str, t: float, msg: dict) -> None:
+        nonlocal seq
+        ns = max(0, round(t * 1e9))
+        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
+                      data=json.dumps(msg, separators=(",", ":")).encode())
+        seq += 1
+
+    put("/terrain", 0.0, terrain_update(cartons))
+    qpos = np.asarray(record["qpos"], dtype=float).reshape(-1, 19)
+    rotations = joint_rotations(robot, qpos[:, 7:]) if len(qpos) else []
+    frames = [f.frame for f in robot.fans]
+    for i, t in enumerate(record["t"]):
+        w_, x, y, z = qpos[i, 3:7]
+        put("/tf", t, frame_transforms(robot, t, qpos[i, :3], (x, y, z, w_), qpos[i, 7:], [r[i] for r in rotations],
+                                       prefix="sim/"))
+        put("/sim/thrust", t, {"timestamp": stamp(t), "frame": frames, "thrust_n": record["thrust"][i]})
+        put("/sim/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(record["com"][i])})
+        cop = record["cop"][i]
+        if cop is not None:
+            put("/sim/cop", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(cop)})
+    w.finish()
+    return buf.getvalue()
+
+
+def _or_none(x: float) -> float | None:
+    """A number, or None (JSON null) where there is none (NaN)."""
+    return None if math.isnan(x) else float(x)
 
 
 def _ground(c: dict, i: int) -> float:

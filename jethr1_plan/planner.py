@@ -90,7 +90,7 @@ def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_
     poly = sole_polygon(support_xyz[:2], 0.0, robot.sole_length_m, robot.sole_width_m, scenario.balance.sole_margin_m)
     return SampleProblem(stance=stance, fan_xy=fan_xy, ankle_xy=swing_xyz[:2].copy(), edge_origin_xy=support_xyz[:2],
                          support_polygon=poly, mass_kg=robot.mass_kg, thrust_max_n=scenario.balance.thrust_max_n,
-                         rho_rad=scenario.balance.rho_rad)
+                         rho_rad=scenario.balance.rho_rad, tolerance=scenario.balance.tolerance)
 
 
 def path_problems(scenario: Scenario, robot: RobotModel, si: int, feet: dict[str, np.ndarray],
@@ -321,7 +321,7 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
     """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate."""
     tm = scenario.timing
     b = scenario.balance
-    seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m)
+    seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
     if schedule is not None:
         seq.yaw_of_row = schedule.at_row
     feet = {k: v.copy() for k, v in scenario.start.items()}
@@ -339,6 +339,30 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
     seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
                  thrust_out, None, include_end=True)
     return seq.rows, seq.first_infeasible
+
+
+def _where(rows: Rows, i: int) -> dict:
+    c = rows.columns
+    return {"row": int(i), "time_s": float(c["time_s"][i]), "step": int(c["step"][i]), "phase": c["phase"][i],
+            "sample": int(c["sample"][i])}
+
+
+def robustness_summary(rows: Rows) -> dict:
+    """The least ZMP margin [m] and the narrowest thrust window [N] over the rows, and where they occur.
+
+    The narrowest window is taken over the rows whose fan carries thrust (elsewhere the window is
+    that of a fan not in use)."""
+    margin = rows.array("zmp_margin").astype(float)
+    window = np.array(rows.columns["window"], dtype=float)
+    loaded = (rows.array("thrust_left") + rows.array("thrust_right")) > 0
+    i = int(np.argmin(margin))
+    out = {"least_zmp_margin_m": float(margin[i]), "least_zmp_margin_at": _where(rows, i)}
+    width = np.where(loaded & np.isfinite(window[:, 0]), window[:, 1] - window[:, 0], np.inf)
+    if np.isfinite(width).any():
+        j = int(np.argmin(width))
+        out |= {"narrowest_window_n": [float(window[j, 0]), float(window[j, 1])],
+                "narrowest_window_width_n": float(width[j]), "narrowest_window_at": _where(rows, j)}
+    return out
 
 
 def plan_summary(result: PlanResult) -> dict:
@@ -376,12 +400,17 @@ def plan_summary(result: PlanResult) -> dict:
         "max_thrust_n": float(thr.max()) if len(thr) else None,
         "mean_thrust_n": float(thr.mean()) if len(thr) else None,
         "thrust_max_n": sc.balance.thrust_max_n,
+        "balance": {"policy": sc.balance.policy, "sole_margin_m": sc.balance.sole_margin_m,
+                    "tolerance": {"thrust_error": sc.balance.tolerance.thrust, "mass_error": sc.balance.tolerance.mass,
+                                  "com_error_m": sc.balance.tolerance.com_m}},
         "smoothness_m2": float(sum(s["smoothness_m2"] for s in per_step)),
         "max_step_m": max((s["max_step_m"] for s in per_step), default=0.0),
         "max_thrust_jump_n": max((s["max_thrust_jump_n"] for s in per_step), default=0.0),
         "evaluations": int(result.evaluations),
         "wall_s": float(result.wall_s),
         "steps": per_step,
+        "terrain": {"cartons": [{"top_centre_m": list(c.top_centre_m), "size_m": list(c.size_m)}
+                                for c in sc.cartons]},
     }
     if result.rows is not None and len(result.rows):
         rows = result.rows
@@ -389,6 +418,7 @@ def plan_summary(result: PlanResult) -> dict:
         out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
                              "duration_s": len(rows) / sc.timing.rate_hz,
                              "max_thrust_n": float(max(tl.max(), tr.max()))}
+        out["robustness"] = robustness_summary(rows)
         if "tau" in rows.columns:
             tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
             ratio = rows.analysis["ratio"]

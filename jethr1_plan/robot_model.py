@@ -53,6 +53,7 @@ class Fan:
     axis: tuple[float, float, float]
     max_thrust_n: float
     offset_in_foot_m: tuple[float, float, float]  # thrust point in the foot frame [m]
+    lag_s: float = 0.05  # time constant of the thrust's first-order response to a command [s]
 
 
 @dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
@@ -77,6 +78,11 @@ class RobotModel:
     ankle_height_m: float  # ankle joint centre -> sole
     leg_length_m: float  # hip joint centre -> sole, legs straight
     height_m: float  # sole -> top of the highest geometry, standing straight
+    servo_stiffness_nm_per_rad: np.ndarray  # (12,) the twin's position servos: servos × stiffness × gear²
+    servo_damping_nms_per_rad: np.ndarray  # (12,) stiffness × derivative time
+    armature_kgm2: float  # rotor inertia reflected through each joint's gearbox
+    controller: dict  # the thrust feedback law's settings (sim.controller.Gains); {} for the defaults
+    twin: dict  # contact settings of the twin (sim.twin.TwinParams); {} for the defaults
 
     def fan_for(self, side: str) -> Fan:
         """The fan on the ``side`` ('left'/'right') foot."""
@@ -119,6 +125,26 @@ def _require(doc: dict, key: str, src: str, kind: type):
     if not isinstance(cur, kind) or (kind is float and not math.isfinite(cur)):
         raise RobotModelError(src, key, f"expected {kind.__name__}, got {cur!r}")
     return cur
+
+
+def _optional(doc: dict, key: str, src: str, default: float) -> float:
+    """A non-negative finite number at the dotted ``key``, or ``default`` where it is absent."""
+    cur = doc
+    for part in key.split("."):
+        if not isinstance(cur, dict) or part not in cur:
+            return default
+        cur = cur[part]
+    if isinstance(cur, bool) or not isinstance(cur, int | float) or not math.isfinite(cur) or cur < 0:
+        raise RobotModelError(src, key, f"expected a non-negative number, got {cur!r}")
+    return float(cur)
+
+
+def _numbers(doc: dict, key: str, src: str) -> dict:
+    """The mapping at ``key`` (absent: empty), every value a non-negative finite number."""
+    block = doc.get(key, {})
+    if not isinstance(block, dict):
+        raise RobotModelError(src, key, "expected a mapping")
+    return {str(k): _optional(doc, f"{key}.{k}", src, 0.0) for k in block}
 
 
 def _geometry_height(urdf: Path, robot) -> float:
@@ -178,12 +204,15 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
     effort = np.array(model.effortLimit[6:], dtype=float)
 
     stall = _require(doc, "servos.stall_torque_nm", src, float)
-    servo_limit = np.empty(12)
+    stiffness = _optional(doc, "servos.stiffness_nm_per_rad", src, 78.0)
+    derivative = _optional(doc, "servos.derivative_time_s", src, 0.03)
+    servo_limit, servo_k = np.empty(12), np.empty(12)
     for i, jn in enumerate(JOINT_NAMES):
         jt = jn.split("_", 1)[1]
         n = _require(doc, f"servos.joints.{jt}.servos", src, int)
         ratio = _require(doc, f"servos.joints.{jt}.gear_ratio", src, float)
         servo_limit[i] = stall * n * ratio
+        servo_k[i] = stiffness * n * ratio * ratio
 
     robot.state.q[7:] = 0.0
     robot.set_T_world_fbase(np.eye(4))
@@ -206,7 +235,8 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
         fmax = _require(fd, "max_thrust_n", src, float)
         if fmax < 0:
             raise RobotModelError(src, f"fans[{k}].max_thrust_n", "must be >= 0")
-        fans.append(Fan(frame, foot, axis, fmax, tuple(float(v) for v in off)))
+        lag = _optional(fd, "lag_s", src, 0.05)
+        fans.append(Fan(frame, foot, axis, fmax, tuple(float(v) for v in off), lag))
 
     hip_l = robot.get_T_world_frame("left_hip_yaw_link")[:3, 3]
     hip_r = robot.get_T_world_frame("right_hip_yaw_link")[:3, 3]
@@ -234,6 +264,11 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
         ankle_height_m=float(np.linalg.norm(foot_l - ankle_l)),
         leg_length_m=float(np.linalg.norm(hip_l - foot_l)),
         height_m=_geometry_height(urdf, robot),
+        servo_stiffness_nm_per_rad=servo_k,
+        servo_damping_nms_per_rad=servo_k * derivative,
+        armature_kgm2=_optional(doc, "servos.armature_kgm2", src, 0.003),
+        controller=_numbers(doc, "controller", src),
+        twin=_numbers(doc, "twin", src),
     )
 
 
@@ -296,7 +331,7 @@ def robot_summary(model: RobotModel) -> dict:
         ],
         "fans": [
             {"frame": f.frame, "foot": f.foot, "max_thrust_n": f.max_thrust_n,
-             "offset_in_foot_m": list(f.offset_in_foot_m)}
+             "offset_in_foot_m": list(f.offset_in_foot_m), "lag_s": f.lag_s}
             for f in model.fans
         ],
         "sole": {"length_m": model.sole_length_m, "width_m": model.sole_width_m},

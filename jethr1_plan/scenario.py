@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .balance import NOMINAL, Tolerance
 from .errors import InputError
 from .fitness import FitnessConstants
 from .optimiser import METHODS, GAPhase, OptimiserConfig
@@ -25,6 +26,7 @@ from .swing_path import Carton, arc_path, first_collision, sole_on_carton
 DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
 F3_UNITS = {"mm": 0.001, "m": 1.0}
 YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
+POLICIES = ("robust", "minimal")
 
 _num = {"type": "number"}
 _pos = {"type": "number", "exclusiveMinimum": 0}
@@ -72,7 +74,10 @@ SCHEMA = _obj({
         "nominal_height_m": _pos,
     }),
     "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0}, "rho_rad": {"type": "number", "minimum": 0},
-                     "sole_margin_m": {"type": "number", "minimum": 0}}),
+                     "sole_margin_m": {"type": "number", "minimum": 0}, "policy": {"enum": list(POLICIES)},
+                     "robust": _obj({"thrust_error": {"type": "number", "minimum": 0, "maximum": 0.9},
+                                     "mass_error": {"type": "number", "minimum": 0, "maximum": 0.9},
+                                     "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1}})}),
     "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": _num, "horizon_s": _pos,
                       "alpha": {"type": "number", "minimum": 0}, "beta": {"type": "number", "minimum": 0}}),
     "timing": _obj({"swing_s": _pos, "transfer_s": _pos, "rate_hz": _pos}),
@@ -103,11 +108,30 @@ class Timing:
     rate_hz: float = 50.0
 
 
+#: the robust policy's default: ±10 % thrust, ±5 % total mass, 10 mm of CoM error (model and servo sag)
+ROBUST_DEFAULT = Tolerance(thrust=0.10, mass=0.05, com_m=0.01)
+
+
 @dataclass(frozen=True)
 class BalanceConfig:
+    """``balance:`` of a scenario (SI units).
+
+    ``policy`` chooses the thrust of every posture: ``minimal`` is Paper A's least thrust H(P_body)
+    (the ZMP on the sole's edge); ``robust`` the least thrust whose ZMP stays in the sole under
+    every model error within ``robust`` (``balance.thrust_window``), and the optimisers choose
+    P_body for it.
+    """
+
     thrust_max_n: float = 23.0
     rho_rad: float = math.radians(5.0)
     sole_margin_m: float = 0.0
+    policy: str = "robust"
+    robust: Tolerance = ROBUST_DEFAULT
+
+    @property
+    def tolerance(self) -> Tolerance:
+        """The model errors every planned posture must survive (zero under ``minimal``)."""
+        return self.robust if self.policy == "robust" else NOMINAL
 
 
 @dataclass(frozen=True)
@@ -292,8 +316,12 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     if optimiser.gaex_step_m > optimiser.gaex_half_m:
         raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
     bal = doc.get("balance", {})
+    rob = bal.get("robust", {})
     balance = BalanceConfig(float(bal.get("thrust_max_n", 23.0)), float(bal.get("rho_rad", math.radians(5.0))),
-                            float(bal.get("sole_margin_m", 0.0)))
+                            float(bal.get("sole_margin_m", 0.0)), bal.get("policy", "robust"),
+                            Tolerance(float(rob.get("thrust_error", ROBUST_DEFAULT.thrust)),
+                                      float(rob.get("mass_error", ROBUST_DEFAULT.mass)),
+                                      float(rob.get("com_error_m", ROBUST_DEFAULT.com_m))))
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
     t = doc.get("timing", {})

@@ -5,11 +5,17 @@ by IK, and the thrust and ZMP are recomputed exactly from the resulting CoM. Row
 constraint are marked infeasible with their reason; nothing is patched.
 
 * Swing rows: the swing sole moves along the sampled path with a minimum-jerk time law; P_body
-  is interpolated linearly between the optimised samples; the thrust is the exact minimal thrust
-  of the swing fan (A-5).
+  is interpolated linearly between the optimised samples; the thrust is the least thrust of the
+  swing fan that balances within the scenario's tolerance (``balance.thrust_window``; the exact
+  minimal thrust of (A-5) under the ``minimal`` policy).
 * Transfer rows (both feet down): P_body and yaw follow a minimum-jerk blend between the two
   postures; the previous swing fan's thrust ramps to zero over the first half and the next one
-  ramps up over the second half; the ZMP of (A-1, A-2) must lie in the convex hull of both soles.
+  ramps up over the second half; the ZMP of (A-1, A-2) must lie in the convex hull of both soles,
+  under every error within the tolerance.
+
+Every row also carries the thrust window of its posture (the nominal balancing interval of the
+fan that carries it, capped by the fan's maximum) and the ZMP's margin: its distance to the
+nearest edge of the real sole (the hull of both soles in double support).
 """
 
 from __future__ import annotations
@@ -18,7 +24,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .balance import edge_angle_excess, inside_polygon, minimal_thrust, sole_polygon, wrap_angle
+from .balance import (
+    NOMINAL,
+    Tolerance,
+    balance_slack,
+    edge_angle_excess,
+    polygon_margin,
+    sole_polygon,
+    thrust_window,
+    wrap_angle,
+    zmp_with_thrust,
+)
 from .posture import OK, REASONS, PostureSolver, Stance
 from .robot_model import GRAVITY, RobotModel
 
@@ -71,16 +87,33 @@ class SequenceBuilder:
     """Builds output rows for one plan with one PostureSolver (warm-started row to row)."""
 
     def __init__(self, robot: RobotModel, solver: PostureSolver, rate_hz: float, thrust_max_n: float,
-                 rho_rad: float, sole_margin_m: float):
+                 rho_rad: float, sole_margin_m: float, tolerance: Tolerance = NOMINAL):
         self.robot, self.solver = robot, solver
         self.dt = 1.0 / rate_hz
         self.thrust_max_n, self.rho_rad, self.margin = thrust_max_n, rho_rad, sole_margin_m
+        self.tolerance = tolerance
         self.rows = Rows()
         self.t = 0.0
         self.q_prev: np.ndarray | None = None
         self.first_infeasible: dict | None = None
         #: when set, the body yaw of row i (a smoothed schedule, e.g. the yaw MPC) instead of the blends
         self.yaw_of_row = None
+
+    def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
+        return sole_polygon(xyz[:2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
+
+    def _window(self, com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray) -> tuple[float, float]:
+        """The nominal balancing interval [N] of one fan, capped by its maximum (NaN, NaN: none)."""
+        lo, hi = thrust_window(com_xy, fan_xy, polygon, self.robot.mass_kg)
+        lo, hi = float(lo), float(min(hi, self.thrust_max_n))
+        return (lo, hi) if lo <= hi else (np.nan, np.nan)
+
+    def _describe_tolerance(self) -> str:
+        t = self.tolerance
+        if t == NOMINAL:
+            return ""
+        return (f" within ±{100 * t.thrust:g} % thrust, ±{100 * t.mass:g} % mass and "
+                f"{1000 * t.com_m:g} mm of CoM error")
 
     def _fan_xy(self, side: str, sole_xyz: np.ndarray) -> np.ndarray:
         return sole_xyz[:2] + np.asarray(self.robot.fan_for(side).offset_in_foot_m[:2])
@@ -109,10 +142,11 @@ class SequenceBuilder:
         over the second half. The end posture itself is written only with ``include_end``.
         """
         n = max(1, round(duration_s / self.dt))
-        hull = convex_hull(np.vstack([sole_polygon(feet[s][:2], 0.0, self.robot.sole_length_m,
-                                                   self.robot.sole_width_m, self.margin) for s in ("left", "right")]))
+        hull = convex_hull(np.vstack([self._sole(feet[s], self.margin) for s in ("left", "right")]))
+        real_hull = convex_hull(np.vstack([self._sole(feet[s]) for s in ("left", "right")]))
         dyaw = float(wrap_angle(yaw1 - yaw0))
         w = self.robot.mass_kg * GRAVITY
+        fans = {sd: self._fan_xy(sd, feet[sd]) for sd in ("left", "right")}
         for k in range(n + 1 if include_end else n):
             u = k / n
             s = float(min_jerk(u))
@@ -127,21 +161,29 @@ class SequenceBuilder:
                 thrust[thrust_in[0]] += thrust_in[1] * max(0.0, 2.0 * u - 1.0)
             thrust = {sd: (f if np.isfinite(f) else 0.0) for sd, f in thrust.items()}
             total = thrust["left"] + thrust["right"]
-            moment = sum(thrust[sd] * self._fan_xy(sd, feet[sd]) for sd in ("left", "right"))
+            moment = sum(thrust[sd] * fans[sd] for sd in ("left", "right"))
             zmp = (w * com[:2] - moment) / (w - total)
+            # the window of the fan that carries (or is about to carry) the thrust
+            active = max(thrust, key=thrust.get) if total > 0 else (
+                thrust_in[0] if thrust_in is not None else (thrust_out[0] if thrust_out is not None else None))
+            window = self._window(com[:2], fans[active], real_hull) if active else (np.nan, np.nan)
+            slack = float(balance_slack(com[:2], np.stack([fans["left"], fans["right"]]),
+                                        np.array([thrust["left"], thrust["right"]]), hull, self.robot.mass_kg,
+                                        self.tolerance))
             reason = None
             if status != OK:
                 reason = REASONS[status]
             elif max(thrust.values()) > self.thrust_max_n:
                 reason = f"thrust {max(thrust.values()):.3f} N above its maximum {self.thrust_max_n} N"
-            elif not inside_polygon(zmp, hull):
-                reason = "ZMP outside the hull of both soles"
+            elif slack < -1e-9:
+                reason = "ZMP outside the hull of both soles" + self._describe_tolerance()
             if reason:
                 self._mark(step, "transfer", k, reason, {"p_body_m": p.tolist()})
             self._emit(step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
                        ground_z=min(feet["left"][2], feet["right"][2]),
                        p_body=p, yaw=yaw, q=q, swing=np.full(3, np.nan), thrust_left=thrust["left"],
-                       thrust_right=thrust["right"], com=com, zmp=zmp, reason=reason or "")
+                       thrust_right=thrust["right"], com=com, zmp=zmp, window=window,
+                       zmp_margin=float(polygon_margin(zmp, real_hull)), reason=reason or "")
 
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
               yaw_fn, duration_s: float) -> None:
@@ -151,7 +193,8 @@ class SequenceBuilder:
         """
         swing_side = "left" if support == "right" else "right"
         n = max(1, round(duration_s / self.dt))
-        poly = sole_polygon(feet[support][:2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m, self.margin)
+        poly = self._sole(feet[support], self.margin)
+        sole = self._sole(feet[support])
         idx = np.arange(len(path))
         for k in range(n):
             u = float(min_jerk(k / n)) * (len(path) - 1)
@@ -161,23 +204,24 @@ class SequenceBuilder:
             stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
             q, com, status = self._solve(stance, p)
             fan = self._fan_xy(swing_side, swing)
-            thrust, zmp = minimal_thrust(com[:2], fan, poly, self.robot.mass_kg)
-            thrust, zmp = float(thrust), np.asarray(zmp)
+            thrust = float(thrust_window(com[:2], fan, poly, self.robot.mass_kg, self.tolerance)[0])
             edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
             if status != OK:
                 reason = REASONS[status]
             elif not np.isfinite(thrust):
-                reason = "no thrust can balance (ZMP ray misses the sole)"
+                reason = "no thrust can balance" + self._describe_tolerance()
             elif thrust > self.thrust_max_n:
-                reason = f"thrust {thrust:.3f} N above its maximum {self.thrust_max_n} N"
+                reason = f"thrust {thrust:.3f} N above its maximum {self.thrust_max_n} N" + self._describe_tolerance()
             elif edge > 0:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
                 self._mark(step, "swing", k, reason, {"p_body_m": p.tolist(), "swing_m": swing.tolist()})
             f = thrust if np.isfinite(thrust) else 0.0
+            zmp = zmp_with_thrust(com[:2], fan, f, self.robot.mass_kg)
             self._emit(step=step, phase="swing", sample=k, support=support, feasible=reason is None, p_body=p,
                        ground_z=feet[support][2],
                        yaw=yaw, q=q, swing=swing, thrust_left=f if swing_side == "left" else 0.0,
-                       thrust_right=f if swing_side == "right" else 0.0, com=com,
-                       zmp=zmp if np.isfinite(thrust) else com[:2], reason=reason or "")
+                       thrust_right=f if swing_side == "right" else 0.0, com=com, zmp=zmp,
+                       window=self._window(com[:2], fan, sole), zmp_margin=float(polygon_margin(zmp, sole)),
+                       reason=reason or "")

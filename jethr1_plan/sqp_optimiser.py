@@ -49,7 +49,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize
 
-from .balance import edge_angle_error, halfplanes, minimal_thrust
+from .balance import edge_angle_error, halfplanes, thrust_window
 from .balance_space import DIRECTIONS
 from .fitness import SampleProblem, evaluate_candidates, fitness
 from .leg_kinematics import check_structure, solve_postures
@@ -88,10 +88,13 @@ class AnalyticSample:
     """One sample as a smooth program in x = (P_body [m], u = F / (M·g)), on the closed-form legs.
 
     With the thrust as a variable, the balance condition ZMP ∈ S becomes, for each edge n·z ≤ b of
-    the support polygon, b·(1 − u) − n·(CoM − u·P_T) ≥ 0 (the moment balance multiplied by
-    M·g − F > 0): smooth in x, where the closed-form H(P_body) has kinks. Objective u plus the
-    tie-break ε/(M·g)·‖P_body − anchor‖² (ε: ``smoothness_n_per_m2``); constraints: the polygon,
-    (A-10), the legs' reach and the joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
+    the support polygon, u·a − d ≥ 0 with a = n·P_T − b and d = n·CoM − b (the moment balance
+    divided by M·g): smooth in x, where the closed-form H(P_body) has kinks. Under the robust
+    policy (``balance.thrust_window``) the row is u·(a − X|a|) ≥ d' + Y|d'| with d' = d + ε, and
+    the maximum splits into two smooth rows, u·(a − X|a|) − (1 ± Y)·d' ≥ 0 (a is fixed by the
+    sample's fan, so |a| is a constant). Objective u plus the tie-break
+    ε_s/(M·g)·‖P_body − anchor‖² (ε_s: ``smoothness_n_per_m2``); constraints: the polygon, (A-10),
+    the legs' reach and the joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
     """
 
     def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None,
@@ -109,6 +112,11 @@ class AnalyticSample:
         self.weight = problem.mass_kg * GRAVITY
         self.normals, offsets = halfplanes(problem.support_polygon)
         self.offsets = offsets - self.margins[3]
+        tol = problem.tolerance
+        a = self.normals @ problem.fan_xy - self.offsets
+        self.coef = a - tol.thrust * np.abs(a)  # dg/du of every balance row
+        self.mass_factors = np.array([1.0 + tol.mass, 1.0 - tol.mass]) if tol.mass > 0 else np.ones(1)
+        self.coef_rows = np.tile(self.coef, len(self.mass_factors))
         self.u_max = problem.thrust_max_n / self.weight
         self.evaluations = 0
         self._cache: dict[bytes, tuple] = {}
@@ -131,14 +139,13 @@ class AnalyticSample:
         # gradient; there the reach constraints alone (which have one) lead back
         limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
         cons = np.column_stack([pr.rho_rad - edge - self.margins[0], *reach, limits[:, self._limit_mask]])
-        thrust, _ = minimal_thrust(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg)
+        thrust, _ = thrust_window(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg, pr.tolerance)
         return com, cons, thrust
 
     def _constraints(self, x: np.ndarray, com_xy: np.ndarray, cons: np.ndarray) -> np.ndarray:
         """All constraint values (≥ 0 when held) at x, from the CoM and the P-only constraints."""
-        u = x[3]
-        n, b = self.normals, self.offsets
-        poly = b * (1 - u) - com_xy @ n.T + u * (n @ self.problem.fan_xy)
+        d = com_xy @ self.normals.T - self.offsets + self.problem.tolerance.com_m
+        poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
         return np.concatenate([poly, cons])
 
     def _values(self, x: np.ndarray) -> np.ndarray:
@@ -153,8 +160,7 @@ class AnalyticSample:
         g0 = self._values(x)
         com, cons, _ = self.posture_terms(x[:3] + FD_STEP * np.eye(3))
         g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
-        n, b = self.normals, self.offsets
-        dg_du = np.concatenate([-b + n @ self.problem.fan_xy, np.zeros(len(g0) - len(b))])
+        dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
         return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
 
     def _objective(self, x: np.ndarray) -> tuple[float, np.ndarray]:
