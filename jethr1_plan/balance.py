@@ -109,6 +109,26 @@ class Tolerance:
 NOMINAL = Tolerance()
 
 
+def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
+                  tol: Tolerance = NOMINAL, g: float = GRAVITY) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bounds of :func:`thrust_window` before they are intersected: lo [N] (≥ 0), hi [N], and
+    ``blocked`` (...,) where an edge no thrust can move the ZMP across lies on the wrong side. The
+    window is [lo, hi] where ``lo <= hi`` and not ``blocked``; where ``lo > hi``, lo − hi [N] says how
+    far it is from opening."""
+    n, b = halfplanes(polygon)
+    w = mass_kg * g
+    d = np.asarray(com_xy, dtype=float) @ n.T - b + tol.com_m  # (..., K)
+    a = np.asarray(fan_xy, dtype=float) @ n.T - b
+    rhs = w * (d + tol.mass * np.abs(d))
+    coef = a - tol.thrust * np.abs(a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = rhs / coef
+    lo = np.maximum(np.where(coef > 0, bound, -np.inf).max(axis=-1), 0.0)
+    hi = np.minimum(np.where(coef < 0, bound, np.inf).min(axis=-1),
+                    w * (1.0 - tol.mass) / (1.0 + tol.thrust) * (1.0 - 1e-9))
+    return lo, hi, np.any((coef == 0) & (rhs > 0), axis=-1)
+
+
 def thrust_window(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
                   tol: Tolerance = NOMINAL, g: float = GRAVITY) -> tuple[np.ndarray, np.ndarray]:
     """The thrusts [N] of one fan that keep the ZMP in ``polygon`` under every error within ``tol``.
@@ -136,18 +156,8 @@ def thrust_window(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
         lo, hi (...,) [N]: the window; lo = inf and hi = nan where it is empty (no thrust balances).
         The fan's maximum is not applied here.
     """
-    n, b = halfplanes(polygon)
-    w = mass_kg * g
-    d = np.asarray(com_xy, dtype=float) @ n.T - b + tol.com_m  # (..., K)
-    a = np.asarray(fan_xy, dtype=float) @ n.T - b
-    rhs = w * (d + tol.mass * np.abs(d))
-    coef = a - tol.thrust * np.abs(a)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = rhs / coef
-    lo = np.maximum(np.where(coef > 0, bound, -np.inf).max(axis=-1), 0.0)
-    hi = np.minimum(np.where(coef < 0, bound, np.inf).min(axis=-1),
-                    w * (1.0 - tol.mass) / (1.0 + tol.thrust) * (1.0 - 1e-9))
-    empty = (lo > hi) | np.any((coef == 0) & (rhs > 0), axis=-1)
+    lo, hi, blocked = window_bounds(com_xy, fan_xy, polygon, mass_kg, tol, g)
+    empty = (lo > hi) | blocked
     return np.where(empty, np.inf, lo), np.where(empty, np.nan, hi)
 
 

@@ -573,11 +573,14 @@ class FiniteFloat(click.ParamType):
               help="Randomised trials instead of one run: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, "
                    "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the trials.")
+@click.option("--raw", is_flag=True,
+              help="Servos follow the joint columns and fans the thrust columns as written, without the plan's "
+                   "sag and lag compensation (what a replay reading only the CSV does).")
 @click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
               help="Processes for the trials (results do not depend on it).")
 @click.option("--json", "as_json", is_flag=True, help="Print simulation.json on stdout.")
 @click.option("--no-progress", is_flag=True)
-def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, seed, jobs, as_json,
+def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, seed, raw, jobs, as_json,
                  no_progress) -> None:
     """Rehearse a written plan in a MuJoCo twin of the robot and its cartons (physics, not the planner's model).
 
@@ -596,12 +599,13 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     else:
         perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
     with _Progress(not no_progress, f"simulate {plan_dir}") as progress:
-        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress)
+        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw)
     from .sim.controller import Gains
 
     ok = sum(r.survived for r in runs)
     simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)
-    doc = {"plan": str(plan_dir), "controller": controller, "gains": Gains.of(track.robot).__dict__,
+    doc = {"plan": str(plan_dir), "controller": controller, "compensated": not raw,
+           "gains": Gains.of(track.robot).__dict__,
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}

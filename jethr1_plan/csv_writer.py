@@ -26,7 +26,8 @@ def columns() -> list[str]:
             "swing_x_m", "swing_y_m", "swing_z_m", "thrust_left_n", "thrust_right_n",
             "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m",
             "thrust_window_lo_n", "thrust_window_hi_n", "zmp_margin_m",
-            *(f"{j}_tau_nm" for j in JOINT_NAMES), "kappa_left", "kappa_right", "yaw_momentum_nms", "reason"]
+            *(f"{j}_tau_nm" for j in JOINT_NAMES), "kappa_left", "kappa_right", "yaw_momentum_nms",
+            *(f"{j}_cmd_rad" for j in JOINT_NAMES), "thrust_cmd_left_n", "thrust_cmd_right_n", "reason"]
 
 
 def _num(x: float) -> str:
@@ -50,6 +51,7 @@ def trajectory_csv(rows: Rows) -> str:
                 _num(c["thrust_right"][i]), *map(_num, c["com"][i]), *map(_num, c["zmp"][i]),
                 *map(_num, c["window"][i]), _num(c["zmp_margin"][i]),
                 *map(_num, c["tau"][i]), _num(c["kappa"][i][0]), _num(c["kappa"][i][1]), _num(c["yaw_momentum"][i]),
+                *map(_num, c["q_cmd"][i]), _num(c["thrust_cmd_left"][i]), _num(c["thrust_cmd_right"][i]),
                 c["reason"][i]]
         out.write(",".join(vals) + "\n")
     return out.getvalue()

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balance import NOMINAL, Tolerance, edge_angle_excess, thrust_window, zmp_with_thrust
+from .balance import NOMINAL, Tolerance, edge_angle_excess, window_bounds, zmp_with_thrust
 from .posture import OK, REASONS, PostureSolver, Stance
 from .robot_model import GRAVITY
 
@@ -52,6 +52,7 @@ class Candidates:
     zmp_xy: np.ndarray  # (N, 2) [m]
     edge_excess_rad: np.ndarray  # (N,) max(|θ_ZC − θ_CA| − ρ, 0) [rad]
     violation: np.ndarray  # (N,) first violated constraint: 0 feasible, IK status 1..3, or 10..12
+    window_gap_n: np.ndarray  # (N,) where no thrust balances: how far the window is from opening [N] (inf: never)
 
     @property
     def feasible(self) -> np.ndarray:
@@ -66,9 +67,11 @@ def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: n
     """Postures, thrust, ZMP and constraint status for candidates ``p_body`` (N, 3) [m]."""
     batch = solver.solve_batch(problem.stance, p_body)
     ik_ok = batch.status == OK
-    thrust, _ = thrust_window(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg,
-                              problem.tolerance)
-    thrust = np.where(ik_ok, thrust, np.inf)
+    lo, hi, blocked = window_bounds(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg,
+                                    problem.tolerance)
+    empty = (lo > hi) | blocked
+    thrust = np.where(ik_ok & ~empty, lo, np.inf)
+    gap = np.where(empty, np.where(blocked | ~np.isfinite(lo - hi), np.inf, lo - hi), 0.0)
     with np.errstate(invalid="ignore"):
         zmp = zmp_with_thrust(batch.com[:, :2], problem.fan_xy, np.where(np.isfinite(thrust), thrust, np.nan),
                               problem.mass_kg)
@@ -78,7 +81,7 @@ def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: n
     violation = np.where(ik_ok & ~np.isfinite(thrust), NO_BALANCE, violation)
     violation = np.where((violation == FEASIBLE) & (thrust > problem.thrust_max_n), THRUST_MAX, violation)
     violation = np.where((violation == FEASIBLE) & (excess > 0), EDGE_ANGLE, violation)
-    return Candidates(np.asarray(p_body, dtype=float), batch.q, batch.com, thrust, zmp, excess, violation)
+    return Candidates(np.asarray(p_body, dtype=float), batch.q, batch.com, thrust, zmp, excess, violation, gap)
 
 
 @dataclass(frozen=True)
@@ -104,10 +107,12 @@ def fitness(c: Candidates, k: FitnessConstants, thrust_max_n: float,
     else C4-1 (A-22). A failed IK also counts as violating (A-9) and (A-10).
 
     With ``k.graded`` (the default) each violated term also grows with the size of the violation:
-    f2 adds C4-2 per degree beyond ρ; f4 adds C4-2·F above F_max, or C4-2·M·g where no thrust
-    balances. Every infeasible candidate still scores above every feasible one, as in the paper;
-    the grading only ranks infeasible candidates among themselves, so the GA climbs towards
-    feasibility instead of searching blindly where the feasible set is small.
+    f2 adds C4-2 per degree beyond ρ; f4 adds C4-2·F above F_max, or, where no thrust balances,
+    C4-2 times how far the thrust window is from opening (``balance.window_bounds``: lo − hi [N]),
+    at most M·g (M·g where it never opens). Every infeasible candidate still scores above every
+    feasible one, as in the paper; the grading only ranks infeasible candidates among themselves,
+    so the GA climbs towards feasibility instead of searching blindly where the feasible set is
+    small.
     """
     ik_failed = (c.violation >= 1) & (c.violation <= 3)
     finite = np.isfinite(c.thrust_n)
@@ -120,7 +125,7 @@ def fitness(c: Candidates, k: FitnessConstants, thrust_max_n: float,
     if k.graded:
         f2 = f2 + np.where(~ik_failed & ~edge_ok, k.c4_2 * np.degrees(np.where(ik_failed, 0, c.edge_excess_rad)), 0.0)
         f4 = f4 + np.where(~ik_failed & finite & ~thrust_ok, k.c4_2 * thrust, 0.0)
-        f4 = f4 + np.where(~ik_failed & ~finite, k.c4_2 * k.weight_n, 0.0)
+        f4 = f4 + np.where(~ik_failed & ~finite, k.c4_2 * np.minimum(c.window_gap_n, k.weight_n), 0.0)
     f = f1 + f2 + f4
     if previous_p_body is not None:
         d = (c.p_body - previous_p_body) / k.f3_unit_m

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import __version__
 from .balance import body_yaw_eq4, body_yaw_forward_axis, sole_polygon
+from .commands import fan_commands, servo_commands
 from .errors import InfeasiblePlan
 from .fitness import VIOLATIONS, SampleProblem
 from .leg_kinematics import make_posture_solver
@@ -259,6 +260,13 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     a = analyse_rows(robot, rows, dt)
     c = rows.columns
     c["tau"], c["kappa"], c["yaw_momentum"] = list(a["tau"]), list(a["kappa"]), list(a["yaw_momentum"])
+    c["q_cmd"] = list(servo_commands(np.asarray(c["q"], dtype=float), a["tau"], robot.servo_stiffness_nm_per_rad,
+                                     1.0 / dt))
+    fans = [robot.fan_for(side) for side in SIDES]
+    cmd = fan_commands(np.column_stack([rows.array(f"thrust_{side}") for side in SIDES]), 1.0 / dt,
+                       np.array([f.lag_s for f in fans]), np.array([f.max_thrust_n for f in fans]))
+    for k, side in enumerate(SIDES):
+        c[f"thrust_cmd_{side}"] = list(cmd[:, k])
     ratio = np.abs(a["tau"]) / robot.servo_limit_nm
     over = np.flatnonzero(ratio.max(axis=1) > 1.0)
     rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio}

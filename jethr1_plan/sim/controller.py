@@ -35,7 +35,7 @@ import numpy as np
 
 from ..balance import halfplanes
 
-__all__ = ["Gains", "band_error", "feed_forward", "law", "ray_extent", "step"]
+__all__ = ["Gains", "band_error", "law", "ray_extent", "step"]
 
 
 @dataclass(frozen=True)
@@ -60,9 +60,9 @@ def law(gains: Gains, thrust_error: float, mass_error: float, thrust_max_n: floa
         "kind": "cop_band_pi",
         "signal": "centre of pressure of the soles in contact, world x y [m]",
         "reference": "the row's zmp_x_m, zmp_y_m; the ray from the fan's ground point through it",
-        "feed_forward": "the row's thrust_left_n / thrust_right_n plus the fan's lag_s times their rate of change "
-                        "(within [0, F_max]); joint commands <joint>_rad plus the row's <joint>_tau_nm, low-passed "
-                        "over 0.2 s, over the servo's stiffness (servo sag)",
+        "feed_forward": "the row's thrust_cmd_left_n / thrust_cmd_right_n (the planned thrust led by the fans' "
+                        "lag) and <joint>_cmd_rad (the posture plus the servos' sag under the row's static torque); "
+                        "the thrust the law adds, ΔF, moves the swing leg's commands by J_fanᵀ·ΔF / stiffness",
         "gains": asdict(gains),
         "saturation": {"lower": f"thrust_window_lo_n * {1 - mass_error:g} / {1 + thrust_error:g}",
                        "upper": f"min({thrust_max_n:g}, thrust_window_hi_n * {1 + mass_error:g} / "
@@ -70,14 +70,6 @@ def law(gains: Gains, thrust_error: float, mass_error: float, thrust_max_n: floa
         "active": "single support; in double support the planned thrust alone",
         "description": __doc__.split("\n\n")[2].strip(),
     }
-
-
-def feed_forward(thrust_n: np.ndarray, rate_hz: float, lag_s: np.ndarray, max_n: np.ndarray) -> np.ndarray:
-    """Thrust commands (N, F) [N] that make fans with a first-order lag ``lag_s`` [s] give the planned
-    thrust ``thrust_n`` (N, F) [N] at rows ``rate_hz`` apart: F + τ·dF/dt (the lag's inverse, the
-    rate by central differences), within [0, F_max]."""
-    rate = np.gradient(np.asarray(thrust_n, dtype=float), 1.0 / rate_hz, axis=0)
-    return np.clip(thrust_n + np.asarray(lag_s) * rate, 0.0, np.asarray(max_n))
 
 
 def ray_extent(z_xy: np.ndarray, u: np.ndarray, polygon: np.ndarray) -> tuple[float, float]:

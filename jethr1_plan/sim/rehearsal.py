@@ -88,7 +88,8 @@ class PlanTrack:
     phase: np.ndarray  # (N,)
     step: np.ndarray  # (N,)
     sample: np.ndarray  # (N,)
-    tau: np.ndarray  # (N, 12) static joint torques of the row [N·m] (the plan's <joint>_tau_nm)
+    q_cmd: np.ndarray  # (N, 12) servo commands [rad] (the plan's <joint>_cmd_rad: sag compensated)
+    thrust_cmd: np.ndarray  # (N, F) fan commands [N] (the plan's thrust_cmd_*: lag compensated)
     feet: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3) planned sole centres [m]
     feet_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2) [rad]
 
@@ -141,7 +142,8 @@ def load_plan(folder: Path) -> PlanTrack:
         track = PlanTrack(folder, robot, cartons, rate, thrust_max, float(tol.get("thrust_error", 0.0)),
                           float(tol.get("mass_error", 0.0)), c["time_s"], q, pelvis, thrust, window, zmp,
                           c["support"], c["phase"], c["step"].astype(int), c["sample"].astype(int),
-                          np.stack([c[f"{j}_tau_nm"] for j in robot.joint_names], axis=1))
+                          np.stack([c[f"{j}_cmd_rad"] for j in robot.joint_names], axis=1),
+                          np.stack([c[f"thrust_cmd_{f.foot.split('_')[0]}_n"] for f in robot.fans], axis=1))
     except (KeyError, ValueError, IndexError, OSError, UnicodeDecodeError) as exc:
         raise InputError(str(csv_path), "", f"malformed trajectory: {exc}".splitlines()[0]) from None
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
@@ -175,7 +177,7 @@ class RunResult:
     """One run's verdict and measurements (SI units, angles in degrees where named so)."""
 
     controller: str
-    sag_compensation: bool
+    compensated: bool  # the plan's sag and lag compensation in the feed-forward
     perturbation: dict
     survived: bool
     fell: dict | None
@@ -230,12 +232,14 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
 
 def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Perturbation | None = None,
              gains: ctl.Gains | None = None, record: bool = False, params: TwinParams | None = None,
-             sag_compensation: bool = True) -> RunResult:
+             compensate: bool = True) -> RunResult:
     """Run ``track`` in a fresh twin with ``controller`` (``feedforward`` or ``feedback``).
 
-    With ``sag_compensation`` each servo is commanded q + τ_f/k instead of q (:func:`sag_targets`),
-    so that a position servo that sags by τ/k under its load holds the planned posture; without it
-    the servos follow the joint columns.
+    With ``compensate`` the servos follow the plan's command columns (``<joint>_cmd_rad``: the
+    posture plus the sag of the servos under the row's static torque) and the fans its
+    ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.commands`), and
+    the feedback's extra thrust moves the swing leg's commands by J_fanᵀ·ΔF/k as the robot would;
+    without it the servos follow the joint columns and the fans the thrust columns.
     """
     import mujoco
 
@@ -251,9 +255,12 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     d.qpos[:7] = track.pelvis[0]
     d.qpos[twin.qpos_adr] = track.q[0]
     mujoco.mj_forward(m, d)
-    target = sag_targets(track) if sag_compensation else track.q
-    thrust_ff = ctl.feed_forward(track.thrust, track.rate_hz, np.array([f.lag_s for f in robot.fans]),
-                                 np.array([f.max_thrust_n for f in robot.fans]))
+    target = track.q_cmd if compensate else track.q
+    stiffness = robot.servo_stiffness_nm_per_rad
+    lag_nominal = np.array([f.lag_s for f in robot.fans])
+    extra = np.zeros(len(robot.fans))
+    jac = np.zeros((3, m.nv))
+    thrust_ff = track.thrust_cmd if compensate else track.thrust
     dt_c = 1.0 / gains.rate_hz
     nsub = max(1, round(dt_c / m.opt.timestep))
     dt_c = nsub * m.opt.timestep
@@ -318,6 +325,14 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         else:  # double support: the planned thrust; the integral leaks away
             _, integral = ctl.step(gains, integral, 0.0, 0.0, 0.0, 0.0)
         applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)
+        # the thrust the feedback adds to the plan, as the robot estimates it (its fans' nominal lag):
+        # the servos that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
+        extra += (cmd - ff - extra) * (dt_c / lag_nominal)
+        if compensate and np.any(np.abs(extra) > 1e-6):
+            for f_idx, body in enumerate(fan_ids):
+                if abs(extra[f_idx]) > 1e-6:
+                    mujoco.mj_jac(m, d, jac, None, d.xpos[body], body)
+                    d.ctrl[:] -= jac[2, twin.dof_adr] * extra[f_idx] / stiffness
         max_thrust = max(max_thrust, float(cmd.max(initial=0.0)))
         d.xfrc_applied[:] = 0.0
         for f_idx, body in enumerate(fan_ids):
@@ -353,29 +368,13 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     wall = time.perf_counter() - wall0
     on_top = {s: _on_cartons(track, d.xpos[twin.foot_bodies[s]], d.xmat[twin.foot_bodies[s]]) for s in SIDES}
     return RunResult(
-        controller=controller, sag_compensation=sag_compensation, perturbation=asdict(p), survived=fell is None and all(on_top.values()), fell=fell,
+        controller=controller, compensated=compensate, perturbation=asdict(p),
+        survived=fell is None and all(on_top.values()), fell=fell,
         max_trunk_tilt_deg=max_tilt, support_max_tilt_deg=sup_tilt, support_max_slip_m=sup_slip,
         least_cop_margin_m=None if math.isinf(least_margin) else least_margin, least_cop_margin_at=least_at,
         landing_errors_m=landing,
         soles_on_cartons_at_end=on_top, max_thrust_n=max_thrust, simulated_s=max(t, 0.0) + SETTLE_S,
         wall_s=wall, record=rec)
-
-
-SAG_FILTER_S = 0.2  # time constant of the low-pass on the sag compensation [s]
-
-
-def sag_targets(track: PlanTrack) -> np.ndarray:
-    """Servo commands (N, 12) [rad] that hold the planned joints against the servos' sag:
-    q + τ_f/k, with τ the rows' static torques (the plan's ``<joint>_tau_nm``), k each servo's
-    stiffness (robot YAML) and τ_f τ through a first-order low-pass of ``SAG_FILTER_S`` (the static
-    torques jump where a transfer, whose two feet share the load by a least-norm split, hands over
-    to a swing; the filter turns the jump into a ramp)."""
-    alpha = 1.0 - math.exp(-1.0 / (track.rate_hz * SAG_FILTER_S))
-    tau_f = np.empty_like(track.tau)
-    tau_f[0] = track.tau[0]
-    for i in range(1, len(track.tau)):
-        tau_f[i] = tau_f[i - 1] + alpha * (track.tau[i] - tau_f[i - 1])
-    return track.q + tau_f / track.robot.servo_stiffness_nm_per_rad
 
 
 def _other(side: str) -> str:
@@ -410,26 +409,27 @@ def _on_cartons(track: PlanTrack, xyz: np.ndarray, xmat: np.ndarray) -> bool:
                               for c in track.cartons))
 
 
-def _run_one(folder: str, controller: str, perturbation: Perturbation, record: bool) -> RunResult:
-    return rehearse(load_plan(Path(folder)), controller, perturbation, record=record)
+def _run_one(folder: str, controller: str, perturbation: Perturbation, record: bool, compensate: bool
+             ) -> RunResult:
+    return rehearse(load_plan(Path(folder)), controller, perturbation, record=record, compensate=compensate)
 
 
 def simulate(folder: Path, controller: str, perturbations: list[Perturbation], jobs: int = 1,
-             progress=None) -> list[RunResult]:
+             progress=None, compensate: bool = True) -> list[RunResult]:
     """Every perturbation's run of the plan in ``folder`` (the first one recorded), in order; the
     results do not depend on ``jobs``."""
     track = load_plan(folder)  # bad input fails here, before any worker starts
     if jobs <= 1 or len(perturbations) == 1:
         out = []
         for k, p in enumerate(perturbations):
-            out.append(rehearse(track, controller, p, record=k == 0))
+            out.append(rehearse(track, controller, p, record=k == 0, compensate=compensate))
             if progress:
                 progress(f"run {k + 1}", k + 1, len(perturbations))
         return out
     from joblib import Parallel, delayed
 
     out = []
-    tasks = [delayed(_run_one)(str(folder), controller, p, k == 0) for k, p in enumerate(perturbations)]
+    tasks = [delayed(_run_one)(str(folder), controller, p, k == 0, compensate) for k, p in enumerate(perturbations)]
     for k, r in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):
         out.append(r)
         if progress:
