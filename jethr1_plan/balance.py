@@ -163,7 +163,7 @@ def thrust_window(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
 
 def balance_slack(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, polygon: np.ndarray,
                   mass_kg: float, tol: Tolerance = NOMINAL, g: float = GRAVITY) -> np.ndarray:
-    """How well given thrusts of several fans balance a posture under every error within ``tol`` [N]:
+    """How well given thrusts of several fans balance a posture under every error within ``tol`` [N·m]:
     min over the polygon's edges of Σ_i F_i·(a_ik − X·|a_ik|) − M·g·((d_k + ε) + Y·|d_k + ε|), the
     inequality of :func:`thrust_window` for each fan's thrust F_i at ``fan_xy[..., i, :]``. It is ≥ 0
     exactly when the ZMP stays in the polygon for every error (each fan's error independent).

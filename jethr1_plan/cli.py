@@ -203,6 +203,24 @@ def _report_plan(summary: dict, folder: Path) -> None:
     c.print(f"[green]feasible[/] {summary['scenario']}: {summary['sample_count']} swing samples, "
             f"max thrust {summary['max_thrust_n']:.2f} N, mean {summary['mean_thrust_n']:.2f} N, "
             f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s")
+    b = summary["balance"]
+    tol = b["tolerance"]
+    policy = ("minimal thrust (Paper A: the ZMP on the sole's edge)" if b["policy"] == "minimal" else
+              f"robust to ±{100 * tol['thrust_error']:g} % thrust, ±{100 * tol['mass_error']:g} % mass, "
+              f"{1000 * tol['com_error_m']:g} mm of CoM error")
+    rob = summary.get("robustness", {})
+    c.print(f"balance: {policy}")
+    if rob:
+        at = rob["least_zmp_margin_at"]
+        margin_mm = round(1000 * rob["least_zmp_margin_m"], 1) + 0.0  # no "-0.0"
+        line = (f"least ZMP margin {margin_mm:.1f} mm (step {at['step']} {at['phase']} row {at['row']}, "
+                f"t = {at['time_s']:.2f} s)")
+        if "narrowest_window_n" in rob:
+            lo, hi = rob["narrowest_window_n"]
+            at = rob["narrowest_window_at"]
+            line += (f"; narrowest thrust window [{lo:.2f}, {hi:.2f}] N (step {at['step']} {at['phase']} row "
+                     f"{at['row']}, t = {at['time_s']:.2f} s)")
+        c.print(line)
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
     c.print("Foxglove: open trajectory.mcap, add a 3D panel, add the URDF layer "
             "(robots/jethr1/jethr1.urdf) and set the display frame to 'world'; /tf moves it, "

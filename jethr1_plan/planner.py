@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import __version__
-from .balance import body_yaw_eq4, body_yaw_forward_axis, sole_polygon
+from .balance import NOMINAL, body_yaw_eq4, body_yaw_forward_axis, sole_polygon
 from .commands import fan_commands, servo_commands
 from .errors import InfeasiblePlan
 from .fitness import VIOLATIONS, SampleProblem
@@ -165,6 +165,9 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
             first_bad = {"step": si, "phase": "swing", "sample": i, "swing_m": swing_xyz.tolist(),
                          "p_body_m": res.p_body.tolist(), "thrust_n": _finite(res.best.thrust_n[0]),
                          "reason": VIOLATIONS[int(res.best.violation[0])]}
+            if problem.tolerance != NOMINAL:
+                first_bad["reachable_tolerance"] = reachable_tolerance(robot, problem, res.p_body,
+                                                                       cfg.initial.half_range_m)
             if not keep_going:
                 return StepResult(si, step.swing, support, step.path_m[:i + 1], results), first_bad
     return StepResult(si, step.swing, support, step.path_m, results), first_bad
@@ -284,6 +287,16 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     return first
 
 
+def reachable_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, half: float) -> dict:
+    """The largest share of the tolerance a sample reaches (``sqp_optimiser.largest_tolerance``)."""
+    from .sqp_optimiser import largest_tolerance
+
+    k, p = largest_tolerance(robot, problem, centre, half)
+    t = problem.tolerance.scaled(k)
+    return {"scale": k, "thrust_error": t.thrust, "mass_error": t.mass, "com_error_m": t.com_m,
+            "p_body_m": None if p is None else p.tolist()}
+
+
 def _finite(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
@@ -292,6 +305,12 @@ def _describe(bad: dict) -> str:
     where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
     pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
     thrust = f", minimal thrust {bad['thrust_n']:.2f} N" if bad.get("thrust_n") is not None else ""
+    reach = bad.get("reachable_tolerance")
+    if reach is not None:
+        thrust += (f"; the most found to hold there: ±{100 * reach['thrust_error']:.1f} % thrust, "
+                   f"±{100 * reach['mass_error']:.1f} % mass, {1000 * reach['com_error_m']:.1f} mm of CoM error "
+                   f"({100 * reach['scale']:.0f} % of the tolerance)" if reach["scale"] > 0 else
+                   "; no posture balances this sample even without tolerance")
     return f"infeasible at {where}{pos}: {bad['reason']}{thrust}"
 
 
@@ -351,8 +370,8 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
 
 def _where(rows: Rows, i: int) -> dict:
     c = rows.columns
-    return {"row": int(i), "time_s": float(c["time_s"][i]), "step": int(c["step"][i]), "phase": c["phase"][i],
-            "sample": int(c["sample"][i])}
+    return {"row": int(i), "time_s": round(float(c["time_s"][i]), 9), "step": int(c["step"][i]),
+            "phase": c["phase"][i], "sample": int(c["sample"][i])}
 
 
 def robustness_summary(rows: Rows) -> dict:
@@ -427,6 +446,10 @@ def plan_summary(result: PlanResult) -> dict:
                              "duration_s": len(rows) / sc.timing.rate_hz,
                              "max_thrust_n": float(max(tl.max(), tr.max()))}
         out["robustness"] = robustness_summary(rows)
+        from .sim.controller import Gains, law
+
+        tol = sc.balance.tolerance
+        out["controller"] = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)
         if "tau" in rows.columns:
             tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
             ratio = rows.analysis["ratio"]

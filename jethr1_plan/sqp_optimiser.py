@@ -304,6 +304,35 @@ def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> 
     return best
 
 
+def largest_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, half: float,
+                      iterations: int = 7) -> tuple[float, np.ndarray | None]:
+    """The largest k in [0, 1] for which some P_body balances ``problem`` within k × its tolerance
+    (every other constraint held, thrust within F_max), by bisection on k; each k is an SLSQP solve
+    from the best points of a grid over ``centre`` ± ``half`` [m] (a local answer: a lower bound).
+
+    Returns (k, that P_body [m]); (0.0, None) where not even the nominal problem is solved.
+    """
+    from dataclasses import replace
+
+    def solve(k: float) -> np.ndarray | None:
+        sample = AnalyticSample(robot, replace(problem, tolerance=problem.tolerance.scaled(k)), None)
+        found = solve_from_grid(sample, centre, half)
+        return None if found is None else found.p
+
+    best = solve(0.0)
+    if best is None:
+        return 0.0, None
+    lo, hi = 0.0, 1.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        p = solve(mid)
+        if p is None:
+            hi = mid
+        else:
+            lo, best = mid, p
+    return lo, best
+
+
 def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
                 sweeps: int = SMOOTH_SWEEPS) -> None:
     """Sweeps that move each P_body towards the midpoint of its neighbours (full, half or quarter

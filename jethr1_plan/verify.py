@@ -104,8 +104,14 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray) -> dict:
 
 
 def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_paths: list[np.ndarray] | None = None,
-                start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50) -> tuple[int, list[Failure]]:
-    """Check every row (vectorised over rows); return (rows checked, failures sorted by row)."""
+                start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50,
+                balance: dict | None = None) -> tuple[int, list[Failure]]:
+    """Check every row (vectorised over rows); return (rows checked, failures sorted by row).
+
+    ``balance``: the plan's ``summary.json`` balance block (policy, sole margin, tolerance); with it
+    every row's written thrust must keep the ZMP in the support (shrunk by the sole margin) under every
+    error within the tolerance (``balance.balance_slack``).
+    """
     robot = load_robot(robot_name)
     w = robot.mass_kg * GRAVITY
     fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
@@ -170,6 +176,10 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
     where = np.where(single, "the support sole", "the hull of both soles")
     fail(outside, 5, "ZMP outside support", lambda i: f"ZMP {np.round(zmp[i], 4).tolist()} m with the written "
          f"thrust ({total[i]:.3f} N) is outside {where[i]}")
+    if "thrust_window_lo_n" in c:
+        _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found)
+    if "left_hip_yaw_cmd_rad" in c and "left_hip_yaw_tau_nm" in c and n > 1:
+        _check_commands(c, robot, q, thrust, found)
     if "com_x_m" in c:
         written = np.stack([c["com_x_m"], c["com_y_m"], c["com_z_m"]], axis=1).astype(float)
         bad = ~(np.linalg.norm(written - com, axis=1) <= 1e-9)
@@ -181,6 +191,89 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
              f"{np.round(zmp[i], 6).tolist()}")
     found.sort(key=lambda f: (f[0], f[1]))
     return n, [Failure(i, float(c["time_s"][i]), check, detail) for i, _, check, detail in found[:max_failures]]
+
+
+# The fans' positions from forward kinematics differ from the planned ones by up to the IK tolerance
+# (1e-6 m); about the sole's edge that moves the thrust window by ~M·g·1e-6 m / 0.1 m ≈ 1e-3 N and a
+# balance moment by ~1e-4 N·m.
+WINDOW_TOL_N = 1e-3
+SLACK_TOL_NM = 1e-4
+
+
+def _supports(c, robot, pos, single) -> list[np.ndarray]:
+    """Per row, the real support polygon: the support sole, or the hull of both soles."""
+    out = []
+    for i in range(len(single)):
+        soles = [SIDES.index(c["support"][i])] if single[i] else [0, 1]
+        polys = [sole_polygon(pos[SIDES[k]][i, :2], 0.0, robot.sole_length_m, robot.sole_width_m) for k in soles]
+        out.append(polys[0] if single[i] else convex_hull(np.vstack(polys)))
+    return out
+
+
+def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> None:
+    """The written thrust window, ZMP margin and (with the plan's balance settings) the tolerance."""
+    from .balance import Tolerance, balance_slack, polygon_margin, thrust_window
+
+    polys = _supports(c, robot, pos, single)
+    lo_w, hi_w = c["thrust_window_lo_n"].astype(float), c["thrust_window_hi_n"].astype(float)
+    margin_w = c["zmp_margin_m"].astype(float)
+    fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
+    tol = Tolerance(**{k: float(v) for k, v in zip(("thrust", "mass", "com_m"), (
+        (balance or {}).get("tolerance", {}).get(key, 0.0) for key in ("thrust_error", "mass_error", "com_error_m")),
+        strict=True)})
+    shrink = float((balance or {}).get("sole_margin_m", 0.0))
+    com = fk["com"][:, :2]
+    for i, poly in enumerate(polys):
+        margin = float(polygon_margin(zmp[i], poly))
+        if not abs(margin - margin_w[i]) <= TOL_M:
+            found.append((i, 8, "ZMP margin column wrong", f"written {margin_w[i]:.6f} m, recomputed {margin:.6f} m"))
+        # the window of the fan that carries thrust (in a swing row: the swing foot's fan)
+        loaded = [s for s in SIDES if thrust[s][i] > 0]
+        side = loaded[0] if loaded else (("left" if c["support"][i] == "right" else "right") if single[i] else None)
+        if side is not None and np.isfinite(lo_w[i]):
+            lo, hi = thrust_window(com[i], fk["fans"][side][i], poly, robot.mass_kg)
+            lo, hi = float(lo), float(min(hi, fmax[side]))
+            if not (abs(lo - lo_w[i]) <= WINDOW_TOL_N and abs(hi - hi_w[i]) <= WINDOW_TOL_N):
+                found.append((i, 8, "thrust window column wrong", f"written [{lo_w[i]:.4f}, {hi_w[i]:.4f}] N, "
+                              f"recomputed [{lo:.4f}, {hi:.4f}] N"))
+            if not (lo - WINDOW_TOL_N <= thrust[side][i] <= hi + WINDOW_TOL_N):
+                found.append((i, 8, "thrust outside its window", f"{side} fan {thrust[side][i]:.3f} N outside "
+                              f"[{lo:.3f}, {hi:.3f}] N"))
+        if balance is not None:
+            shrunk = poly if shrink == 0 else (sole_polygon(np.mean(poly, axis=0), 0.0, robot.sole_length_m,
+                                                            robot.sole_width_m, shrink) if single[i] else None)
+            if shrunk is None:  # the hull of both soles shrunk by the margin
+                soles = [sole_polygon(pos[s][i, :2], 0.0, robot.sole_length_m, robot.sole_width_m, shrink)
+                         for s in SIDES]
+                shrunk = convex_hull(np.vstack(soles))
+            slack = float(balance_slack(com[i], np.stack([fk["fans"][s][i] for s in SIDES]),
+                                        np.array([thrust[s][i] for s in SIDES]), shrunk, robot.mass_kg, tol))
+            if slack < -SLACK_TOL_NM:
+                found.append((i, 8, "below the tolerance", f"the written thrust keeps the ZMP in the support only "
+                              f"without ±{100 * tol.thrust:g} % thrust, ±{100 * tol.mass:g} % mass and "
+                              f"{1000 * tol.com_m:g} mm CoM error ({-slack:.4f} N·m short)"))
+
+
+def _check_commands(c, robot, q, thrust, found) -> None:
+    """The command columns against the commands recomputed from the written rows (``commands``)."""
+    from .commands import fan_commands, servo_commands
+
+    rate = 1.0 / float(np.median(np.diff(c["time_s"].astype(float))))
+    tau = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1).astype(float)
+    q_cmd = servo_commands(q, tau, robot.servo_stiffness_nm_per_rad, rate)
+    written = np.stack([c[f"{j}_cmd_rad"] for j in JOINT_NAMES], axis=1).astype(float)
+    bad = np.flatnonzero(~np.all(np.abs(written - q_cmd) <= 1e-9, axis=1))
+    for i in bad:
+        j = int(np.argmax(np.abs(written[i] - q_cmd[i])))
+        found.append((int(i), 9, "servo command column wrong", f"{JOINT_NAMES[j]}_cmd_rad {written[i, j]:.6f}, "
+                      f"recomputed {q_cmd[i, j]:.6f}"))
+    fans = [robot.fan_for(s) for s in SIDES]
+    f_cmd = fan_commands(np.column_stack([thrust[s] for s in SIDES]), rate, np.array([f.lag_s for f in fans]),
+                         np.array([f.max_thrust_n for f in fans]))
+    written = np.column_stack([c[f"thrust_cmd_{s}_n"] for s in SIDES]).astype(float)
+    for i in np.flatnonzero(~np.all(np.abs(written - f_cmd) <= 1e-9, axis=1)):
+        found.append((int(i), 9, "fan command column wrong", f"written {np.round(written[i], 4).tolist()} N, "
+                      f"recomputed {np.round(f_cmd[i], 4).tolist()} N"))
 
 
 def _ground_references(c: dict[str, np.ndarray], feet: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -220,13 +313,14 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
         path = csv if csv.exists() else path / "trajectory.mcap"
     if not path.exists():
         raise InputError(str(path), "", "no such file (expected trajectory.csv, trajectory.mcap or their folder)")
-    robot_name, start = "jethr1", None
+    robot_name, start, balance = "jethr1", None, None
     summary = path.parent / "summary.json"
     if summary.exists():
         try:
             doc = json.loads(summary.read_text())
             robot_name = doc.get("robot_yaml") or doc.get("robot", robot_name)
             scenario = scenario or (Path(doc["scenario_file"]) if doc.get("scenario_file") else None)
+            balance = doc.get("balance")
         except (ValueError, KeyError):
             pass
     if scenario is not None and Path(scenario).exists():
@@ -237,7 +331,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
         rows, paths = _rows_from_mcap(path.read_bytes())
         n, failures = verify_rows(rows, robot_name, swing_paths=paths, start_feet=start)
     elif path.suffix == ".csv":
-        n, failures = verify_rows(_rows_from_csv(path.read_text()), robot_name, start_feet=start)
+        n, failures = verify_rows(_rows_from_csv(path.read_text()), robot_name, start_feet=start, balance=balance)
     else:
         raise InputError(str(path), "", "expected a .csv or .mcap trajectory")
     return n, failures, str(path)
