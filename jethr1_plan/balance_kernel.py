@@ -2,7 +2,7 @@
 
 The sweep of ``balance_space`` spends nearly all its time in one function of (P_body, swing cell):
 both legs' closed-form IK (``leg_kinematics.leg_ik``), the whole-body CoM (``leg_kinematics.fast_com``),
-the minimal thrust by clipping the ZMP ray (``balance.minimal_thrust``), the edge angle (A-10) and the
+the least balancing thrust (``balance.thrust_window``, any tolerance), the edge angle (A-10) and the
 legs' reach. In numpy those are ~1,300 array operations per batch, each a pass over memory; here
 they are one loop whose per-candidate arithmetic stays in registers (about 10x faster).
 
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .balance import halfplanes
+from .balance import NOMINAL, Tolerance, halfplanes
 from .leg_kinematics import _leg_mass_model, check_structure
 from .posture import JOINT_LIMIT, OK, UNREACHABLE
 from .robot_model import SIDES, RobotModel
@@ -41,11 +41,13 @@ class KernelParams(NamedTuple):
     normals: np.ndarray  # (K, 2) outward normals of the support polygon
     offsets: np.ndarray  # (K,) n·x ≤ b inside
     support: np.ndarray  # (3,) support sole centre [m]
-    scalars: np.ndarray  # (5,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty [N/deg]
+    scalars: np.ndarray  # (8,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty
+    # [N/deg], and the tolerance of balance.thrust_window: thrust error, mass error, CoM error [m]
 
 
 def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray, polygon: np.ndarray,
-                  rho_rad: float, thrust_max_n: float, weight_n: float, edge_penalty_n_per_deg: float) -> KernelParams:
+                  rho_rad: float, thrust_max_n: float, weight_n: float, edge_penalty_n_per_deg: float,
+                  tolerance: Tolerance = NOMINAL) -> KernelParams:
     """Constants of :func:`balance_objective` from the robot model (URDF masses and placements)."""
     g = check_structure(robot)
     (m_t, c_t), legs = _leg_mass_model(robot)
@@ -59,7 +61,7 @@ def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray,
         normals=np.ascontiguousarray(normals, dtype=float), offsets=np.ascontiguousarray(offsets, dtype=float),
         support=np.asarray(support_xyz, dtype=float),
         scalars=np.array([1.0 if support_side == "left" else -1.0, rho_rad, thrust_max_n, weight_n,
-                          edge_penalty_n_per_deg]),
+                          edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m]),
     )
 
 
@@ -174,25 +176,23 @@ def _com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
 
 
 @numba.njit(cache=True)
-def _minimal_thrust(cx, cy, fx, fy, normals, offsets, weight):
-    """balance.minimal_thrust for one CoM: the ZMP ray clipped against the sole (inf: no balance)."""
-    d0, d1 = cx - fx, cy - fy
-    s_lo, s_hi = -np.inf, np.inf
-    parallel_out = False
+def _thrust_lo(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """balance.thrust_window's lower end for one CoM (inf where the window is empty): per edge k,
+    F·(a_k − X|a_k|) ≥ M·g·((d_k + ε) + Y|d_k + ε|), d_k and a_k the CoM's and the fan's distances beyond
+    edge k. With the tolerance zero this is the minimal thrust H(P_body) of (A-5)."""
+    lo, hi = 0.0, weight * (1.0 - tol_mass) / (1.0 + tol_thrust) * (1.0 - 1e-9)
     for k in range(len(offsets)):
-        nc = cx * normals[k, 0] + cy * normals[k, 1]
-        nd = d0 * normals[k, 0] + d1 * normals[k, 1]
-        slack = offsets[k] - nc
-        if nd < 0:
-            s_lo = max(s_lo, slack / nd)
-        elif nd > 0:
-            s_hi = min(s_hi, slack / nd)
-        elif slack < 0:
-            parallel_out = True
-    s_lo = max(s_lo, 0.0)
-    if s_lo <= s_hi and not parallel_out:
-        return weight * s_lo / (1.0 + s_lo)
-    return np.inf
+        d = cx * normals[k, 0] + cy * normals[k, 1] - offsets[k] + tol_com
+        a = fx * normals[k, 0] + fy * normals[k, 1] - offsets[k]
+        rhs = weight * (d + tol_mass * abs(d))
+        coef = a - tol_thrust * abs(a)
+        if coef > 0:
+            lo = max(lo, rhs / coef)
+        elif coef < 0:
+            hi = min(hi, rhs / coef)
+        elif rhs > 0:
+            return np.inf
+    return lo if lo <= hi else np.inf
 
 
 @numba.njit(cache=True)
@@ -226,6 +226,7 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
     q = np.empty(12)
     cs = np.empty((12, 2))
     sup_sgn, rho, thrust_max, weight, edge_pen = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
+    tol_thrust, tol_mass, tol_com = scalars[5], scalars[6], scalars[7]
     w, L, ah = geom[0], geom[1] + geom[2], geom[3]
     for j in range(n):
         c = idx[j]
@@ -248,7 +249,7 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
             within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
         status = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
         cx, cy, _ = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
-        f = _minimal_thrust(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight)
+        f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
         edge = _edge_excess(support[0], support[1], cx, cy, sx, sy, rho)
         if status == UNREACHABLE:
             # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank

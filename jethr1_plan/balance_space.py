@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .balance import body_yaw_eq4, sole_polygon
+from .balance import NOMINAL, Tolerance, body_yaw_eq4, sole_polygon
 from .balance_kernel import (
     ABOVE_MAX,
     EDGE,
@@ -96,6 +96,7 @@ class SweepSpec:
     thrust_max_n: float = 23.0
     rho_rad: float = math.radians(5.0)
     sole_margin_m: float = 0.0
+    tolerance: Tolerance = NOMINAL  # the robust policy's model errors (balance.thrust_window); zero: Paper A's
     method: str = "continuation"
     pbody_resolution_m: float = 0.01  # exhaustive only
     min_step_m: float = 0.0005  # continuation: final compass step
@@ -146,7 +147,7 @@ class _Evaluator:
         self.fan_offset = np.asarray(robot.fan_for(spec.swing_side).offset_in_foot_m[:2])
         self.evaluations = 0
         self.params = kernel_params(robot, spec.support_side, self.support, self.poly, spec.rho_rad,
-                                    spec.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG)
+                                    spec.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG, spec.tolerance)
 
     def cells(self, swing: np.ndarray) -> _Cells:
         swing = np.ascontiguousarray(swing, dtype=float)

@@ -57,7 +57,8 @@ def step_evaluator(scenario: Scenario, si: int, pbody_resolution_m: float = 0.01
     feet = feet_before_each_step(scenario)[si]
     spec = SweepSpec(robot=scenario.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
                      thrust_max_n=scenario.balance.thrust_max_n, rho_rad=scenario.balance.rho_rad,
-                     sole_margin_m=scenario.balance.sole_margin_m, method="exhaustive",
+                     sole_margin_m=scenario.balance.sole_margin_m, tolerance=scenario.balance.tolerance,
+                     method="exhaustive",
                      pbody_resolution_m=pbody_resolution_m)
     ev = _Evaluator(load_robot(scenario.robot), spec)
     return ev, ev.cells(st.path_m)

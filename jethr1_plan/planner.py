@@ -18,7 +18,7 @@ from .optimiser import SampleResult, optimise_sample
 from .posture import PostureSolver, Stance
 from .robot_model import SIDES, RobotModel, load_robot, reach_centre
 from .scenario import Scenario
-from .sequence import Rows, SequenceBuilder
+from .sequence import Rows, SequenceBuilder, swing_row_positions
 from .statics import KAPPA_WARNING, analyse_rows
 
 STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
@@ -63,12 +63,15 @@ class PlanResult:
 
 
 def smoothness(p_body: np.ndarray, thrust_n: np.ndarray) -> dict:
-    """Σ‖ΔP_body‖² [m²], the largest ‖ΔP_body‖ [m] and the largest thrust jump [N] over consecutive samples."""
+    """Σ‖ΔP_body‖² [m²], the largest ‖ΔP_body‖ [m] and the largest thrust jump [N] over consecutive samples
+    (pairs of samples that both balance)."""
     d = np.diff(p_body, axis=0)
     step = np.linalg.norm(d, axis=1) if len(d) else np.zeros(1)
-    jumps = np.abs(np.diff(thrust_n)) if len(thrust_n) > 1 else np.zeros(1)
+    thrust = np.asarray(thrust_n, dtype=float)
+    pairs = np.isfinite(thrust[1:]) & np.isfinite(thrust[:-1])  # infeasible samples have no thrust
+    jumps = np.abs(thrust[1:][pairs] - thrust[:-1][pairs])
     return {"smoothness_m2": float(np.sum(d * d)), "max_step_m": float(step.max()),
-            "max_thrust_jump_n": float(np.nan_to_num(jumps, nan=np.inf).max())}
+            "max_thrust_jump_n": float(jumps.max()) if len(jumps) else 0.0}
 
 
 def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray):
@@ -150,7 +153,9 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
 
         path_results = optimise_path_sqp(solver, robot, problems, nominals, cfg,
                                          [np.random.default_rng([seed, si, i]) for i in range(len(problems))],
-                                         lambda i, lam: problem_at(i + lam))
+                                         lambda i, lam: problem_at(i + lam),
+                                         swing_row_positions(len(problems), scenario.timing.swing_s,
+                                                             scenario.timing.rate_hz))
     for i, swing_xyz in enumerate(step.path_m):
         problem, nominal = problems[i], nominals[i]
         if path_results is not None:

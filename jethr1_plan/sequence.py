@@ -45,6 +45,14 @@ def min_jerk(t: np.ndarray) -> np.ndarray:
     return t**3 * (10 - 15 * t + 6 * t * t)
 
 
+def swing_row_positions(samples: int, duration_s: float, rate_hz: float) -> np.ndarray:
+    """Where the rows of a swing fall along its path: (rows,) fractional sample indices in [0, N − 1],
+    row k at min_jerk(k / n) · (N − 1) with n = round(duration · rate) rows (the landing sample itself
+    starts the next transfer)."""
+    n = max(1, round(duration_s * rate_hz))
+    return min_jerk(np.arange(n) / n) * (samples - 1)
+
+
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull (K, 2) of 2-D points (monotone chain)."""
     pts = np.unique(np.round(points, 12), axis=0)
@@ -102,10 +110,11 @@ class SequenceBuilder:
     def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
         return sole_polygon(xyz[:2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
 
-    def _window(self, com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray) -> tuple[float, float]:
-        """The nominal balancing interval [N] of one fan, capped by its maximum (NaN, NaN: none)."""
+    def _window(self, com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, side: str) -> tuple[float, float]:
+        """The nominal balancing interval [N] of the ``side`` fan, capped by the fan's maximum (the
+        scenario's limit is a constraint on the plan, not on the window) (NaN, NaN: none)."""
         lo, hi = thrust_window(com_xy, fan_xy, polygon, self.robot.mass_kg)
-        lo, hi = float(lo), float(min(hi, self.thrust_max_n))
+        lo, hi = float(lo), float(min(hi, self.robot.fan_for(side).max_thrust_n))
         return (lo, hi) if lo <= hi else (np.nan, np.nan)
 
     def _describe_tolerance(self) -> str:
@@ -166,7 +175,7 @@ class SequenceBuilder:
             # the window of the fan that carries (or is about to carry) the thrust
             active = max(thrust, key=thrust.get) if total > 0 else (
                 thrust_in[0] if thrust_in is not None else (thrust_out[0] if thrust_out is not None else None))
-            window = self._window(com[:2], fans[active], real_hull) if active else (np.nan, np.nan)
+            window = self._window(com[:2], fans[active], real_hull, active) if active else (np.nan, np.nan)
             slack = float(balance_slack(com[:2], np.stack([fans["left"], fans["right"]]),
                                         np.array([thrust["left"], thrust["right"]]), hull, self.robot.mass_kg,
                                         self.tolerance))
@@ -192,12 +201,10 @@ class SequenceBuilder:
         ``yaw_fn(swing_xyz) -> body yaw [rad]`` gives the trunk yaw at any swing position.
         """
         swing_side = "left" if support == "right" else "right"
-        n = max(1, round(duration_s / self.dt))
         poly = self._sole(feet[support], self.margin)
         sole = self._sole(feet[support])
         idx = np.arange(len(path))
-        for k in range(n):
-            u = float(min_jerk(k / n)) * (len(path) - 1)
+        for k, u in enumerate(swing_row_positions(len(path), duration_s, 1.0 / self.dt)):
             swing = np.array([np.interp(u, idx, path[:, j]) for j in range(3)])
             p = np.array([np.interp(u, idx, p_samples[:, j]) for j in range(3)])
             yaw = float(yaw_fn(swing)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
@@ -223,5 +230,6 @@ class SequenceBuilder:
                        ground_z=feet[support][2],
                        yaw=yaw, q=q, swing=swing, thrust_left=f if swing_side == "left" else 0.0,
                        thrust_right=f if swing_side == "right" else 0.0, com=com, zmp=zmp,
-                       window=self._window(com[:2], fan, sole), zmp_margin=float(polygon_margin(zmp, sole)),
+                       window=self._window(com[:2], fan, sole, swing_side),
+                       zmp_margin=float(polygon_margin(zmp, sole)),
                        reason=reason or "")

@@ -70,8 +70,8 @@ RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside th
 GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
 SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
 SMOOTH_SWEEPS = 4
-BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples
-BETWEEN_ROUNDS = 6  # rounds of wider margins (×2 each) for segments that fail
+BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
+BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7)
 
 
 @functools.cache
@@ -360,15 +360,16 @@ def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Fo
 
 
 def infeasible_between(robot: RobotModel, found: list[Found | None], between: Callable[[int, float], SampleProblem],
-                       evals: np.ndarray) -> list[int]:
+                       evals: np.ndarray, fractions: dict[int, list[float]] | None = None) -> list[int]:
     """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
-    the sequence builds there interpolate P_body and the swing sole linearly (checked at a quarter,
-    half and three quarters of the way, without margins)."""
+    the sequence builds there interpolate P_body and the swing sole linearly. Checked without
+    margins at ``fractions[i]`` (the fractions of the way at which the rows fall), or, without
+    them, at a quarter, half and three quarters of the way."""
     bad = []
     for i in range(len(found) - 1):
         if found[i] is None or found[i + 1] is None:
             continue
-        for lam in BETWEEN:
+        for lam in (BETWEEN if fractions is None else fractions.get(i, ())):
             sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
             ok, _ = sample.feasible((1 - lam) * found[i].p + lam * found[i + 1].p)
             evals[i] += sample.evaluations
@@ -380,7 +381,8 @@ def infeasible_between(robot: RobotModel, found: list[Found | None], between: Ca
 
 def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
                       nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator],
-                      between: Callable[[int, float], SampleProblem] | None = None) -> list[SampleResult]:
+                      between: Callable[[int, float], SampleProblem] | None = None,
+                      row_positions: np.ndarray | None = None) -> list[SampleResult]:
     """P_body at every sample of one swing path (see the module docstring).
 
     Args:
@@ -390,6 +392,8 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         between: ``between(i, λ)``, the problem at the fraction λ of the way from sample i to i + 1
             (the swing sole interpolated as the sequence does); with it, segments whose interpolated
             postures break a constraint get their two samples re-solved with wider margins.
+        row_positions: the fractional sample indices at which the output rows fall
+            (``sequence.swing_row_positions``): the segments are checked exactly there.
     """
     n = len(problems)
     half = cfg.initial.half_range_m
@@ -435,8 +439,15 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
             found[i] = r
     smooth_path(robot, problems, found, evals)
     scale = np.ones(n)
+    fractions = None
+    if row_positions is not None:
+        fractions = {}
+        for u in np.asarray(row_positions, dtype=float):
+            i = int(np.floor(u))
+            if u - i > 1e-12 and i < n - 1:
+                fractions.setdefault(i, []).append(float(u - i))
     for _ in range(BETWEEN_ROUNDS if between is not None else 0):
-        bad = infeasible_between(robot, found, between, evals)
+        bad = infeasible_between(robot, found, between, evals, fractions)
         if not bad:
             break
         redo = sorted({j for i in bad for j in (i, i + 1)})

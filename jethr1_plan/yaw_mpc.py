@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sequence import min_jerk
+from .sequence import min_jerk, swing_row_positions
 
 
 def mpc_smooth(ref: np.ndarray, dt: float, horizon_s: float = 1.6, alpha: float = 1.0, beta: float = 1e-10,
@@ -86,8 +86,7 @@ def build_schedule(scenario, robot, eq4_of_step, sample_paths, horizon_s: float,
         ref += [yaw_prev + float(min_jerk(k / n_tr)) * d for k in range(n_tr)]
         swing_starts.append(len(ref))
         idx = np.arange(len(path))
-        for k in range(n_sw):
-            u = float(min_jerk(k / n_sw)) * (len(path) - 1)
+        for u in swing_row_positions(len(path), tm.swing_s, tm.rate_hz):
             ref.append(yaw_of(np.array([np.interp(u, idx, path[:, j]) for j in range(3)])))
         yaw_prev = yaw_of(path[-1])
     ref += [yaw_prev] * (n_tr + 1)

@@ -17,6 +17,7 @@ def _small(tmp_path, name, **changes):
                         "intermediate": {"population": 30, "generations": 4}}
     doc["steps"][0]["path"]["samples"] = 15
     doc["timing"] = {"swing_s": 0.5, "transfer_s": 0.25, "rate_hz": 20.0}
+    doc["balance"]["policy"] = "minimal"  # the batch's mechanics, with a GA this small
     for key, value in changes.items():
         doc[key] = value
     p = tmp_path / f"{name}.yaml"

@@ -17,6 +17,7 @@ def test_compare_reports_and_reference(tmp_path, capsys):
     doc["optimiser"] = {"initial": {"population": 60, "generations": 12},
                         "intermediate": {"population": 40, "generations": 5}}
     doc["steps"][0]["path"]["samples"] = 8
+    doc["balance"]["policy"] = "minimal"  # Paper A's comparison
     path = tmp_path / "small.yaml"
     path.write_text(yaml.safe_dump(doc))
     out = tmp_path / "cmp"
@@ -53,6 +54,7 @@ def test_yaw_modes_report_the_cost_of_smoothing(tmp_path, capsys):
                         "intermediate": {"population": 40, "generations": 5}}
     doc["steps"][0]["path"]["samples"] = 8
     doc["timing"] = {"swing_s": 2.0, "transfer_s": 1.0, "rate_hz": 20.0}
+    doc["balance"]["policy"] = "minimal"
     path = tmp_path / "small.yaml"
     path.write_text(yaml.safe_dump(doc))
     assert run(["compare", str(path), "--methods", "gas", "--yaw-modes", "eq4,mpc", "-o", str(tmp_path / "c"),
@@ -63,3 +65,24 @@ def test_yaw_modes_report_the_cost_of_smoothing(tmp_path, capsys):
     assert eq4["yaw_mode"] == "eq4" and mpc["yaw_mode"] == "mpc"
     assert mpc["thrust_cost_vs"]["max_n"] == mpc["max_thrust_n"] - eq4["max_thrust_n"]
     assert eq4["peak_yaw_rate_rad_s"] is not None and mpc["peak_yaw_rate_rad_s"] is not None
+
+
+def test_the_reference_follows_the_robust_policy(tmp_path, capsys):
+    """Under the robust policy the exhaustive reference minimises the same robust thrust: no method
+    beats it by more than its grid error, and it needs more thrust than Paper A's minimal reference."""
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["steps"][0]["path"]["samples"] = 6
+    path = tmp_path / "robust.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    refs = {}
+    for policy in ("robust", "minimal"):
+        doc["balance"]["policy"] = policy
+        path.write_text(yaml.safe_dump(doc))
+        assert run(["compare", str(path), "--methods", "sqp", "-o", str(tmp_path / policy), "--reference", "--json",
+                    "--no-progress"]) == 0
+        d = json.loads(capsys.readouterr().out)
+        refs[policy] = np.array([np.nan if v is None else v for v in d["reference"]["thrust_n"][0]])
+        t = np.array(d["methods"]["sqp"]["thrust_n"][0], dtype=float)
+        assert np.all(t >= refs[policy] - 0.2) and np.all(t <= refs[policy] + 0.5)
+    loaded = refs["minimal"] > 0.5
+    assert loaded.sum() >= 2 and np.all(refs["robust"][loaded] > refs["minimal"][loaded] + 0.5)

@@ -144,7 +144,7 @@ def _small_two_step(tmp_path: Path, **balance) -> Path:
     doc["steps"][1]["landing_m"] = [0.45, -0.1125, 0.0]
     doc["terrain"]["cartons"][3]["top_centre_m"] = [0.45, -0.1125, 0.0]
     doc["timing"] = {"swing_s": 1.0, "transfer_s": 0.5, "rate_hz": 20.0}
-    doc["balance"] = {"thrust_max_n": 23.0, **balance}
+    doc["balance"] = {"thrust_max_n": 23.0, "policy": "minimal", **balance}  # a GA this small: Paper A's policy
     p = tmp_path / "small_two_step.yaml"
     p.write_text(yaml.safe_dump(doc))
     return p
@@ -283,6 +283,7 @@ def test_explicit_point_path_plans(tmp_path):
     doc["optimiser"] = {"initial": {"population": 60, "generations": 12},
                         "intermediate": {"population": 40, "generations": 5}}
     doc["timing"] = {"swing_s": 1.0, "transfer_s": 0.5, "rate_hz": 20.0}
+    doc["balance"]["policy"] = "minimal"
     path = tmp_path / "points.yaml"
     path.write_text(yaml.safe_dump(doc))
     assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"]) == 0

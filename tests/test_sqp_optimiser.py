@@ -114,7 +114,7 @@ def test_sqp_crosses_the_ditch_with_a_20_5_n_fan_and_verify_agrees(tmp_path, cap
     """GAS needs 20.8 N at the landing sample; the exact optimum is below 20.5 N. With a 20.5 N fan
     sqp plans the whole trajectory and the independent re-check accepts every row."""
     doc = yaml.safe_load(DITCH.read_text())
-    doc["balance"] = {"thrust_max_n": 20.5}
+    doc["balance"] = {"thrust_max_n": 20.5, "policy": "minimal"}
     path = tmp_path / "ditch_20_5.yaml"
     path.write_text(yaml.safe_dump(doc))
     out = tmp_path / "p"
@@ -125,7 +125,7 @@ def test_sqp_crosses_the_ditch_with_a_20_5_n_fan_and_verify_agrees(tmp_path, cap
     assert run(["verify", str(out / path.stem)]) == 0
 
 
-@pytest.mark.parametrize("name", ["side_step", "jet_hr1_trial"])
+@pytest.mark.parametrize("name", ["side_step", "jet_hr1_trial", "jet_hr1_trial_robust"])
 def test_sqp_plans_every_config_and_its_rows_between_samples_hold(tmp_path, name):
     """The 50 Hz rows interpolate P_body between samples; sqp's postures sit on constraint
     boundaries, so the segments between them are checked (and margins widened where needed): the
