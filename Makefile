@@ -22,12 +22,14 @@ test: install lint
 
 demo: install
 	$(BIN)/jethr1 robot show
-	$(BIN)/jethr1 plan configs/jet_hr1_trial.yaml -o out
+	$(BIN)/jethr1 plan configs/jet_hr1_trial_robust.yaml -o out
+	$(BIN)/jethr1 simulate out/jet_hr1_trial_robust --controller feedback
 
 bench: install
 	$(BIN)/python bench/bench_evaluator.py
 	$(BIN)/python bench/bench_plan.py
 	$(BIN)/python bench/bench_balance_space.py
+	$(BIN)/python bench/bench_simulate.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -2,7 +2,7 @@
 
 The reference composes the public numpy path independently: closed-form IK + CoM
 (``leg_kinematics.solve_postures``, itself checked against PlaCo), the minimal thrust by the ZMP ray
-(``balance.minimal_thrust``), the edge angle (``balance.edge_angle_excess``) and the reach balls
+(``balance.thrust_window``, nominal and robust), the edge angle (``balance.edge_angle_excess``) and the reach balls
 (``robot_model.reach_centre``). Candidates are random pelvis positions around random swing cells, so
 every reason code occurs.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance import edge_angle_excess, minimal_thrust
+from jethr1_plan.balance import NOMINAL, Tolerance, edge_angle_excess, thrust_window
 from jethr1_plan.balance_kernel import into_reach
 from jethr1_plan.balance_space import (
     ABOVE_MAX,
@@ -35,7 +35,7 @@ def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     swing, yaw, fan = cells.swing[idx], cells.yaw[idx], cells.fan[idx]
     feet = {spec.support_side: (ev.support, 0.0), spec.swing_side: (swing, 0.0)}
     q, com, status = solve_postures(robot, P, yaw, feet)
-    thrust, _ = minimal_thrust(com[:, :2], fan, ev.poly, robot.mass_kg)
+    thrust, _ = thrust_window(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
     edge = edge_angle_excess(ev.support[:2], com[:, :2], swing[:, :2], spec.rho_rad)
     limit_excess = np.sum(np.maximum(robot.lower_rad - q, 0) + np.maximum(q - robot.upper_rad, 0), axis=1)
     g = ev.geom
@@ -52,9 +52,11 @@ def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     return obj, np.where((reason == MEMBER) | (reason == ABOVE_MAX), thrust, np.inf), reason
 
 
-@pytest.mark.parametrize("side, support", [("right", (0.0, -0.1125, 0.0)), ("left", (0.05, 0.1, 0.04))])
-def test_compiled_objective_equals_the_numpy_functions(side, support):
-    spec = SweepSpec(support_side=side, support_xyz=support, thrust_max_n=18.0)
+@pytest.mark.parametrize("side, support, tol", [("right", (0.0, -0.1125, 0.0), NOMINAL),
+                                               ("left", (0.05, 0.1, 0.04), NOMINAL),
+                                               ("right", (0.0, -0.1125, 0.0), Tolerance(0.1, 0.05, 0.01))])
+def test_compiled_objective_equals_the_numpy_functions(side, support, tol):
+    spec = SweepSpec(support_side=side, support_xyz=support, thrust_max_n=18.0, tolerance=tol)
     ev = _Evaluator(load_robot(spec.robot), spec)
     rng = np.random.default_rng(3)
     n_cells, m = 400, 40_000

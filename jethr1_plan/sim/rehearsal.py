@@ -113,15 +113,16 @@ def load_plan(folder: Path) -> PlanTrack:
     if not folder.is_dir():
         raise InputError(str(folder), "", "not a plan folder (expected trajectory.csv and summary.json in it)")
     summary_path, csv_path = folder / "summary.json", folder / "trajectory.csv"
-    for p in (summary_path, csv_path):
-        if not p.is_file():
-            raise InputError(str(p), "", "missing: simulate needs a feasible plan's folder")
+    if not summary_path.is_file():
+        raise InputError(str(summary_path), "", "missing: simulate needs a plan's folder")
     try:
         summary = json.loads(summary_path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise InputError(str(summary_path), "", f"cannot read: {exc}".splitlines()[0]) from None
     if not isinstance(summary, dict) or summary.get("feasible") is not True:
         raise InputError(str(summary_path), "feasible", "the plan is not feasible: nothing to rehearse")
+    if not csv_path.is_file():
+        raise InputError(str(csv_path), "", "missing: simulate needs the plan's trajectory")
     try:
         robot = load_robot(summary.get("robot_yaml") or summary.get("robot", "jethr1"))
         cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c["size_m"]))

@@ -1,0 +1,46 @@
+"""`jethr1 ditch-curve`: the widest ditch per tolerance, from plans the planner itself makes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from jethr1_plan.cli import run
+from jethr1_plan.ditch_curve import default_base, ditch_scenario, landing_x
+from jethr1_plan.scenario import ROBUST_DEFAULT
+from jethr1_plan.swing_path import sole_on_carton
+
+
+def test_the_geometry_is_paper_as():
+    sc = ditch_scenario(default_base(), 0.45, ROBUST_DEFAULT, 0.16)
+    landing = sc.steps[0].landing_m
+    np.testing.assert_allclose(landing, [0.615, -0.1125, 0.0])  # configs/forward_ditch_450.yaml
+    b = sc.cartons[2]
+    assert abs(b.top_rectangle()[0] - 0.080 - 0.45) < 1e-12  # carton B's rear edge, 0.45 m past A's front
+    assert sole_on_carton(landing, 0.0, 0.16, 0.09, b) and landing_x(0.30, 0.16) == 0.465
+
+
+def test_wider_ditches_need_more_thrust_and_tolerance_narrows_them(tmp_path, capsys):
+    out = tmp_path / "dc"
+    assert run(["ditch-curve", "--gaps", "0.30:0.44:0.07", "--scales", "0,1", "--optimiser", "sqp", "-j", "2",
+                "-o", str(out), "--json", "--no-progress"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["gaps_m"] == [0.30, 0.37, 0.44]
+    minimal, robust = doc["tolerances"]
+    assert minimal["thrust_error"] == 0 and robust["thrust_error"] == 0.1 and robust["com_error_m"] == 0.01
+    # Paper A's policy crosses all three; thrust grows with the gap
+    f = minimal["max_thrust_n"]
+    assert all(v is not None for v in f) and f[0] < f[1] < f[2] <= 23.0
+    assert minimal["widest_gap_m"] == 0.44 and minimal["thrust_at_widest_n"] == f[2]
+    # the robust policy needs more thrust for the same gap and cannot cross 0.44 m
+    assert robust["max_thrust_n"][0] > f[0] and robust["max_thrust_n"][2] is None
+    assert robust["widest_gap_m"] in (0.30, 0.37) and "infeasible" in robust["reason"][2]
+    assert (out / "ditch_curve.png").read_bytes()[:4] == b"\x89PNG"
+    assert json.loads((out / "ditch_curve.json").read_text()) == doc
+
+
+def test_bad_gaps_are_exit_2(tmp_path):
+    for gaps in ("0.3:0.2:0.01", "a:b:c", "0.3:0.5:0", "0.3:nan:0.01", "0.001:100:0.0001"):
+        assert run(["ditch-curve", "--gaps", gaps, "-o", str(tmp_path / "x"), "--no-progress"]) == 2
+    assert not (tmp_path / "x").exists()

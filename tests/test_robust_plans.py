@@ -1,0 +1,134 @@
+"""Plans under the robust policy, re-checked from the written rows with an independent PlaCo robot."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from jethr1_plan.balance import polygon_margin, sole_polygon, thrust_window, zmp_with_thrust
+from jethr1_plan.cli import run
+from jethr1_plan.commands import low_pass
+from jethr1_plan.csv_writer import read_trajectory_csv
+from jethr1_plan.posture import pose_from_quaternion
+from jethr1_plan.robot_model import JOINT_NAMES
+
+from .conftest import ROOT
+
+SIDE = ROOT / "configs" / "side_step.yaml"
+
+
+@pytest.fixture(scope="module")
+def side_plans(tmp_path_factory):
+    out = tmp_path_factory.mktemp("robust")
+    for policy in ("robust", "minimal"):
+        assert run(["plan", str(SIDE), "-o", str(out / policy), "--policy", policy, "--no-progress"]) == 0
+    return {p: out / p / "side_step" for p in ("robust", "minimal")}
+
+
+def _fk(robot, c):
+    """Per row from the written pose and joints: CoM, support and swing sole centres, the left fan."""
+    w = robot.wrapper()
+    n = len(c["time_s"])
+    out = {"com": np.zeros((n, 3)), "right": np.zeros((n, 3)), "left": np.zeros((n, 3)), "fan": np.zeros((n, 2))}
+    for i in range(n):
+        w.set_T_world_fbase(pose_from_quaternion([c[f"pelvis_{k}_m"][i] for k in "xyz"],
+                                                 [c[f"pelvis_q{k}"][i] for k in "xyzw"]))
+        w.state.q[7:] = [c[f"{j}_rad"][i] for j in JOINT_NAMES]
+        w.update_kinematics()
+        out["com"][i] = w.com_world()
+        for s in ("left", "right"):
+            out[s][i] = w.get_T_world_frame(f"{s}_foot")[:3, 3]
+        out["fan"][i] = w.get_T_world_frame("left_fan")[:2, 3]
+    return out
+
+
+def test_every_swing_row_survives_every_error_within_the_tolerance(side_plans, robot):
+    """Brute force from the written joints: thrust ±10 %, mass ±5 % and the CoM moved 10 mm in any of
+    72 directions keep the ZMP in the support sole on every swing row; the minimal plan's rows do not
+    survive even 1 % less thrust."""
+    s = json.loads((side_plans["robust"] / "summary.json").read_text())
+    tol = s["balance"]["tolerance"]
+    assert (s["balance"]["policy"], tol) == ("robust", {"thrust_error": 0.1, "mass_error": 0.05, "com_error_m": 0.01})
+    angles = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+    ring = tol["com_error_m"] * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    for policy, path in side_plans.items():
+        c = read_trajectory_csv((path / "trajectory.csv").read_text())
+        rows = np.flatnonzero((c["phase"] == "swing") & (c["thrust_left_n"] > 0.5))[::7]
+        fk = _fk(robot, {k: v[rows] for k, v in c.items()})
+        worst = []
+        for k, i in enumerate(rows):
+            sole = sole_polygon(fk["right"][k, :2], 0.0, robot.sole_length_m, robot.sole_width_m)
+            f = c["thrust_left_n"][i]
+            if policy == "robust":
+                margins = [polygon_margin(zmp_with_thrust(fk["com"][k, :2] + ring, fk["fan"][k], f * (1 + e),
+                                                          robot.mass_kg * (1 + m)), sole).min()
+                           for e in (-0.1, 0.1) for m in (-0.05, 0.05)]
+            else:
+                margins = [polygon_margin(zmp_with_thrust(fk["com"][k, :2], fk["fan"][k], 0.99 * f, robot.mass_kg),
+                                          sole)]
+            worst.append(min(margins))
+        assert len(rows) > 20
+        if policy == "robust":
+            assert min(worst) >= -1e-6
+        else:
+            assert max(worst) < 0
+
+
+def test_robustness_costs_thrust(side_plans):
+    r, m = (json.loads((side_plans[p] / "summary.json").read_text()) for p in ("robust", "minimal"))
+    assert r["max_thrust_n"] > m["max_thrust_n"] + 1.0 and r["mean_thrust_n"] > m["mean_thrust_n"]
+    assert r["robustness"]["least_zmp_margin_m"] >= 0.01 - 1e-6 > m["robustness"]["least_zmp_margin_m"]
+
+
+def test_window_margin_and_command_columns(side_plans, robot):
+    """The window columns hold the planned thrust and are the balancing interval recomputed from the
+    written joints; the margin column is the ZMP's distance to the sole's edges; the summary names the
+    least margin and the narrowest window; the commands are posture + low-passed torque / stiffness."""
+    path = side_plans["robust"]
+    c = read_trajectory_csv((path / "trajectory.csv").read_text())
+    s = json.loads((path / "summary.json").read_text())
+    swing = np.flatnonzero(c["phase"] == "swing")
+    rows = swing[::11]
+    fk = _fk(robot, {k: v[rows] for k, v in c.items()})
+    for k, i in enumerate(rows):
+        sole = sole_polygon(fk["right"][k, :2], 0.0, robot.sole_length_m, robot.sole_width_m)
+        lo, hi = thrust_window(fk["com"][k, :2], fk["fan"][k], sole, robot.mass_kg)
+        assert c["thrust_window_lo_n"][i] == pytest.approx(float(lo), abs=1e-3)
+        assert c["thrust_window_hi_n"][i] == pytest.approx(min(float(hi), 23.0), abs=1e-3)
+        assert lo - 1e-3 <= c["thrust_left_n"][i] <= min(hi, 23.0) + 1e-3
+        zmp = zmp_with_thrust(fk["com"][k, :2], fk["fan"][k], c["thrust_left_n"][i], robot.mass_kg)
+        assert c["zmp_margin_m"][i] == pytest.approx(float(polygon_margin(zmp, sole)), abs=1e-6)
+    rob = s["robustness"]
+    assert rob["least_zmp_margin_m"] == pytest.approx(c["zmp_margin_m"].min())
+    assert c["zmp_margin_m"][rob["least_zmp_margin_at"]["row"]] == rob["least_zmp_margin_m"]
+    width = np.where(c["thrust_left_n"] + c["thrust_right_n"] > 0, c["thrust_window_hi_n"] - c["thrust_window_lo_n"],
+                     np.inf)
+    assert rob["narrowest_window_width_n"] == pytest.approx(np.nanmin(width))
+    tau = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1)
+    q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1)
+    cmd = np.stack([c[f"{j}_cmd_rad"] for j in JOINT_NAMES], axis=1)
+    np.testing.assert_allclose(cmd, q + low_pass(tau, 50.0, 0.2) / robot.servo_stiffness_nm_per_rad, atol=1e-12)
+    lead = c["thrust_cmd_left_n"] - c["thrust_left_n"]
+    rising = np.flatnonzero(np.diff(c["thrust_left_n"]) > 0.01)[5:-5]
+    assert np.all(lead[rising] > 0)  # the command leads a rising thrust by the fan's lag
+    assert s["controller"]["gains"]["band_margin_m"] == robot.controller["band_margin_m"]
+
+
+def test_an_infeasible_robust_plan_names_the_tolerance_its_sample_reaches(tmp_path, capsys):
+    doc = yaml.safe_load((ROOT / "configs" / "forward_ditch_450.yaml").read_text())
+    doc["balance"]["policy"] = "robust"
+    path = tmp_path / "ditch_robust_450.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["plan", str(path), "-o", str(tmp_path / "o"), "--optimiser", "sqp", "--no-progress"]) == 3
+    err = capsys.readouterr().err
+    assert "the most found to hold there" in err and "% of the tolerance" in err
+    bad = json.loads((tmp_path / "o" / path.stem / "summary.json").read_text())["first_infeasible"]
+    reach = bad["reachable_tolerance"]
+    assert 0 < reach["scale"] < 1
+    assert reach["thrust_error"] == pytest.approx(0.1 * reach["scale"])
+    # Paper A's minimal policy crosses the same ditch
+    assert run(["plan", str(ROOT / "configs" / "forward_ditch_450.yaml"), "-o", str(tmp_path / "p"),
+                "--optimiser", "sqp", "--no-progress"]) == 0

@@ -1,0 +1,177 @@
+"""`jethr1 simulate`: the MuJoCo twin (an engine independent of the planner's PlaCo model) and the
+thrust feedback law."""
+
+from __future__ import annotations
+
+import json
+
+import jsonschema
+import numpy as np
+import pytest
+
+from jethr1_plan.balance import polygon_margin, sole_polygon
+from jethr1_plan.cli import run
+from jethr1_plan.mcap_writer import mcap_schemas, read_mcap
+from jethr1_plan.sim import controller as ctl
+from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
+from jethr1_plan.sim.twin import build_twin
+
+from .conftest import ROOT
+
+
+@pytest.fixture(scope="module")
+def plans(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sim")
+    for name in ("side_step", "forward_ditch_450"):
+        assert run(["plan", str(ROOT / "configs" / f"{name}.yaml"), "-o", str(out), "--no-progress"]) == 0
+    return out
+
+
+def test_the_twin_weighs_the_robot_and_replays_the_plan_statics(plans, robot):
+    """MuJoCo's own kinematics of the written rows put the CoM and the soles where the plan says."""
+    import mujoco
+
+    track = load_plan(plans / "side_step")
+    twin = build_twin(robot, track.cartons)
+    assert twin.total_mass_kg == pytest.approx(robot.mass_kg, abs=1e-9) and robot.mass_kg == pytest.approx(6.8)
+    d = mujoco.MjData(twin.model)
+    c = json.loads((plans / "side_step" / "summary.json").read_text())
+    from jethr1_plan.csv_writer import read_trajectory_csv
+
+    rows = read_trajectory_csv((plans / "side_step" / "trajectory.csv").read_text())
+    for i in range(0, len(track), 29):
+        d.qpos[:7] = track.pelvis[i]
+        d.qpos[twin.qpos_adr] = track.q[i]
+        mujoco.mj_kinematics(twin.model, d)
+        mujoco.mj_comPos(twin.model, d)
+        com = d.subtree_com[twin.trunk]
+        np.testing.assert_allclose(com, [rows["com_x_m"][i], rows["com_y_m"][i], rows["com_z_m"][i]], atol=1e-8)
+        np.testing.assert_allclose(d.xpos[twin.foot_bodies["right"]], [0.0, -0.1125, 0.0], atol=1e-6)
+        if rows["phase"][i] == "swing":
+            np.testing.assert_allclose(d.xpos[twin.foot_bodies["left"]],
+                                       [rows["swing_x_m"][i], rows["swing_y_m"][i], rows["swing_z_m"][i]], atol=1e-6)
+    assert c["terrain"]["cartons"] and len(track.cartons) == len(c["terrain"]["cartons"])
+
+
+def test_the_soles_push_where_the_plan_puts_the_zmp(plans, robot):
+    """Held still with stiff servos at a thrust-borne row, the twin's measured centre of pressure
+    (its contact forces: physics, not the moment formula) lies at the planned ZMP."""
+    import mujoco
+
+    from jethr1_plan.sim.rehearsal import _plan_kinematics
+
+    track = load_plan(plans / "side_step")
+    twin = build_twin(robot, track.cartons)
+    _plan_kinematics(twin, track)
+    m = twin.model
+    m.actuator_gainprm[:, 0] *= 50
+    m.actuator_biasprm[:, 1:3] *= 50
+    airborne = track.feet[:, 0, 2] > 0.03  # the swing sole well above the cartons
+    i = int(np.argmax(np.where(airborne, track.thrust[:, 0], -1)))
+    d = mujoco.MjData(m)
+    d.qpos[:7] = track.pelvis[i]
+    d.qpos[twin.qpos_adr] = track.q[i]
+    d.ctrl[:] = track.q[i]
+    body = twin.fan_bodies["left_fan"]
+    from jethr1_plan.sim.rehearsal import _sole_loads
+
+    cops = []
+    for k in range(800):
+        mujoco.mj_forward(m, d)
+        d.xfrc_applied[:] = 0
+        d.xfrc_applied[body, 2] = track.thrust[i, 0]
+        mujoco.mj_step(m, d)
+        if k >= 600:
+            loads = _sole_loads(twin, d, np.zeros(6))
+            assert loads["left"][0] == 0.0  # single support
+            cops.append(loads["right"][1][:2])
+    assert track.thrust[i, 0] > 10
+    np.testing.assert_allclose(np.mean(cops, axis=0), track.zmp[i], atol=0.002)
+
+
+def test_a_robust_plan_survives_and_a_minimal_one_falls(plans, capsys):
+    assert run(["simulate", str(plans / "side_step"), "--json", "--no-progress"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    r = doc["runs"][0]
+    assert r["survived"] and r["fell"] is None and all(r["soles_on_cartons_at_end"].values())
+    assert r["max_trunk_tilt_deg"] < 5 and r["least_cop_margin_m"] > 0 and r["landing_errors_m"][0]["xy_m"] < 0.01
+    assert json.loads((plans / "side_step" / "simulation.json").read_text()) == doc
+    # Paper A's minimal plan puts the ZMP on the sole's edge: the twin tips it over
+    assert run(["simulate", str(plans / "forward_ditch_450"), "--json", "--no-progress"]) == 6
+    r = json.loads(capsys.readouterr().out)["runs"][0]
+    assert not r["survived"] and "tilted" in r["fell"]["reason"] and r["fell"]["phase"] == "swing"
+
+
+def test_the_feedback_law_saves_a_weak_fan(plans, capsys):
+    """At 60 % of the planned thrust (beyond the plan's ±10 %) the plan alone falls; the law, adding
+    thrust as the centre of pressure nears the sole's edge, keeps the robot up."""
+    track = load_plan(plans / "side_step")
+    weak = Perturbation(thrust_gain=0.6)
+    ff, fb = rehearse(track, "feedforward", weak), rehearse(track, "feedback", weak)
+    assert ff.fell is not None and not ff.survived
+    assert fb.survived and fb.max_thrust_n > track.thrust_cmd.max() + 1.0
+
+
+def test_trials_do_not_depend_on_jobs(plans, capsys):
+    docs = []
+    for jobs in ("1", "2"):
+        assert run(["simulate", str(plans / "side_step"), "--controller", "feedback", "--trials", "2", "--seed", "3",
+                    "-j", jobs, "--json", "--no-progress"]) in (0, 6)
+        doc = json.loads(capsys.readouterr().out)
+        docs.append([{k: v for k, v in r.items() if k != "wall_s"} for r in doc["runs"]])
+    assert docs[0] == docs[1]
+    p = [r["perturbation"] for r in docs[0]]
+    assert p[0] != p[1] and all(0.8 <= x["thrust_gain"] <= 1.1 and 0.95 <= x["mass_scale"] <= 1.05 for x in p)
+
+
+def test_simulation_mcap_plays_beside_the_plan(plans):
+    data = (plans / "side_step" / "simulation.mcap").read_bytes()
+    schemas = {n: jsonschema.Draft202012Validator(s) for n, s in mcap_schemas(data).items()}
+    msgs = read_mcap(data)
+    for _topic, schema, msg, _t in msgs:
+        schemas[schema].validate(msg)
+    tf = [m for m in msgs if m[0] == "/tf"]
+    children = {t["child_frame_id"] for t in tf[0][2]["transforms"]}
+    assert "sim/trunk" in children and "sim/left_foot" in children and "trunk" not in children
+    assert {m[0] for m in msgs} >= {"/tf", "/sim/thrust", "/sim/cop", "/sim/com", "/terrain"}
+
+
+@pytest.mark.parametrize("args", [["nowhere"], ["configs"], ["--thrust-scale", "nan", "PLAN"],
+                                  ["--fan-lag-s", "0", "PLAN"], ["--mass-scale", "inf", "PLAN"]])
+def test_bad_input_is_exit_2(plans, tmp_path, args, capsys):
+    args = [str(plans / "side_step") if a == "PLAN" else (str(ROOT / a) if a == "configs" else a) for a in args]
+    before = sorted(p.name for p in (plans / "side_step").iterdir())
+    assert run(["simulate", *args, "--no-progress"]) == 2
+    assert "Traceback" not in capsys.readouterr().err
+    assert sorted(p.name for p in (plans / "side_step").iterdir()) == before
+
+
+def test_an_infeasible_plan_is_not_rehearsed(tmp_path, capsys):
+    import yaml
+
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["balance"]["thrust_max_n"] = 0.0
+    path = tmp_path / "nofan.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["plan", str(path), "-o", str(tmp_path), "--no-progress"]) == 3
+    assert run(["simulate", str(tmp_path / "nofan"), "--no-progress"]) == 2
+    assert "not feasible" in capsys.readouterr().err
+
+
+def test_the_band_error_and_the_step():
+    sole = sole_polygon(np.zeros(2), 0.0, 0.16, 0.09)
+    fan = np.array([0.0, 0.3])  # the fan beside the sole: the ray points along -y
+    zref = np.array([0.0, 0.03])  # planned ZMP 15 mm inside the fan-side edge (y = 0.045)
+    # CoP within the band: nothing to do; nearer the fan-side edge than the band: more thrust; beyond
+    # the far band edge: less
+    assert ctl.band_error(np.array([0.0, 0.0]), zref, fan, sole, 0.02) == 0.0
+    e = ctl.band_error(np.array([0.0, 0.04]), zref, fan, sole, 0.02)
+    assert e == pytest.approx(0.015) and polygon_margin(np.array([0.0, 0.04]), sole) == pytest.approx(0.005)
+    assert ctl.band_error(np.array([0.0, -0.04]), zref, fan, sole, 0.02) == pytest.approx(-0.015)
+    g = ctl.Gains(rate_hz=100.0, kp_n_per_m=400.0, ki_n_per_m_s=1000.0, leak_time_s=0.1)
+    out, integral = ctl.step(g, 0.0, 0.01, 5.0, 0.0, 23.0)
+    assert out == pytest.approx(5.0 + 4.0) and integral == pytest.approx(1e-4)
+    out, integral2 = ctl.step(g, integral, 0.01, 20.0, 0.0, 23.0)  # saturated upwards: no wind-up
+    assert out == 23.0 and integral2 == integral
+    _, leaked = ctl.step(g, integral, 0.0, 5.0, 0.0, 23.0)  # inside the band the integral leaks
+    assert leaked == pytest.approx(integral * 0.9)
