@@ -1,4 +1,5 @@
-"""The balance model (A-1)..(A-4), (A-10) on cases solvable by hand and by its properties."""
+"""The balance model (A-1)..(A-4), (A-10) and the thrust window (robust policy) on cases solvable by hand,
+by brute force and by its properties."""
 
 from __future__ import annotations
 
@@ -6,11 +7,15 @@ import numpy as np
 import pytest
 
 from jethr1_plan.balance import (
+    Tolerance,
+    balance_slack,
     body_yaw_eq4,
     edge_angle_error,
     inside_polygon,
     minimal_thrust,
+    polygon_margin,
     sole_polygon,
+    thrust_window,
     zmp_with_thrust,
 )
 
@@ -107,3 +112,85 @@ def test_edge_excess():
     rho = np.radians(5)
     assert edge_angle_excess(z, com, ankle, rho) == pytest.approx(np.pi / 4 - rho)
     assert edge_angle_excess(z, com, np.array([0.005, 0.2]), rho) == 0.0
+
+
+# --- the thrust window and its robust version (balance.thrust_window) -----------------------------
+
+
+def test_window_by_hand():
+    # CoM 0.1 m beyond the toe (x = 0.08), fan further along x: the ZMP enters at the toe and leaves
+    # at the heel (x = -0.08); moment balance about each edge gives both ends
+    c, p = 0.18, 0.48
+    lo, hi = thrust_window(np.array([c, 0.0]), np.array([p, 0.0]), SOLE, M)
+    assert lo == pytest.approx(W * (c - 0.08) / (p - 0.08), rel=1e-12)
+    assert hi == pytest.approx(W * (c + 0.08) / (p + 0.08), rel=1e-12)
+    for f, x in ((lo, 0.08), (hi, -0.08)):
+        np.testing.assert_allclose(zmp_with_thrust(np.array([c, 0.0]), np.array([p, 0.0]), f, M), [x, 0.0], atol=1e-12)
+
+
+def test_minimal_thrust_is_the_window_lower_end():
+    rng = np.random.default_rng(3)
+    com = rng.uniform([-0.3, -0.3], [0.5, 0.3], (5000, 2))
+    fan = com + rng.normal(0, 0.3, (5000, 2))
+    f, _ = minimal_thrust(com, fan, SOLE, M)
+    lo, hi = thrust_window(com, fan, SOLE, M)
+    np.testing.assert_array_equal(np.isfinite(f), np.isfinite(lo))
+    ok = np.isfinite(lo)
+    np.testing.assert_allclose(lo[ok], f[ok], atol=1e-12)
+    # inside the window the ZMP is in the sole, just outside it is not
+    z_in = zmp_with_thrust(com[ok], fan[ok], 0.5 * (lo[ok] + hi[ok]), M)
+    assert np.all(polygon_margin(z_in, SOLE) >= -1e-12)
+    grow = hi[ok] < 0.99 * W
+    z_out = zmp_with_thrust(com[ok][grow], fan[ok][grow], hi[ok][grow] * (1 + 1e-6), M)
+    assert np.all(polygon_margin(z_out, SOLE) < 0)
+
+
+def test_robust_scaling_by_hand():
+    """CoM beyond one edge only, no CoM tolerance: the worst case is the weak fan and the heavy robot,
+    F·(1 − X) ≥ M·g·(1 + Y)·d/a, so the lower end is the nominal one times (1 + Y)/(1 − X)."""
+    com, fan = np.array([0.18, 0.0]), np.array([0.48, 0.0])
+    lo0, hi0 = thrust_window(com, fan, SOLE, M)
+    lo, hi = thrust_window(com, fan, SOLE, M, Tolerance(0.1, 0.05, 0.0))
+    assert lo == pytest.approx(lo0 * 1.05 / 0.9, rel=1e-12)
+    assert hi == pytest.approx(hi0 * 0.95 / 1.1, rel=1e-12)
+
+
+@pytest.mark.parametrize("tol", [Tolerance(0.1, 0.05, 0.01), Tolerance(0.2, 0.0, 0.0), Tolerance(0.0, 0.1, 0.005)])
+def test_robust_window_holds_every_error_and_is_tight(tol):
+    """Brute force over the errors: every thrust in the window keeps the ZMP in the sole for every
+    corner of thrust and mass error and every CoM offset on the tolerance's circle; just below the
+    lower end some error puts it outside (the window is exact, not conservative)."""
+    rng = np.random.default_rng(4)
+    com = rng.uniform([0.05, -0.1], [0.3, 0.1], (400, 2))
+    fan = com + rng.uniform([0.1, -0.2], [0.5, 0.2], (400, 2))
+    lo, hi = thrust_window(com, fan, SOLE, M, tol)
+    ok = np.flatnonzero(np.isfinite(lo) & (lo > 0.5))
+    assert len(ok) > 40
+    angles = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+    offsets = tol.com_m * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    errors = [(e, m) for e in (-tol.thrust, tol.thrust) for m in (-tol.mass, tol.mass)]
+
+    def worst_margin(i, f):
+        c = com[i] + offsets
+        return min(float(polygon_margin(zmp_with_thrust(c, fan[i], f * (1 + e), M * (1 + m)), SOLE).min())
+                   for e, m in errors)
+
+    for i in ok[:80]:
+        for f in (lo[i], 0.5 * (lo[i] + hi[i]), hi[i]):
+            assert worst_margin(i, f) >= -1e-9
+        assert worst_margin(i, lo[i] * (1 - 1e-4)) < 0
+
+
+def test_balance_slack_agrees_with_the_window():
+    rng = np.random.default_rng(5)
+    tol = Tolerance(0.1, 0.05, 0.01)
+    com = rng.uniform([0.0, -0.1], [0.3, 0.1], (500, 2))
+    fan = com + rng.uniform([0.1, -0.2], [0.5, 0.2], (500, 2))
+    lo, hi = thrust_window(com, fan, SOLE, M, tol)
+    ok = np.isfinite(lo)
+    mid = 0.5 * (lo + np.where(ok, hi, 0))
+    slack = balance_slack(com[ok], fan[ok, None], mid[ok, None], SOLE, M, tol)
+    assert np.all(slack >= -1e-9)
+    below = ok & (lo > 1.0)
+    slack = balance_slack(com[below], fan[below, None], 0.99 * lo[below, None], SOLE, M, tol)
+    assert np.all(slack < 0)
