@@ -37,6 +37,26 @@ def _jsonable(x):
     raise TypeError(f"not JSON serialisable: {type(x).__name__}")
 
 
+class FiniteFloat(click.ParamType):
+    """A finite float within [lo, hi] (click's FloatRange lets NaN through: NaN < lo is False)."""
+
+    name = "float"
+
+    def __init__(self, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False):
+        self.lo, self.hi, self.lo_open = lo, hi, lo_open
+
+    def convert(self, value, param, ctx):
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not math.isfinite(x):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if x < self.lo or (self.lo_open and x == self.lo) or x > self.hi:
+            self.fail(f"{x:g} is outside {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]", param, ctx)
+        return x
+
+
 class _Progress:
     """A rich progress bar on stderr, off when stderr is not a terminal or with --no-progress."""
 
@@ -111,33 +131,43 @@ class SelfCheckFailed(Exception):
     """The planner's own output failed the independent re-check: a bug (exit 1)."""
 
 
-def _self_check(csv_text: str, result) -> None:
+def _self_check(csv_text: str, result, summary: dict, strict_torque: bool) -> None:
     """Run ``verify`` on the trajectory before anything is written (a failure is a bug)."""
     from .csv_writer import read_trajectory_csv
     from .verify import verify_rows
 
-    _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path),
-                              start_feet=result.scenario.start, max_failures=5)
+    _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path), summary=summary,
+                              scenario=result.scenario, torque_limits=strict_torque, max_failures=5)
     if failures:
         raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
 
 
-def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool) -> Path:
+PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "simulation.json", "simulation.mcap"})
+
+
+def _report_kept(folder: Path, kept: list[str]) -> None:
+    if kept:
+        err_console.print(f"kept {', '.join(kept)} in {folder}/ (files jethr1 did not write)", markup=False)
+
+
+def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool, strict_torque: bool = False) -> Path:
     """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ atomically; return that folder."""
     from .atomic import staged_directory
     from .csv_writer import trajectory_csv
     from .mcap_writer import trajectory_mcap
 
     final = outdir / Path(result.scenario.source).stem
-    with staged_directory(final) as tmp:
+    with staged_directory(final, PLAN_FILES) as staging:
+        tmp = staging.path
         if trajectory and result.rows is not None:
             text = trajectory_csv(result.rows)
             if result.feasible:
-                _self_check(text, result)
+                _self_check(text, result, summary, strict_torque)
             (tmp / "trajectory.csv").write_text(text)
             (tmp / "trajectory.mcap").write_bytes(trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
                                                                   [st.path_m for st in result.steps]))
         (tmp / "summary.json").write_text(_dump(summary))
+    _report_kept(final, staging.kept)
     return final
 
 
@@ -164,6 +194,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from dataclasses import replace
 
+    from .atomic import check_writable
     from .planner import plan as run_plan
     from .planner import plan_summary
     from .scenario import load_scenario
@@ -171,6 +202,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     scenario = load_scenario(scenario_path)
     if policy is not None:
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
+    check_writable(outdir)
     try:
         with _Progress(not no_progress, scenario.name) as progress:
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
@@ -179,7 +211,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         write_plan_outputs_summary_only(scenario, outdir, exc.summary)
         raise
     summary = plan_summary(result)
-    folder = write_plan_outputs(result, outdir, summary, trajectory=True)
+    folder = write_plan_outputs(result, outdir, summary, trajectory=True, strict_torque=strict_torque)
     if as_json:
         click.echo(_dump(summary), nl=False)
     if not result.feasible:
@@ -194,8 +226,10 @@ def write_plan_outputs_summary_only(scenario, outdir: Path, summary: dict | None
 
     if summary is None:
         return
-    with staged_directory(outdir / Path(scenario.source).stem) as tmp:
-        (tmp / "summary.json").write_text(_dump(summary))
+    final = outdir / Path(scenario.source).stem
+    with staged_directory(final, PLAN_FILES) as staging:
+        (staging.path / "summary.json").write_text(_dump(summary))
+    _report_kept(final, staging.kept)
 
 
 def _report_plan(summary: dict, folder: Path) -> None:
@@ -250,16 +284,19 @@ def _pair(ctx, param, value):
 @click.option("--robot", "robot_name", default="jethr1", show_default=True, help="Robot name or path.")
 @click.option("--support", type=click.Choice(["left", "right"]), default="right", show_default=True,
               help="Which sole supports; the other one sweeps.")
-@click.option("--support-position", nargs=3, type=float, default=None, metavar="X Y Z",
+@click.option("--support-position", nargs=3, type=FiniteFloat(-100, 100), default=None, metavar="X Y Z",
               help="Support sole centre [m] (default (0, -0.1125, 0) for the right sole, mirrored for the left).")
-@click.option("--x-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole x bounds [m].")
-@click.option("--y-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole y bounds [m].")
-@click.option("--z-range", nargs=2, type=float, callback=_pair, metavar="LOW HIGH", help="Swing sole z bounds [m].")
-@click.option("--resolution", default=0.01, show_default=True, type=click.FloatRange(min=0.001), help="Grid step [m].")
-@click.option("--thrust-max", default=23.0, show_default=True, type=click.FloatRange(min=0.0), help="F_max [N].")
+@click.option("--x-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
+              help="Swing sole x bounds [m].")
+@click.option("--y-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
+              help="Swing sole y bounds [m].")
+@click.option("--z-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
+              help="Swing sole z bounds [m].")
+@click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 1.0), help="Grid step [m].")
+@click.option("--thrust-max", default=23.0, show_default=True, type=FiniteFloat(0.0, 1e4), help="F_max [N].")
 @click.option("--method", type=click.Choice(["continuation", "exhaustive"]), default="continuation", show_default=True,
               help="Inner search over P_body.")
-@click.option("--pbody-resolution", default=0.01, show_default=True, type=click.FloatRange(min=0.001),
+@click.option("--pbody-resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 0.1),
               help="P_body grid step of the exhaustive method [m].")
 @click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
 @click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
@@ -271,12 +308,13 @@ def _pair(ctx, param, value):
 def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
                   pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
-    from .atomic import staged_directory
+    from .atomic import check_writable, staged_directory
     from .balance_space import SweepSpec, summary, sweep, verify_members
     from .balance_space_io import balance_space_csv, balance_space_mcap, balance_space_png
     from .robot_model import load_robot
 
     robot = load_robot(robot_name)
+    check_writable(outdir.parent)
     if support_position is None:
         support_position = (0.0, -0.1125 if support == "right" else 0.1125, 0.0)
     sx, sy, sz = support_position
@@ -292,7 +330,9 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     checked = verify_members(result)
     doc = summary(result)
     doc["verified_members"] = checked
-    with staged_directory(outdir) as tmp:
+    with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
+                                             "summary.json"})) as staging:
+        tmp = staging.path
         (tmp / "balance_space.csv").write_text(balance_space_csv(result))
         (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
         (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
@@ -334,6 +374,9 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     if len(set(stems)) != len(stems):
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
     _require_dask(executor)
+    from .atomic import check_writable
+
+    check_writable(outdir)
     with _Progress(not no_progress, "batch") as progress:
         records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     code = batch_exit_code(records)
@@ -378,11 +421,14 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
     if as_json:
         click.echo(_dump({"file": what, "rows": n, "ok": not failures,
                           "failures": [f.__dict__ for f in failures]}), nl=False)
+    by_row: dict[int, list] = {}
     for f in failures:
-        err_console.print(f"{what}: {f}", markup=False)
+        by_row.setdefault(f.row, []).append(f)
+    for row, fs in by_row.items():
+        checks = "; ".join(f"{f.check}: {f.detail}" for f in fs)
+        err_console.print(f"{what}: row {row} (t = {fs[0].time_s:.3f} s): {checks}", markup=False, soft_wrap=True)
     if failures:
-        err_console.print(f"[red]verify: {len(failures)} failing rows{'+' if len(failures) >= 50 else ''} "
-                          f"of {n}[/]")
+        err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
         raise click.exceptions.Exit(5)
     err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
 
@@ -414,10 +460,15 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
     if not modes or any(m not in YAW_MODES for m in modes):
         raise InputError("--yaw-modes", yaw_modes, f"expected modes among {', '.join(YAW_MODES)}")
     scenario = load_scenario(scenario_path)
+    outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
+    from .atomic import check_writable
+
+    check_writable(outdir.parent)
     with _Progress(not no_progress, "compare") as progress:
         doc = compare(scenario, names, seed, reference, progress, modes)
-    outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
-    with staged_directory(outdir) as tmp:
+    with staged_directory(outdir, frozenset({"compare.json", "compare_trajectories.png", "compare_time.png"})
+                          ) as staging:
+        tmp = staging.path
         (tmp / "compare.json").write_text(_dump(doc))
         for name, data in comparison_pngs(doc).items():
             (tmp / name).write_bytes(data)
@@ -446,11 +497,11 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
 @main.command("reach")
 @click.option("--robot", "robot_name", default="jethr1", show_default=True,
               help="Read l_leg, l_pel from this model (unless given) and search its reach numerically.")
-@click.option("--l-leg", type=click.FloatRange(min=0, min_open=True), help="Leg length [m] (hip joint to sole).")
-@click.option("--z0", type=click.FloatRange(min=0, min_open=True), help="Hip height over the soles [m].")
-@click.option("--l-pel", type=click.FloatRange(min=0), help="Pelvis width between the hip joints [m].")
-@click.option("--w-step", type=click.FloatRange(min=0), help="Lateral distance between the feet [m].")
-@click.option("--theta-pel-deg", default=45.0, show_default=True, type=click.FloatRange(0, 90),
+@click.option("--l-leg", type=FiniteFloat(0, 100, lo_open=True), help="Leg length [m] (hip joint to sole).")
+@click.option("--z0", type=FiniteFloat(0, 100, lo_open=True), help="Hip height over the soles [m].")
+@click.option("--l-pel", type=FiniteFloat(0, 100), help="Pelvis width between the hip joints [m].")
+@click.option("--w-step", type=FiniteFloat(0, 100), help="Lateral distance between the feet [m].")
+@click.option("--theta-pel-deg", default=45.0, show_default=True, type=FiniteFloat(0, 90),
               help="Pelvic yaw [deg].")
 @click.option("--dyros-jet", is_flag=True, help="Use Paper B's Dyros-Jet figures (0.75, 0.68, 0.21, 0.243 m, 45 deg).")
 @click.option("--json", "as_json", is_flag=True)
@@ -535,13 +586,17 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
         raise InputError("--scales", scales, "expected comma-separated numbers") from None
     if not scale_values or any(not math.isfinite(v) or v < 0 or v > 5 for v in scale_values):
         raise InputError("--scales", scales, "expected numbers in [0, 5]")
+    from .atomic import check_writable
+
     base = load_scenario(base_path) if base_path else default_base()
+    check_writable(outdir.parent)
     if optimiser:
         base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
     robot = load_robot(base.robot)
     with _Progress(not no_progress, "ditch curve") as progress:
         doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
-    with staged_directory(outdir) as tmp:
+    with staged_directory(outdir, frozenset({"ditch_curve.json", "ditch_curve.png"})) as staging:
+        tmp = staging.path
         (tmp / "ditch_curve.json").write_text(_dump(doc))
         (tmp / "ditch_curve.png").write_bytes(curve_png(doc))
     if as_json:
@@ -555,26 +610,6 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
                   "-" if row["thrust_at_widest_n"] is None else f"{row['thrust_at_widest_n']:.2f}")
     err_console.print(t)
     err_console.print(f"wrote {outdir}/ditch_curve.json, ditch_curve.png")
-
-
-class FiniteFloat(click.ParamType):
-    """A finite float within [lo, hi] (click's FloatRange lets NaN through: NaN < lo is False)."""
-
-    name = "float"
-
-    def __init__(self, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False):
-        self.lo, self.hi, self.lo_open = lo, hi, lo_open
-
-    def convert(self, value, param, ctx):
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            self.fail(f"{value!r} is not a number", param, ctx)
-        if not math.isfinite(x):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        if x < self.lo or (self.lo_open and x == self.lo) or x > self.hi:
-            self.fail(f"{x:g} is outside {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]", param, ctx)
-        return x
 
 
 @main.command("simulate")
@@ -607,11 +642,12 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     """
     import numpy as np
 
-    from .atomic import write_bytes_atomic, write_text_atomic
+    from .atomic import check_writable, write_bytes_atomic, write_text_atomic
     from .mcap_writer import simulation_mcap
     from .sim.rehearsal import Perturbation, load_plan, simulate
 
     track = load_plan(plan_dir)
+    check_writable(plan_dir)
     if trials is None:
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
     else:
@@ -661,8 +697,11 @@ def run(argv: list[str] | None = None) -> int:
             return rv
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
-    except click.ClickException as exc:
-        exc.show()
+    except click.ClickException as exc:  # usage: one line, as every other bad input
+        ctx = getattr(exc, "ctx", None)
+        where = f"jethr1 {ctx.command_path.split(' ', 1)[1]}" if ctx is not None and " " in ctx.command_path \
+            else "jethr1"
+        print(f"{where}: {exc.format_message()}".replace("\n", " "), file=sys.stderr)
         return 2
     except click.exceptions.Abort:
         err_console.print("aborted")

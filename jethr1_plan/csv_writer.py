@@ -57,18 +57,61 @@ def trajectory_csv(rows: Rows) -> str:
     return out.getvalue()
 
 
-def read_trajectory_csv(text: str) -> dict[str, np.ndarray]:
-    """Parse a trajectory CSV into columns (numbers as float arrays, NaN where empty)."""
-    lines = text.strip("\n").split("\n")
+TEXT_COLUMNS = ("phase", "support", "reason")
+MAX_CSV_BYTES = 200_000_000  # a trajectory is ~1 MB per 1,000 rows; anything larger is not one
+
+
+def read_trajectory_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.ndarray]:
+    """Parse a trajectory CSV into columns (numbers as float arrays, NaN where empty).
+
+    Raises:
+        InputError: a header that is not this format's, a row with the wrong number of cells (a file
+            cut mid-line), a number that does not parse, a ``feasible`` that is not true/false.
+    """
+    from .errors import InputError
+
+    if len(text) > MAX_CSV_BYTES:
+        raise InputError(source, "", f"{len(text)} characters: larger than any trajectory ({MAX_CSV_BYTES})")
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    if not lines:
+        raise InputError(source, "header", "empty file")
     header = lines[0].split(",")
-    cells = [ln.split(",") for ln in lines[1:]]
+    known = set(columns())
+    unknown = [h for h in header if h not in known]
+    if unknown:
+        raise InputError(source, "header", f"unknown column {_short(unknown[0])!r}")
+    if len(set(header)) != len(header):
+        raise InputError(source, "header", "a column appears twice")
+    cells = []
+    for n, line in enumerate(lines[1:], start=1):
+        row = line.split(",")
+        if len(row) != len(header):
+            raise InputError(source, f"row {n}", f"{len(row)} cells, the header has {len(header)} (a cut or "
+                             "edited line?)")
+        cells.append(row)
     out: dict[str, np.ndarray] = {}
     for k, name in enumerate(header):
         col = [r[k] for r in cells]
-        if name in ("phase", "support", "reason"):
+        if name in TEXT_COLUMNS:
             out[name] = np.array(col, dtype=object)
         elif name == "feasible":
-            out[name] = np.array([v == "true" for v in col])
+            bad = next((i for i, v in enumerate(col) if v not in ("true", "false")), None)
+            if bad is not None:
+                raise InputError(source, f"row {bad + 1} {name}", f"{_short(col[bad])!r} is not true or false")
+            out[name] = np.array([v == "true" for v in col], dtype=bool)
         else:
-            out[name] = np.array([float(v) if v != "" else np.nan for v in col])
+            values = np.empty(len(col))
+            for i, v in enumerate(col):
+                try:
+                    values[i] = float(v) if v != "" else np.nan
+                except ValueError:
+                    raise InputError(source, f"row {i + 1} {name}", f"{_short(v)!r} is not a number") from None
+            out[name] = values
     return out
+
+
+def _short(text: str, limit: int = 40) -> str:
+    """At most ``limit`` characters of ``text`` (error messages never print a long value)."""
+    return text if len(text) <= limit else text[:limit] + "..."

@@ -1,9 +1,14 @@
 """``trajectory.mcap``: JSON messages with jsonschema schemas, Foxglove schema names where one exists.
 
-Topics (CONTRACT.md): ``/tf`` (foxglove.FrameTransforms: world→trunk and every URDF joint's
-parent→child link, so the URDF layer of Foxglove's 3D panel plays the motion), ``/joint_states``,
-``/thrust``, ``/p_body``, ``/com``, ``/zmp`` (foxglove.PoseInFrame), ``/terrain`` and
-``/swing_path`` (foxglove.SceneUpdate).
+Topics (CONTRACT.md): ``/robot_description`` (the URDF as a ``std_msgs/String``-shaped message, the
+form Foxglove's URDF layer reads from a topic: the file alone shows the robot), ``/tf``
+(foxglove.FrameTransforms: world→trunk and every URDF joint's parent→child link, so the URDF layer
+plays the motion), ``/joint_states``, ``/thrust``, ``/p_body``, ``/com``, ``/zmp``
+(foxglove.PoseInFrame), ``/terrain`` and ``/swing_path`` (foxglove.SceneUpdate), ``/analysis``.
+
+Times: every message is logged at ``EPOCH_NS`` + its time from the scenario's start, the epoch being
+2000-01-01T00:00:00Z (a fixed date, so that the same plan gives the same bytes; Foxglove's timeline
+shows the plan starting at midnight on 1 January 2000). Message timestamps carry the same time.
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ import numpy as np
 
 from .robot_model import RobotModel, urdf_joints
 from .swing_path import Carton
+
+EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
+ROBOT_DESCRIPTION_SCHEMA = "std_msgs/String"  # a name Foxglove's URDF layer accepts for a topic source
 
 # --- JSON schemas (every field required, as in Foxglove's current schemas) ------------------
 
@@ -59,27 +67,36 @@ SCHEMAS: dict[str, dict] = {
     "foxglove.SceneUpdate": _object({"deletions": {"type": "array"}, "entities": {"type": "array", "items": ENTITY}}),
     "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
                                   "position_rad": {"type": "array", "items": NUMBER},
+                                  "command_rad": {"type": "array", "items": NUMBER},
                                   "effort_nm": {"type": "array", "items": NUMBER}}),
+    ROBOT_DESCRIPTION_SCHEMA: _object({"data": {"type": "string"}}),
     "jethr1.LegAnalysis": _object({"timestamp": TIME, "kappa_left": NUMBER, "kappa_right": NUMBER,
                                    "yaw_momentum_nms": NUMBER}),
     "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
                               "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
-                              "feasible": {"type": "boolean"},
+                              "sample": {"type": "integer"}, "feasible": {"type": "boolean"},
+                              "reason": {"type": "string"}, "left_cmd_n": NUMBER, "right_cmd_n": NUMBER,
                               "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
                               "zmp_margin_m": NUMBER}),
 }
 for _name, _schema in SCHEMAS.items():
     _schema.setdefault("title", _name)
 
-TOPICS = {"/tf": "foxglove.FrameTransforms", "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
+TOPICS = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
+          "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
           "/p_body": "foxglove.PoseInFrame", "/com": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
           "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate", "/analysis": "jethr1.LegAnalysis"}
 
 # --- helpers ------------------------------------------------------------------------------
 
 
+def log_time(t_s: float) -> int:
+    """Log time [ns] of a message at ``t_s`` [s] from the scenario's start."""
+    return EPOCH_NS + round(t_s * 1e9)
+
+
 def stamp(t_s: float) -> dict:
-    ns = round(t_s * 1e9)
+    ns = log_time(t_s)
     return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
 
 
@@ -193,11 +210,12 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
 
     def put(topic: str, t: float, msg: dict) -> None:
         nonlocal seq
-        ns = round(t * 1e9)
+        ns = log_time(t)
         w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
                       data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
         seq += 1
 
+    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
     put("/terrain", 0.0, terrain_update(cartons))
     put("/swing_path", 0.0, swing_path_update(paths))
     c = rows.columns
@@ -208,13 +226,16 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
         put("/tf", t, frame_transforms(robot, t, p, quat_axis_angle((0, 0, 1), yaw), q, [r[i] for r in rotations]))
         put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q],
+                                 "command_rad": [float(v) for v in c["q_cmd"][i]],
                                  "effort_nm": [float(v) for v in c["tau"][i]]})
         put("/analysis", t, {"timestamp": stamp(t), "kappa_left": float(c["kappa"][i][0]),
                              "kappa_right": float(c["kappa"][i][1]),
                              "yaw_momentum_nms": float(c["yaw_momentum"][i])})
         put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
                            "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
-                           "support": c["support"][i], "step": int(c["step"][i]), "feasible": bool(c["feasible"][i]),
+                           "support": c["support"][i], "step": int(c["step"][i]), "sample": int(c["sample"][i]),
+                           "feasible": bool(c["feasible"][i]), "reason": c["reason"][i],
+                           "left_cmd_n": float(c["thrust_cmd_left"][i]), "right_cmd_n": float(c["thrust_cmd_right"][i]),
                            "window_lo_n": _or_none(c["window"][i][0]), "window_hi_n": _or_none(c["window"][i][1]),
                            "zmp_margin_m": float(c["zmp_margin"][i])})
         put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
@@ -233,13 +254,15 @@ def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
     ``/terrain``. Times as in ``trajectory.mcap``: seconds from the plan's start."""
     from mcap.writer import CompressionType, Writer
 
-    schemas = {"foxglove.FrameTransforms": SCHEMAS["foxglove.FrameTransforms"],
+    schemas = {ROBOT_DESCRIPTION_SCHEMA: SCHEMAS[ROBOT_DESCRIPTION_SCHEMA],
+               "foxglove.FrameTransforms": SCHEMAS["foxglove.FrameTransforms"],
                "foxglove.PoseInFrame": SCHEMAS["foxglove.PoseInFrame"],
                "foxglove.SceneUpdate": SCHEMAS["foxglove.SceneUpdate"],
                "jethr1.SimThrust": _object({"timestamp": TIME, "frame": {"type": "array", "items": {"type": "string"}},
                                             "thrust_n": {"type": "array", "items": NUMBER}})}
     schemas["jethr1.SimThrust"].setdefault("title", "jethr1.SimThrust")
-    topics = {"/tf": "foxglove.FrameTransforms", "/sim/thrust": "jethr1.SimThrust", "/sim/cop": "foxglove.PoseInFrame",
+    topics = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
+              "/sim/thrust": "jethr1.SimThrust", "/sim/cop": "foxglove.PoseInFrame",
               "/sim/com": "foxglove.PoseInFrame", "/terrain": "foxglove.SceneUpdate"}
     buf = io.BytesIO()
     w = Writer(buf, compression=CompressionType.ZSTD)
@@ -252,11 +275,12 @@ def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
 
     def put(topic: str, t: float, msg: dict) -> None:
         nonlocal seq
-        ns = max(0, round(t * 1e9))
+        ns = log_time(max(t, 0.0))
         w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
                       data=json.dumps(msg, separators=(",", ":")).encode())
         seq += 1
 
+    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
     put("/terrain", 0.0, terrain_update(cartons))
     qpos = np.asarray(record["qpos"], dtype=float).reshape(-1, 19)
     rotations = joint_rotations(robot, qpos[:, 7:]) if len(qpos) else []
@@ -285,11 +309,12 @@ def _ground(c: dict, i: int) -> float:
 
 
 def read_mcap(data: bytes) -> list[tuple[str, str, dict, int]]:
-    """Every message of an MCAP file: (topic, schema name, decoded JSON, log_time [ns])."""
+    """Every message of an MCAP file: (topic, schema name, decoded JSON, log_time [ns]), the chunks'
+    CRCs checked."""
     from mcap.reader import make_reader
 
     out = []
-    reader = make_reader(io.BytesIO(data))
+    reader = make_reader(io.BytesIO(data), validate_crcs=True)
     for schema, channel, message in reader.iter_messages():
         out.append((channel.topic, schema.name, json.loads(message.data), message.log_time))
     return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -419,7 +420,8 @@ def plan_summary(result: PlanResult) -> dict:
     thr = np.concatenate(all_thrust) if all_thrust else np.zeros(0)
     out = {
         "scenario": sc.name,
-        "scenario_file": sc.source,
+        "scenario_file": str(Path(sc.source).resolve()) if sc.text else sc.source,
+        "scenario_yaml": sc.text,  # the scenario as read: verify finds it even where the file has moved
         "robot": result.robot.name,
         "robot_yaml": str(result.robot.yaml_path),
         "optimiser": result.method,

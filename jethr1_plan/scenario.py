@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -28,37 +28,50 @@ F3_UNITS = {"mm": 0.001, "m": 1.0}
 YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
 POLICIES = ("robust", "minimal")
 
-_num = {"type": "number"}
-_pos = {"type": "number", "exclusiveMinimum": 0}
+# Bounds say what the machine can hold and what a scenario means: every number is bounded, so that a
+# typo (samples: 1e8, rate_hz: 1e9) is a one-line error, not an hour of work or a full memory.
+MAX_FILE_BYTES = 1_000_000  # a scenario is a few kilobytes
+MAX_VALUES = 100_000  # values in the document, aliases expanded (a scenario has a few hundred)
+MAX_ROWS = 200_000  # output rows of a plan (rate × duration): ~200 MB of CSV and MCAP
+MAX_SAMPLES = 1000  # swing samples per step (each one is optimised)
+_num = {"type": "number", "minimum": -1e9, "maximum": 1e9}
+_pos = {"type": "number", "exclusiveMinimum": 0, "maximum": 1e9}
 _prob = {"type": "number", "minimum": 0, "maximum": 1}
-_vec3 = {"type": "array", "items": _num, "minItems": 3, "maxItems": 3}
+_coord = {"type": "number", "minimum": -100, "maximum": 100}  # [m]
+_vec3 = {"type": "array", "items": _coord, "minItems": 3, "maxItems": 3}
+_size3 = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 10}, "minItems": 3,
+          "maxItems": 3}
+_duration = {"type": "number", "exclusiveMinimum": 0, "maximum": 300}  # [s]
 
 
 def _obj(props: dict, required: tuple = ()) -> dict:
     return {"type": "object", "properties": props, "required": list(required), "additionalProperties": False}
 
 
-_phase = _obj({"population": {"type": "integer", "minimum": 2}, "generations": {"type": "integer", "minimum": 1},
-               "half_range_m": _pos, "crossover": _prob, "mutation": _prob})
+_phase = _obj({"population": {"type": "integer", "minimum": 2, "maximum": 10000},
+               "generations": {"type": "integer", "minimum": 1, "maximum": 10000},
+               "half_range_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1}, "crossover": _prob,
+               "mutation": _prob})
 
 SCHEMA = _obj({
-    "name": {"type": "string"},
-    "description": {"type": "string"},
-    "robot": {"type": "string"},
-    "seed": {"type": "integer", "minimum": 0},
+    "name": {"type": "string", "maxLength": 200},
+    "description": {"type": "string", "maxLength": 5000},
+    "robot": {"type": "string", "maxLength": 1000},
+    "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
     "start": _obj({"left": _vec3, "right": _vec3}, ("left", "right")),
     "terrain": _obj({
-        "carton_size_m": {**_vec3, "items": _pos},
-        "cartons": {"type": "array", "items": _obj({"top_centre_m": _vec3, "size_m": {**_vec3, "items": _pos}},
-                                                   ("top_centre_m",))},
+        "carton_size_m": _size3,
+        "cartons": {"type": "array", "maxItems": 200, "items": _obj({"top_centre_m": _vec3, "size_m": _size3},
+                                                                    ("top_centre_m",))},
     }),
-    "steps": {"type": "array", "minItems": 1, "items": _obj({
+    "steps": {"type": "array", "minItems": 1, "maxItems": 50, "items": _obj({
         "swing": {"enum": ["left", "right"]},
         "landing_m": _vec3,
         "path": {"oneOf": [
-            _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0},
-                  "samples": {"type": "integer", "minimum": 2}}, ("kind",)),
-            _obj({"kind": {"const": "points"}, "points_m": {"type": "array", "items": _vec3, "minItems": 2}},
+            _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0, "maximum": 2},
+                  "samples": {"type": "integer", "minimum": 2, "maximum": MAX_SAMPLES}}, ("kind",)),
+            _obj({"kind": {"const": "points"},
+                  "points_m": {"type": "array", "items": _vec3, "minItems": 2, "maxItems": MAX_SAMPLES}},
                  ("kind", "points_m")),
         ]},
     }, ("swing",))},
@@ -67,21 +80,28 @@ SCHEMA = _obj({
         "initial": _phase,
         "intermediate": _phase,
         "bits": {"type": "integer", "minimum": 2, "maximum": 20},
-        "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num, "omega": {"type": "number", "minimum": 0},
+        "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num,
+                         "omega": {"type": "number", "minimum": 0, "maximum": 1e9},
                          "f3_unit": {"enum": list(F3_UNITS)}, "graded": {"type": "boolean"}}),
-        "gaex": _obj({"half_m": _pos, "step_m": _pos}),
-        "sqp": _obj({"smoothness_n_per_m2": {"type": "number", "minimum": 0}}),
-        "nominal_height_m": _pos,
+        "gaex": _obj({"half_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.05},
+                      "step_m": {"type": "number", "minimum": 0.0005, "maximum": 0.05}}),
+        "sqp": _obj({"smoothness_n_per_m2": {"type": "number", "minimum": 0, "maximum": 1e9}}),
+        "nominal_height_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
     }),
-    "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0}, "rho_rad": {"type": "number", "minimum": 0},
-                     "sole_margin_m": {"type": "number", "minimum": 0}, "policy": {"enum": list(POLICIES)},
+    "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0, "maximum": 1e4},
+                     "rho_rad": {"type": "number", "minimum": 0, "maximum": 1.5707963267948966},
+                     "sole_margin_m": {"type": "number", "minimum": 0, "maximum": 0.1},
+                     "policy": {"enum": list(POLICIES)},
                      "robust": _obj({"thrust_error": {"type": "number", "minimum": 0, "maximum": 0.9},
                                      "mass_error": {"type": "number", "minimum": 0, "maximum": 0.9},
                                      "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1}})}),
-    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": _num, "horizon_s": _pos,
-                      "alpha": {"type": "number", "minimum": 0}, "beta": {"type": "number", "minimum": 0}}),
-    "timing": _obj({"swing_s": _pos, "transfer_s": _pos, "rate_hz": _pos}),
-    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0}}),
+    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": {"type": "number", "minimum": -7, "maximum": 7},
+                      "horizon_s": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
+                      "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
+                      "beta": {"type": "number", "minimum": 0, "maximum": 1e9}}),
+    "timing": _obj({"swing_s": _duration, "transfer_s": _duration,
+                    "rate_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}}),
+    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
 }, ("steps",))
 
 
@@ -153,6 +173,7 @@ class Scenario:
     nominal_height_m: float | None
     expect: dict = field(default_factory=dict)
     yaw_mpc: dict = field(default_factory=lambda: {"horizon_s": 1.6, "alpha": 1.0, "beta": 1e-10})
+    text: str = ""  # the scenario file as read (kept in summary.json, so a plan folder names its scenario)
 
 
 class _Loader(yaml.SafeLoader):
@@ -195,9 +216,14 @@ def _schema_error(doc: dict, src: str) -> None:
     if not errors:
         return
     err = errors[0]
-    # for oneOf failures, report the most specific sub-error
+    # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
     while err.context:
-        err = sorted(err.context, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
+        branches: dict = {}
+        for sub in err.context:
+            branches.setdefault(sub.relative_schema_path[0], []).append(sub)
+        matched = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
+        pool = matched[0] if matched else err.context
+        err = sorted(pool, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
     if err.validator == "additionalProperties":
         extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
         raise InputError(src, _keypath([*err.absolute_path, extra[0]]) if extra else _keypath(err.absolute_path),
@@ -205,7 +231,49 @@ def _schema_error(doc: dict, src: str) -> None:
     if err.validator == "required":
         missing = err.message.split("'")[1] if "'" in err.message else err.message
         raise InputError(src, _keypath([*err.absolute_path, missing]), "missing")
-    raise InputError(src, _keypath(err.absolute_path), err.message)
+    raise InputError(src, _keypath(err.absolute_path), _describe(err))
+
+
+def _short(value, limit: int = 60) -> str:
+    """A value for a message: its repr, cut to ``limit`` characters (never a whole document)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _describe(err) -> str:
+    """One short line for a JSON-Schema error (jsonschema's own messages print the whole value)."""
+    kind, bound, value = err.validator, err.validator_value, err.instance
+    if kind == "type":
+        return f"expected {bound if isinstance(bound, str) else ' or '.join(bound)}, got {_short(value)}"
+    if kind in ("minimum", "exclusiveMinimum"):
+        return f"{_short(value)} is below the {'smallest' if kind == 'minimum' else 'bound'} allowed, {bound:g}"
+    if kind in ("maximum", "exclusiveMaximum"):
+        return f"{_short(value)} is above the largest allowed, {bound:g}"
+    if kind == "enum":
+        return f"{_short(value)}: expected one of {', '.join(map(str, bound))}"
+    if kind == "const":
+        return f"{_short(value)}: expected {bound!r}"
+    if kind in ("minItems", "maxItems"):
+        return f"{len(value)} items: expected {'at least' if kind == 'minItems' else 'at most'} {bound}"
+    if kind == "maxLength":
+        return f"{len(value)} characters: at most {bound}"
+    return err.message if len(err.message) <= 120 else err.message[:120] + "..."
+
+
+def _count_values(doc, src: str, cap: int = MAX_VALUES) -> None:
+    """Refuse a document that expands (through YAML aliases) to more than ``cap`` values."""
+    stack, count = [doc], 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > cap:
+            raise InputError(src, "(top level)", f"the document expands to more than {cap:,} values (YAML aliases?); "
+                             "a scenario has a few hundred")
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -216,17 +284,36 @@ def load_scenario(path: str | Path) -> Scenario:
     """
     src = str(path)
     try:
-        text = Path(path).read_text()
+        p = Path(path)
+        if p.is_dir():
+            raise InputError(src, "", "a folder, not a scenario file")
+        with p.open("rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror}") from None
+        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(src, "", f"larger than {MAX_FILE_BYTES:,} bytes: a scenario is a few kilobytes")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(src, "", f"not UTF-8 text (byte {data[exc.start]:#04x} at offset {exc.start})") from None
+    return load_scenario_text(text, src)
+
+
+def load_scenario_text(text: str, src: str) -> Scenario:
+    """A scenario from its YAML ``text``; ``src`` names it in messages (see :func:`load_scenario`)."""
     try:
         doc = yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark else ""
-        raise InputError(src, where, f"not valid YAML: {getattr(exc, 'problem', exc)}") from None
+        problem = str(getattr(exc, "problem", None) or exc).splitlines()[0][:120]
+        raise InputError(src, where, f"not valid YAML: {problem}") from None
+    except RecursionError:
+        raise InputError(src, "", "not valid YAML: nested too deeply") from None
     if not isinstance(doc, dict):
         raise InputError(src, "(top level)", "expected a mapping")
+    _count_values(doc, src)
     _check_finite(doc, src)
     _schema_error(doc, src)
     from .robot_model import load_robot
@@ -235,7 +322,7 @@ def load_scenario(path: str | Path) -> Scenario:
         robot = load_robot(doc.get("robot", "jethr1"))
     except InputError as exc:
         raise InputError(src, "robot", str(exc)) from None
-    return _build(doc, src, robot)
+    return replace(_build(doc, src, robot), text=text)
 
 
 def _build(doc: dict, src: str, robot) -> Scenario:
@@ -315,9 +402,16 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         sqp_smoothness_n_per_m2=float(opt.get("sqp", {}).get("smoothness_n_per_m2", dflt.sqp_smoothness_n_per_m2)))
     if optimiser.gaex_step_m > optimiser.gaex_half_m:
         raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
+    if optimiser.gaex_half_m / optimiser.gaex_step_m > 50:
+        raise InputError(src, "optimiser.gaex", "more than 50 steps per half width (a cube of over 1 million postures "
+                         "per sample)")
     bal = doc.get("balance", {})
     rob = bal.get("robust", {})
-    balance = BalanceConfig(float(bal.get("thrust_max_n", 23.0)), float(bal.get("rho_rad", math.radians(5.0))),
+    fan_max = min(f.max_thrust_n for f in robot.fans)
+    if bal.get("thrust_max_n", fan_max) > fan_max:
+        raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
+                         f"({fan_max:g} N)")
+    balance = BalanceConfig(float(bal.get("thrust_max_n", fan_max)), float(bal.get("rho_rad", math.radians(5.0))),
                             float(bal.get("sole_margin_m", 0.0)), bal.get("policy", "robust"),
                             Tolerance(float(rob.get("thrust_error", ROBUST_DEFAULT.thrust)),
                                       float(rob.get("mass_error", ROBUST_DEFAULT.mass)),
@@ -326,6 +420,10 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
     t = doc.get("timing", {})
     timing = Timing(float(t.get("swing_s", 8.0)), float(t.get("transfer_s", 3.0)), float(t.get("rate_hz", 50.0)))
+    rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
+    if rows > MAX_ROWS:
+        raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
+                         "(lower rate_hz or the durations)")
     yaw = doc.get("body_yaw", {})
     return Scenario(
         source=src, name=doc.get("name", Path(src).stem), robot=doc.get("robot", "jethr1"), seed=doc.get("seed", 0),

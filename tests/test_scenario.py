@@ -47,15 +47,25 @@ def _variant(tmp_path: Path, mutate) -> Path:
 BAD = {
     "unknown top-level key": (lambda d: d.update(colour="red"), "colour", "unknown key"),
     "unknown nested key": (lambda d: d["optimiser"].update(methd="gas"), "optimiser.methd", "unknown key"),
-    "wrong type": (lambda d: d["balance"].update(thrust_max_n="lots"), "balance.thrust_max_n", "not of type"),
+    "wrong type": (lambda d: d["balance"].update(thrust_max_n="lots"), "balance.thrust_max_n", "expected number"),
     "NaN": (lambda d: d["balance"].update(thrust_max_n=float("nan")), "balance.thrust_max_n", "finite"),
-    "negative thrust": (lambda d: d["balance"].update(thrust_max_n=-1), "balance.thrust_max_n", "minimum"),
+    "negative thrust": (lambda d: d["balance"].update(thrust_max_n=-1), "balance.thrust_max_n", "below"),
+    "thrust beyond the fans": (lambda d: d["balance"].update(thrust_max_n=1e300), "balance.thrust_max_n", "above"),
+    "thrust a little beyond the fans": (lambda d: d["balance"].update(thrust_max_n=30.0), "balance.thrust_max_n",
+                                        "more than the robot's fans give (23 N)"),
+    "absurd sample count": (lambda d: d["steps"][0]["path"].update(samples=100_000_000), "steps[0].path.samples",
+                            "above the largest allowed, 1000"),
+    "absurd rate": (lambda d: d["timing"].update(rate_hz=1e9), "timing.rate_hz", "above the largest allowed"),
+    "too many rows": (lambda d: d["timing"].update(rate_hz=1000, swing_s=300), "timing", "rows; at most 200,000"),
+    "GAEx cube too fine": (lambda d: d["optimiser"].update(gaex={"half_m": 0.05, "step_m": 0.0005}),
+                           "optimiser.gaex", "more than 50 steps"),
     "unknown method": (lambda d: d["optimiser"].update(method="pso"), "optimiser.method", "pso"),
     "negative sqp smoothness": (lambda d: d["optimiser"].update(sqp={"smoothness_n_per_m2": -1}),
-                                "optimiser.sqp.smoothness_n_per_m2", "minimum"),
+                                "optimiser.sqp.smoothness_n_per_m2", "below"),
     "population of one": (lambda d: d["optimiser"].update(initial={"population": 1}),
-                          "optimiser.initial.population", "minimum"),
-    "short landing vector": (lambda d: d["steps"][0].update(landing_m=[0.6, 0.0]), "steps[0].landing_m", "short"),
+                          "optimiser.initial.population", "below the smallest allowed, 2"),
+    "short landing vector": (lambda d: d["steps"][0].update(landing_m=[0.6, 0.0]), "steps[0].landing_m",
+                             "2 items: expected at least 3"),
     "landing off the carton": (lambda d: d["steps"][0].update(landing_m=[0.45, -0.1125, 0.0]),
                                "steps[0].landing_m", "fully on a carton"),
     "landing in the air": (lambda d: d["steps"][0].update(landing_m=[0.615, -0.1125, 0.02]),
@@ -101,3 +111,59 @@ def test_unreadable_and_non_yaml_files(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "nope.yaml" in err and "bad.yaml" in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()
+
+
+def _timed_exit_2(args, capsys):
+    """Exit 2, one line, no traceback, in under 5 s and under 200 MB more memory."""
+    import resource
+    import time
+
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    code = run(args)
+    elapsed = time.perf_counter() - t0
+    grown_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "Traceback" not in err[0], err
+    assert elapsed < 5 and grown_kb < 200_000 and len(err[0]) < 400
+    return err[0]
+
+
+def test_bytes_that_are_not_utf8(tmp_path, capsys):
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes((ROOT / "configs" / "side_step.yaml").read_bytes().replace(b"# Paper A", b"# Papier \xe9t\xe9"))
+    line = _timed_exit_2(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert "not UTF-8" in line and str(path) in line and not (tmp_path / "o").exists()
+
+
+def test_a_billion_laughs_is_refused_quickly(tmp_path, capsys):
+    """1 KB of nested aliases expands to 10^9 values: refused before anything walks it, and the
+    message does not print it."""
+    lines = ["a0: &a0 [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]"]
+    for k in range(1, 10):
+        lines.append(f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 10) + "]")
+    lines.append("steps: *a9")
+    path = tmp_path / "laughs.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    assert path.stat().st_size < 1500
+    line = _timed_exit_2(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert "expands to more than 100,000 values" in line
+
+
+def test_a_recursive_alias_is_refused(tmp_path, capsys):
+    path = tmp_path / "loop.yaml"
+    path.write_text("steps: &s [*s]\n")
+    line = _timed_exit_2(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert str(path) in line
+
+
+def test_a_long_value_is_not_printed(tmp_path, capsys):
+    path = _variant(tmp_path, lambda d: d["steps"][0].update(landing_m="x" * 100_000))
+    line = _timed_exit_2(["plan", str(path), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+    assert "steps[0].landing_m" in line and "xxxx..." in line
+
+
+@pytest.mark.parametrize("mutate", [lambda d: d["steps"][0]["path"].update(samples=100_000_000),
+                                    lambda d: d["timing"].update(rate_hz=1e9)], ids=["samples", "rate"])
+def test_absurd_numbers_are_quick(tmp_path, capsys, mutate):
+    _timed_exit_2(["plan", str(_variant(tmp_path, mutate)), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
