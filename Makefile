@@ -24,6 +24,8 @@ demo: install
 	$(BIN)/jethr1 robot show
 	$(BIN)/jethr1 plan configs/jet_hr1_trial_robust.yaml -o out
 	$(BIN)/jethr1 simulate out/jet_hr1_trial_robust --controller feedback
+	@echo "Foxglove: open out/jet_hr1_trial_robust/trajectory.mcap and simulation.mcap together, and import the layout"
+	@$(BIN)/python -c "from jethr1_plan.cli import LAYOUT; print(LAYOUT)"
 
 bench: install
 	$(BIN)/python bench/bench_evaluator.py

@@ -51,9 +51,16 @@ def run_scenario(path: str, outdir: str) -> dict:
         summary = exc.summary or {}
         write_plan_outputs_summary_only(scenario, Path(outdir), summary)
         infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
+    except Exception as exc:  # a bug in one scenario must not lose every other scenario's result
+        return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
+                "exit_code": 1}
     else:
         summary = plan_summary(result)
-        write_plan_outputs(result, Path(outdir), summary, trajectory=True)
+        try:
+            write_plan_outputs(result, Path(outdir), summary, trajectory=True)
+        except Exception as exc:
+            return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
+                    "exit_code": 1}
         infeasible = None
     failed = check_expectations(scenario.expect, summary)
     out = infeasible or {**record, "status": "feasible", "summary": summary}
@@ -69,10 +76,10 @@ def run_scenario(path: str, outdir: str) -> dict:
 
 
 def batch_exit_code(records: list[dict]) -> int:
-    """2 if any input was bad, else 4 if any expectation failed, else 3 if any plan was unexpectedly
-    infeasible, else 0."""
+    """1 if a scenario hit a bug, else 2 if any input was bad, else 4 if any expectation failed, else 3
+    if any plan was unexpectedly infeasible, else 0."""
     codes = {r["exit_code"] for r in records}
-    for code in (2, 4, 3):
+    for code in (1, 2, 4, 3):
         if code in codes:
             return code
     return 0

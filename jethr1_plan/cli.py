@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import click
+import numpy as np
 from rich.console import Console
 from rich.table import Table
 
@@ -24,7 +25,18 @@ if not err_console.is_terminal:  # logs and CI: no terminal width to respect, ke
 
 
 def _dump(doc: dict) -> str:
-    return json.dumps(doc, indent=2, sort_keys=False, allow_nan=False, default=_jsonable) + "\n"
+    """JSON text; a value that is not a finite number (no such value: a row without a posture) is null."""
+    return json.dumps(_finite_only(doc), indent=2, sort_keys=False, allow_nan=False, default=_jsonable) + "\n"
+
+
+def _finite_only(x):
+    if isinstance(x, dict):
+        return {k: _finite_only(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_finite_only(v) for v in x]
+    if isinstance(x, float | np.floating) and not math.isfinite(float(x)):
+        return None
+    return x
 
 
 def _jsonable(x):
@@ -142,6 +154,7 @@ def _self_check(csv_text: str, result, summary: dict, strict_torque: bool) -> No
         raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
 
 
+LAYOUT = Path(__file__).resolve().parent / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
 PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "simulation.json", "simulation.mcap"})
 
 
@@ -244,7 +257,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
               f"{1000 * tol['com_error_m']:g} mm of CoM error")
     rob = summary.get("robustness", {})
     c.print(f"balance: {policy}")
-    if rob:
+    if rob.get("least_zmp_margin_m") is not None:
         at = rob["least_zmp_margin_at"]
         margin_mm = round(1000 * rob["least_zmp_margin_m"], 1) + 0.0  # no "-0.0"
         line = (f"least ZMP margin {margin_mm:.1f} mm (step {at['step']} {at['phase']} row {at['row']}, "
@@ -256,9 +269,8 @@ def _report_plan(summary: dict, folder: Path) -> None:
                      f"{at['row']}, t = {at['time_s']:.2f} s)")
         c.print(line)
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
-    c.print("Foxglove: open trajectory.mcap, add a 3D panel, add the URDF layer "
-            "(robots/jethr1/jethr1.urdf) and set the display frame to 'world'; /tf moves it, "
-            "/terrain shows the cartons.")
+    c.print(f"Foxglove: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
+            "file's /robot_description; its rehearsal, simulation.mcap, plays beside it)", markup=False)
 
 
 def _require_dask(executor: str) -> None:
@@ -703,8 +715,11 @@ def run(argv: list[str] | None = None) -> int:
             else "jethr1"
         print(f"{where}: {exc.format_message()}".replace("\n", " "), file=sys.stderr)
         return 2
-    except click.exceptions.Abort:
-        err_console.print("aborted")
+    except (click.exceptions.Abort, KeyboardInterrupt):
+        if _TERMINATED:
+            print("jethr1: terminated (SIGTERM); workers stopped, nothing written", file=sys.stderr)
+            return 143
+        print("jethr1: interrupted; workers stopped, nothing written", file=sys.stderr)
         return 130
     except Jethr1Error as exc:
         message = str(exc).replace("\n", " ")
@@ -713,7 +728,23 @@ def run(argv: list[str] | None = None) -> int:
     return 0
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised as an interrupt so that it unwinds as Ctrl-C does: worker processes are ended,
+    staging folders removed, nothing half-written is left."""
+
+
+_TERMINATED = []  # set by SIGTERM: joblib and click turn the interrupt into their own exceptions
+
+
+def _on_sigterm(signum, frame) -> None:
+    _TERMINATED.append(signum)
+    raise Terminated()
+
+
 def entry() -> None:
+    import signal
+
+    signal.signal(signal.SIGTERM, _on_sigterm)
     sys.exit(run())
 
 

@@ -388,7 +388,9 @@ def robustness_summary(rows: Rows) -> dict:
     margin = rows.array("zmp_margin").astype(float)
     window = np.array(rows.columns["window"], dtype=float)
     loaded = (rows.array("thrust_left") + rows.array("thrust_right")) > 0
-    i = int(np.argmin(margin))
+    if not np.isfinite(margin).any():  # no row has a posture (an unreachable step written anyway)
+        return {"least_zmp_margin_m": None}
+    i = int(np.nanargmin(margin))
     out = {"least_zmp_margin_m": float(margin[i]), "least_zmp_margin_at": _where(rows, i)}
     width = np.where(loaded & np.isfinite(window[:, 0]), window[:, 1] - window[:, 0], np.inf)
     if np.isfinite(width).any():
@@ -466,7 +468,9 @@ def plan_summary(result: PlanResult) -> dict:
                 "rows_over_servo_limit": int(np.sum(ratio.max(axis=1) > 1.0)),
             }
             out["energy_j"] = float(rows.analysis["energy_j"])
-            out["kappa"] = {"max_left": float(kappa[:, 0].max()), "max_right": float(kappa[:, 1].max()),
+            kappa = np.where(np.isfinite(kappa), kappa, np.nan)  # rows without a posture have none
+            out["kappa"] = {"max_left": _finite(np.nanmax(kappa[:, 0], initial=0.0)),
+                            "max_right": _finite(np.nanmax(kappa[:, 1], initial=0.0)),
                             "warning_threshold": KAPPA_WARNING,
                             "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
             out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())

@@ -40,7 +40,21 @@ def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray
 JOINT_TYPES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 #: the 12 joints in URDF order (left leg then right leg)
 JOINT_NAMES = tuple(f"{side}_{j}" for side in SIDES for j in JOINT_TYPES)
-ROBOTS_DIR = Path(__file__).resolve().parents[1] / "robots"
+def _robots_dir() -> Path:
+    """The shipped robot models: the installed package data ``jethr1_plan.robots`` (a wheel, an
+    editable install), else the checkout's ``robots/``."""
+    try:
+        from importlib.resources import files
+
+        found = Path(str(files("jethr1_plan.robots")))
+        if found.is_dir():
+            return found
+    except (ModuleNotFoundError, TypeError, ValueError):
+        pass
+    return Path(__file__).resolve().parents[1] / "robots"
+
+
+ROBOTS_DIR = _robots_dir()
 GRAVITY = 9.81  # [m/s^2]
 
 

@@ -233,8 +233,11 @@ def _compare_files(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> list[F
             if k not in b:
                 continue
             x, y = a[k][i], b[k][i]
-            same = (x == y) if not isinstance(x, float | np.floating) else (
-                (math.isnan(x) and math.isnan(float(y))) or abs(float(x) - float(y)) <= 1e-12 * max(1.0, abs(x)))
+            if isinstance(x, float | np.floating):
+                x, y = float(x), float(y)
+                same = x == y or (math.isnan(x) and math.isnan(y)) or abs(x - y) <= 1e-12 * max(1.0, abs(x))
+            else:
+                same = x == y
             if not same:
                 out.append(Failure(i, float(a["time_s"][i]), "CSV and MCAP differ", f"{k}: {x!r} against {y!r}"))
                 break

@@ -73,3 +73,16 @@ def test_dask_executor_gives_the_same_files(tmp_path):
     for name in ("a", "b"):
         for f in ("trajectory.csv", "trajectory.mcap"):
             assert (tmp_path / "loky" / name / f).read_bytes() == (tmp_path / "dask" / name / f).read_bytes()
+
+
+def test_a_scenario_that_is_not_text_keeps_the_others(tmp_path, capsys):
+    good = _small(tmp_path, "good", expect={"feasible": True})
+    bad = tmp_path / "binary.yaml"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
+    out = tmp_path / "out"
+    assert run(["batch", str(bad), str(good), "-o", str(out), "--no-progress", "--json"]) == 2
+    doc = json.loads(capsys.readouterr().out)
+    status = {r["name"]: r["status"] for r in doc["scenarios"]}
+    assert status == {"binary": "bad input", "good": "feasible"}
+    assert "not UTF-8" in next(r["error"] for r in doc["scenarios"] if r["name"] == "binary")
+    assert (out / "good" / "trajectory.csv").exists() and not (out / "binary").exists()

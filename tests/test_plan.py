@@ -291,3 +291,29 @@ def test_explicit_point_path_plans(tmp_path):
     swing = np.stack([c["swing_x_m"], c["swing_y_m"], c["swing_z_m"]], axis=1)[c["phase"] == "swing"]
     assert max(_distance_to_polyline(p, pts) for p in swing) < 1e-9
     assert swing[:, 2].max() > 0.06  # it follows the raised points, not the chord
+
+
+def test_the_mcap_shows_the_robot_by_itself(planned, robot):
+    """The URDF travels in the file (the topic form Foxglove's URDF layer reads), times start at the
+    documented epoch, every chunk's CRC is valid, and the shipped layout plots fields the file has."""
+    import datetime
+
+    from jethr1_plan.cli import LAYOUT
+    from jethr1_plan.mcap_writer import EPOCH_NS
+
+    msgs = read_mcap((planned / "trajectory.mcap").read_bytes())  # validates the CRCs
+    desc = [m for m in msgs if m[0] == "/robot_description"]
+    assert len(desc) == 1 and desc[0][1] == "std_msgs/String"
+    assert desc[0][2]["data"] == robot.urdf_path.read_text()
+    first = min(m[3] for m in msgs)
+    assert first == EPOCH_NS
+    assert datetime.datetime.fromtimestamp(first / 1e9, datetime.UTC).isoformat() == "2000-01-01T00:00:00+00:00"
+    thrust = next(m[2] for m in msgs if m[0] == "/thrust")
+    layout = json.loads(LAYOUT.read_text())
+    urdf_layers = [v for v in layout["configById"]["3D!jethr1"]["layers"].values() if v["layerId"] == "foxglove.Urdf"]
+    assert {layer["topic"] for layer in urdf_layers} == {"/robot_description"}
+    for panel in ("Plot!thrust", "Plot!margin"):
+        for path in layout["configById"][panel]["paths"]:
+            topic, field = path["value"].split(".", 1)
+            if topic == "/thrust":
+                assert field in thrust

@@ -1,0 +1,159 @@
+"""``jethr1 compare``: Paper A's comparison (IV-B, Figs. 7, 9, 10) on any scenario.
+
+Runs each optimiser on the same scenario and seed and reports, per method, the thrust (max, mean),
+the smoothness of P_body (Σ‖ΔP_body‖², the largest single step) and of the thrust (largest jump),
+the evaluations and the wall time. With ``reference``, every swing sample is also solved by a dense
+exhaustive search (every pelvis position from which the legs reach, on a 1 cm grid, the six best
+basins refined on a 1 mm grid), and each method's optimality gap is reported against it.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from .balance_space import SweepSpec, _Cells, _Evaluator, _exhaustive_cell
+from .planner import feet_before_each_step, plan, plan_summary, smoothness
+from .robot_model import load_robot
+from .scenario import Scenario
+
+
+def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
+    """One optimiser over every step; the wall time is the optimisation's, the yaw figures come from
+    the output-rate sequence (feasible plans only)."""
+    result = plan(scenario, method=method, seed=seed, keep_going=True)
+    wall = result.optimise_s
+    yaw = plan_summary(result).get("yaw", {}) if result.feasible else {}
+    p_body = [st.p_body for st in result.steps]
+    thrust = [st.thrust_n for st in result.steps]
+    allt = np.concatenate(thrust)
+    sm = [smoothness(p, t) for p, t in zip(p_body, thrust, strict=True)]
+    finite = allt[np.isfinite(allt)]
+    return {
+        "max_thrust_n": float(finite.max()) if len(finite) else None,
+        "mean_thrust_n": float(finite.mean()) if len(finite) else None,
+        "smoothness_m2": float(sum(s["smoothness_m2"] for s in sm)),
+        "max_step_m": float(max(s["max_step_m"] for s in sm)),
+        "max_thrust_jump_n": float(max(s["max_thrust_jump_n"] for s in sm)),
+        "evaluations": int(result.evaluations),
+        "yaw_mode": scenario.yaw_mode,
+        "peak_yaw_rate_rad_s": yaw.get("peak_rate_rad_s"),
+        "peak_yaw_accel_rad_s2": yaw.get("peak_accel_rad_s2"),
+        "wall_s": float(wall),
+        "feasible": bool(result.feasible),
+        "first_infeasible": result.first_infeasible,
+        "p_body_m": [p.tolist() for p in p_body],
+        "thrust_n": [[float(x) if np.isfinite(x) else None for x in t] for t in thrust],
+    }
+
+
+def step_evaluator(scenario: Scenario, si: int, pbody_resolution_m: float = 0.01) -> tuple[_Evaluator, _Cells]:
+    """The balance-space evaluator of step ``si`` (its support sole, balance settings and body yaw
+    (A-4)) and its swing samples as cells: what the exhaustive search runs on."""
+    st = scenario.steps[si]
+    feet = feet_before_each_step(scenario)[si]
+    spec = SweepSpec(robot=scenario.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
+                     thrust_max_n=scenario.balance.thrust_max_n, rho_rad=scenario.balance.rho_rad,
+                     sole_margin_m=scenario.balance.sole_margin_m, tolerance=scenario.balance.tolerance,
+                     method="exhaustive",
+                     pbody_resolution_m=pbody_resolution_m)
+    ev = _Evaluator(load_robot(scenario.robot), spec)
+    return ev, ev.cells(st.path_m)
+
+
+def reference_thrust(scenario: Scenario, pbody_resolution_m: float = 0.01) -> list[list[float | None]]:
+    """Per step and sample, the least thrust [N] found by the dense exhaustive search (None: none)."""
+    out = []
+    for si, st in enumerate(scenario.steps):
+        ev, cells = step_evaluator(scenario, si, pbody_resolution_m)
+        row = []
+        for i in range(len(st.path_m)):
+            _, f, reason = _exhaustive_cell(ev, cells, i)
+            row.append(float(f) if reason == 0 else None)
+        out.append(row)
+    return out
+
+
+def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex", "sqp"), seed: int | None = None,
+            reference: bool = False, progress=None, yaw_modes: tuple[str, ...] = ("eq4",)) -> dict:
+    """The comparison document (``--json``). Methods run under each body-yaw mode; a mode other
+    than the first is reported as ``method+mode`` (e.g. ``gas+mpc``) with its thrust cost."""
+    doc = {"scenario": scenario.name, "seed": scenario.seed if seed is None else seed, "methods": {}}
+    runs = [(m, y) for y in yaw_modes for m in methods]
+    for k, (m, y) in enumerate(runs):
+        key = m if y == yaw_modes[0] else f"{m}+{y}"
+        doc["methods"][key] = run_method(replace(scenario, yaw_mode=y), m, seed)
+        if y != yaw_modes[0]:
+            base = doc["methods"][m]
+            r = doc["methods"][key]
+            r["thrust_cost_vs"] = {"against": m, "max_n": (r["max_thrust_n"] or 0) - (base["max_thrust_n"] or 0),
+                                   "mean_n": (r["mean_thrust_n"] or 0) - (base["mean_thrust_n"] or 0)}
+        if progress:
+            progress(key, k + 1, len(runs) + int(reference))
+    if reference:
+        t0 = time.perf_counter()
+        ref = reference_thrust(scenario)
+        doc["reference"] = {"thrust_n": ref, "wall_s": time.perf_counter() - t0}
+        limit = scenario.balance.thrust_max_n
+        for m in doc["methods"]:
+            gaps = [t - r for tt, rr in zip(doc["methods"][m]["thrust_n"], ref, strict=True)
+                    for t, r in zip(tt, rr, strict=True) if t is not None and r is not None]
+            g = np.array(gaps) if gaps else np.zeros(1)
+            doc["methods"][m]["gap_max_n"] = float(g.max())
+            doc["methods"][m]["gap_mean_n"] = float(g.mean())
+            doc["methods"][m]["gap_max_pct_of_limit"] = float(100 * g.max() / limit) if limit > 0 else None
+        if progress:
+            progress("reference", len(runs) + 1, len(runs) + 1)
+    return doc
+
+
+def comparison_pngs(doc: dict) -> dict[str, bytes]:
+    """Figs. 7/9 (P_body components and thrust along each swing) and Fig. 10 (computation time)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = {}
+    methods = doc["methods"]
+    n_steps = len(next(iter(methods.values()))["p_body_m"])
+    fig, axes = plt.subplots(4, n_steps, figsize=(6 * n_steps, 11), squeeze=False, sharex="col",
+                             constrained_layout=True)
+    for s in range(n_steps):
+        for name, m in methods.items():
+            p = np.array(m["p_body_m"][s])
+            t = np.array([np.nan if v is None else v for v in m["thrust_n"][s]])
+            for k, label in enumerate(("P_body x [m]", "P_body y [m]", "P_body z [m]")):
+                axes[k, s].plot(p[:, k], label=name)
+                axes[k, s].set_ylabel(label)
+            axes[3, s].plot(t, label=name)
+        if "reference" in doc:
+            r = np.array([np.nan if v is None else v for v in doc["reference"]["thrust_n"][s]])
+            axes[3, s].plot(r, "k--", lw=1, label="exhaustive reference")
+        axes[3, s].set_ylabel("thrust [N]")
+        axes[3, s].set_xlabel("swing sample")
+        axes[0, s].set_title(f"{doc['scenario']}: step {s}")
+        for ax in axes[:, s]:
+            ax.grid(alpha=0.3)
+        axes[3, s].legend(fontsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    out["compare_trajectories.png"] = buf.getvalue()
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4), constrained_layout=True)
+    names = list(methods)
+    ax[0].bar(names, [methods[n]["wall_s"] for n in names])
+    ax[0].set_ylabel("computation time [s]")
+    ax[1].bar(names, [methods[n]["evaluations"] for n in names])
+    ax[1].set_ylabel("posture evaluations")
+    for a in ax:
+        a.grid(alpha=0.3, axis="y")
+    fig.suptitle(f"{doc['scenario']}: computation (Paper A, Fig. 10)")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    out["compare_time.png"] = buf.getvalue()
+    return out

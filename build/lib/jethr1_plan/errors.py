@@ -1,0 +1,43 @@
+"""Expected failures, each with the exit code the CLI maps it to (CONTRACT.md)."""
+
+from __future__ import annotations
+
+
+class Jethr1Error(Exception):
+    """Base of every expected failure. ``exit_code`` is what the CLI returns."""
+
+    exit_code = 1
+
+
+class InputError(Jethr1Error):
+    """Bad input: unreadable or invalid file, bad option (exit 2).
+
+    The message is one line naming the file, the key path and the problem.
+    """
+
+    exit_code = 2
+
+    def __init__(self, source: str, key: str, problem: str) -> None:
+        self.source, self.key, self.problem = source, key, problem
+        where = f"{source}: {key}" if key else source
+        super().__init__(f"{where}: {problem}")
+
+
+class RobotModelError(InputError):
+    """A robot directory, URDF or robot YAML that cannot be used (exit 2)."""
+
+
+class InfeasiblePlan(Jethr1Error):
+    """No balanced posture exists for some sample (exit 3)."""
+
+    exit_code = 3
+
+    def __init__(self, message: str, summary: dict | None = None) -> None:
+        super().__init__(message)
+        self.summary = summary
+
+
+class ExpectationFailed(Jethr1Error):
+    """A batch scenario's ``expect:`` block did not hold (exit 4)."""
+
+    exit_code = 4

@@ -1,0 +1,434 @@
+"""Scenario files: a typed, validating loader.
+
+A scenario is YAML (see README, "Scenario files"). Structure is checked against a JSON Schema
+(unknown keys, wrong types, bounds), then numbers are checked to be finite, then the geometry is
+checked (soles fully on cartons, swing paths that clear carton edges). Every problem is an
+:class:`~jethr1_plan.errors.InputError` naming the file, the key path and what is wrong.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .balance import NOMINAL, Tolerance
+from .errors import InputError
+from .fitness import FitnessConstants
+from .optimiser import METHODS, GAPhase, OptimiserConfig
+from .robot_model import GRAVITY
+from .swing_path import Carton, arc_path, first_collision, sole_on_carton
+
+DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
+F3_UNITS = {"mm": 0.001, "m": 1.0}
+YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
+POLICIES = ("robust", "minimal")
+
+# Bounds say what the machine can hold and what a scenario means: every number is bounded, so that a
+# typo (samples: 1e8, rate_hz: 1e9) is a one-line error, not an hour of work or a full memory.
+MAX_FILE_BYTES = 1_000_000  # a scenario is a few kilobytes
+MAX_VALUES = 100_000  # values in the document, aliases expanded (a scenario has a few hundred)
+MAX_ROWS = 200_000  # output rows of a plan (rate × duration): ~200 MB of CSV and MCAP
+MAX_SAMPLES = 1000  # swing samples per step (each one is optimised)
+_num = {"type": "number", "minimum": -1e9, "maximum": 1e9}
+_pos = {"type": "number", "exclusiveMinimum": 0, "maximum": 1e9}
+_prob = {"type": "number", "minimum": 0, "maximum": 1}
+_coord = {"type": "number", "minimum": -100, "maximum": 100}  # [m]
+_vec3 = {"type": "array", "items": _coord, "minItems": 3, "maxItems": 3}
+_size3 = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 10}, "minItems": 3,
+          "maxItems": 3}
+_duration = {"type": "number", "exclusiveMinimum": 0, "maximum": 300}  # [s]
+
+
+def _obj(props: dict, required: tuple = ()) -> dict:
+    return {"type": "object", "properties": props, "required": list(required), "additionalProperties": False}
+
+
+_phase = _obj({"population": {"type": "integer", "minimum": 2, "maximum": 10000},
+               "generations": {"type": "integer", "minimum": 1, "maximum": 10000},
+               "half_range_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1}, "crossover": _prob,
+               "mutation": _prob})
+
+SCHEMA = _obj({
+    "name": {"type": "string", "maxLength": 200},
+    "description": {"type": "string", "maxLength": 5000},
+    "robot": {"type": "string", "maxLength": 1000},
+    "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
+    "start": _obj({"left": _vec3, "right": _vec3}, ("left", "right")),
+    "terrain": _obj({
+        "carton_size_m": _size3,
+        "cartons": {"type": "array", "maxItems": 200, "items": _obj({"top_centre_m": _vec3, "size_m": _size3},
+                                                                    ("top_centre_m",))},
+    }),
+    "steps": {"type": "array", "minItems": 1, "maxItems": 50, "items": _obj({
+        "swing": {"enum": ["left", "right"]},
+        "landing_m": _vec3,
+        "path": {"oneOf": [
+            _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0, "maximum": 2},
+                  "samples": {"type": "integer", "minimum": 2, "maximum": MAX_SAMPLES}}, ("kind",)),
+            _obj({"kind": {"const": "points"},
+                  "points_m": {"type": "array", "items": _vec3, "minItems": 2, "maxItems": MAX_SAMPLES}},
+                 ("kind", "points_m")),
+        ]},
+    }, ("swing",))},
+    "optimiser": _obj({
+        "method": {"enum": list(METHODS)},
+        "initial": _phase,
+        "intermediate": _phase,
+        "bits": {"type": "integer", "minimum": 2, "maximum": 20},
+        "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num,
+                         "omega": {"type": "number", "minimum": 0, "maximum": 1e9},
+                         "f3_unit": {"enum": list(F3_UNITS)}, "graded": {"type": "boolean"}}),
+        "gaex": _obj({"half_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.05},
+                      "step_m": {"type": "number", "minimum": 0.0005, "maximum": 0.05}}),
+        "sqp": _obj({"smoothness_n_per_m2": {"type": "number", "minimum": 0, "maximum": 1e9}}),
+        "nominal_height_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
+    }),
+    "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0, "maximum": 1e4},
+                     "rho_rad": {"type": "number", "minimum": 0, "maximum": 1.5707963267948966},
+                     "sole_margin_m": {"type": "number", "minimum": 0, "maximum": 0.1},
+                     "policy": {"enum": list(POLICIES)},
+                     "robust": _obj({"thrust_error": {"type": "number", "minimum": 0, "maximum": 0.9},
+                                     "mass_error": {"type": "number", "minimum": 0, "maximum": 0.9},
+                                     "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1}})}),
+    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": {"type": "number", "minimum": -7, "maximum": 7},
+                      "horizon_s": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
+                      "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
+                      "beta": {"type": "number", "minimum": 0, "maximum": 1e9}}),
+    "timing": _obj({"swing_s": _duration, "transfer_s": _duration,
+                    "rate_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}}),
+    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
+}, ("steps",))
+
+
+@dataclass(frozen=True)
+class Step:
+    """One swing: which foot, its sampled path (N, 3) [m] (first = current sole, last = landing)."""
+
+    swing: str
+    path_m: np.ndarray
+
+    @property
+    def support(self) -> str:
+        return "left" if self.swing == "right" else "right"
+
+    @property
+    def landing_m(self) -> np.ndarray:
+        return self.path_m[-1]
+
+
+@dataclass(frozen=True)
+class Timing:
+    swing_s: float = 8.0
+    transfer_s: float = 3.0
+    rate_hz: float = 50.0
+
+
+#: the robust policy's default: ±10 % thrust, ±5 % total mass, 10 mm of CoM error (model and servo sag)
+ROBUST_DEFAULT = Tolerance(thrust=0.10, mass=0.05, com_m=0.01)
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    """``balance:`` of a scenario (SI units).
+
+    ``policy`` chooses the thrust of every posture: ``minimal`` is Paper A's least thrust H(P_body)
+    (the ZMP on the sole's edge); ``robust`` the least thrust whose ZMP stays in the sole under
+    every model error within ``robust`` (``balance.thrust_window``), and the optimisers choose
+    P_body for it.
+    """
+
+    thrust_max_n: float = 23.0
+    rho_rad: float = math.radians(5.0)
+    sole_margin_m: float = 0.0
+    policy: str = "robust"
+    robust: Tolerance = ROBUST_DEFAULT
+
+    @property
+    def tolerance(self) -> Tolerance:
+        """The model errors every planned posture must survive (zero under ``minimal``)."""
+        return self.robust if self.policy == "robust" else NOMINAL
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario (SI units)."""
+
+    source: str
+    name: str
+    robot: str
+    seed: int
+    start: dict[str, np.ndarray]
+    cartons: tuple[Carton, ...]
+    steps: tuple[Step, ...]
+    optimiser: OptimiserConfig
+    balance: BalanceConfig
+    yaw_mode: str
+    yaw_fixed_rad: float
+    timing: Timing
+    nominal_height_m: float | None
+    expect: dict = field(default_factory=dict)
+    yaw_mpc: dict = field(default_factory=lambda: {"horizon_s": 1.6, "alpha": 1.0, "beta": 1e-10})
+    text: str = ""  # the scenario file as read (kept in summary.json, so a plan folder names its scenario)
+
+
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                  |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                  |\.[0-9_]+(?:[eE][-+][0-9]+)?
+                  |[-+]?\.(?:inf|Inf|INF)
+                  |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+
+def _keypath(path) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
+
+
+def _check_finite(doc, src: str, path=()) -> None:
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            _check_finite(v, src, (*path, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            _check_finite(v, src, (*path, i))
+    elif isinstance(doc, float) and not math.isfinite(doc):
+        raise InputError(src, _keypath(path), f"{doc} is not a finite number")
+
+
+def _schema_error(doc: dict, src: str) -> None:
+    import jsonschema
+
+    validator = jsonschema.Draft202012Validator(SCHEMA)
+    errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
+    if not errors:
+        return
+    err = errors[0]
+    # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
+    while err.context:
+        branches: dict = {}
+        for sub in err.context:
+            branches.setdefault(sub.relative_schema_path[0], []).append(sub)
+        matched = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
+        pool = matched[0] if matched else err.context
+        err = sorted(pool, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
+    if err.validator == "additionalProperties":
+        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
+        raise InputError(src, _keypath([*err.absolute_path, extra[0]]) if extra else _keypath(err.absolute_path),
+                         "unknown key")
+    if err.validator == "required":
+        missing = err.message.split("'")[1] if "'" in err.message else err.message
+        raise InputError(src, _keypath([*err.absolute_path, missing]), "missing")
+    raise InputError(src, _keypath(err.absolute_path), _describe(err))
+
+
+def _short(value, limit: int = 60) -> str:
+    """A value for a message: its repr, cut to ``limit`` characters (never a whole document)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _describe(err) -> str:
+    """One short line for a JSON-Schema error (jsonschema's own messages print the whole value)."""
+    kind, bound, value = err.validator, err.validator_value, err.instance
+    if kind == "type":
+        return f"expected {bound if isinstance(bound, str) else ' or '.join(bound)}, got {_short(value)}"
+    if kind in ("minimum", "exclusiveMinimum"):
+        return f"{_short(value)} is below the {'smallest' if kind == 'minimum' else 'bound'} allowed, {bound:g}"
+    if kind in ("maximum", "exclusiveMaximum"):
+        return f"{_short(value)} is above the largest allowed, {bound:g}"
+    if kind == "enum":
+        return f"{_short(value)}: expected one of {', '.join(map(str, bound))}"
+    if kind == "const":
+        return f"{_short(value)}: expected {bound!r}"
+    if kind in ("minItems", "maxItems"):
+        return f"{len(value)} items: expected {'at least' if kind == 'minItems' else 'at most'} {bound}"
+    if kind == "maxLength":
+        return f"{len(value)} characters: at most {bound}"
+    return err.message if len(err.message) <= 120 else err.message[:120] + "..."
+
+
+def _count_values(doc, src: str, cap: int = MAX_VALUES) -> None:
+    """Refuse a document that expands (through YAML aliases) to more than ``cap`` values."""
+    stack, count = [doc], 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > cap:
+            raise InputError(src, "(top level)", f"the document expands to more than {cap:,} values (YAML aliases?); "
+                             "a scenario has a few hundred")
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file (the robot it names is loaded for its sole size).
+
+    Raises:
+        InputError: the first problem found (exit 2).
+    """
+    src = str(path)
+    try:
+        p = Path(path)
+        if p.is_dir():
+            raise InputError(src, "", "a folder, not a scenario file")
+        with p.open("rb") as f:
+            data = f.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise InputError(src, "", f"larger than {MAX_FILE_BYTES:,} bytes: a scenario is a few kilobytes")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(src, "", f"not UTF-8 text (byte {data[exc.start]:#04x} at offset {exc.start})") from None
+    return load_scenario_text(text, src)
+
+
+def load_scenario_text(text: str, src: str) -> Scenario:
+    """A scenario from its YAML ``text``; ``src`` names it in messages (see :func:`load_scenario`)."""
+    try:
+        doc = yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark else ""
+        problem = str(getattr(exc, "problem", None) or exc).splitlines()[0][:120]
+        raise InputError(src, where, f"not valid YAML: {problem}") from None
+    except RecursionError:
+        raise InputError(src, "", "not valid YAML: nested too deeply") from None
+    if not isinstance(doc, dict):
+        raise InputError(src, "(top level)", "expected a mapping")
+    _count_values(doc, src)
+    _check_finite(doc, src)
+    _schema_error(doc, src)
+    from .robot_model import load_robot
+
+    try:
+        robot = load_robot(doc.get("robot", "jethr1"))
+    except InputError as exc:
+        raise InputError(src, "robot", str(exc)) from None
+    return replace(_build(doc, src, robot), text=text)
+
+
+def _build(doc: dict, src: str, robot) -> Scenario:
+    sole_l, sole_w = robot.sole_length_m, robot.sole_width_m
+    terrain = doc.get("terrain", {})
+    size = tuple(terrain.get("carton_size_m", DEFAULT_CARTON_M))
+    cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c.get("size_m", size))) for c in terrain.get("cartons", []))
+
+    def on_terrain(p: np.ndarray) -> bool:
+        if not cartons:
+            return abs(p[2]) < 1e-9
+        return any(sole_on_carton(p, 0.0, sole_l, sole_w, c) for c in cartons)
+
+    start = {side: np.array(doc["start"][side], dtype=float) for side in ("left", "right")} if "start" in doc else {
+        "left": np.array([0.0, 0.1125, 0.0]), "right": np.array([0.0, -0.1125, 0.0])}
+    for side in ("left", "right"):
+        if not on_terrain(start[side]):
+            raise InputError(src, f"start.{side}", "the sole does not lie fully on a carton top")
+    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < 0.09:
+        raise InputError(src, "start", "the two soles overlap")
+
+    feet = dict(start)
+    steps = []
+    for i, sd in enumerate(doc["steps"]):
+        key = f"steps[{i}]"
+        swing = sd["swing"]
+        path_doc = sd.get("path", {"kind": "arc"})
+        if path_doc["kind"] == "points":
+            pts = np.array(path_doc["points_m"], dtype=float)
+            if np.linalg.norm(pts[0] - feet[swing]) > 1e-6:
+                raise InputError(src, f"{key}.path.points_m[0]",
+                                 f"must be the {swing} sole's current position {feet[swing].tolist()}")
+            if "landing_m" in sd and np.linalg.norm(pts[-1] - np.array(sd["landing_m"])) > 1e-6:
+                raise InputError(src, f"{key}.path.points_m", "last point differs from landing_m")
+        else:
+            if "landing_m" not in sd:
+                raise InputError(src, f"{key}.landing_m", "missing")
+            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float), path_doc.get("clearance_m", 0.05),
+                           path_doc.get("samples", 25))
+        landing = pts[-1]
+        if not on_terrain(landing):
+            raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
+                             "not lie fully on a carton top")
+        other = feet["left" if swing == "right" else "right"]
+        if np.linalg.norm(landing[:2] - other[:2]) < 0.09:
+            raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
+        hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None
+        if hit is not None:
+            seg, pos, k = hit
+            raise InputError(src, f"{key}.path", f"the swing sole enters carton {k} near {np.round(pos, 3).tolist()} m "
+                             f"(between samples {seg} and {seg + 1}): the path cannot clear its edge; "
+                             "raise clearance_m")
+        steps.append(Step(swing, pts))
+        feet[swing] = landing
+
+    opt = doc.get("optimiser", {})
+    fit = opt.get("fitness", {})
+    constants = FitnessConstants(
+        c1=float(fit.get("c1", 11000.0)), c2=float(fit.get("c2", 9000.0)), c4_1=float(fit.get("c4_1", 5000.0)),
+        c4_2=float(fit.get("c4_2", 10.0)), omega=float(fit.get("omega", 50.0)),
+        f3_unit_m=F3_UNITS[fit.get("f3_unit", "mm")], graded=bool(fit.get("graded", True)),
+        weight_n=robot.mass_kg * GRAVITY)
+    dflt = OptimiserConfig()
+
+    def phase(d: dict | None, base: GAPhase) -> GAPhase:
+        d = d or {}
+        return GAPhase(d.get("population", base.population), d.get("generations", base.generations),
+                       float(d.get("half_range_m", base.half_range_m)), float(d.get("crossover", base.crossover)),
+                       float(d.get("mutation", base.mutation)))
+
+    gaex = opt.get("gaex", {})
+    optimiser = OptimiserConfig(
+        method=opt.get("method", "gas"), initial=phase(opt.get("initial"), dflt.initial),
+        intermediate=phase(opt.get("intermediate"), dflt.intermediate), bits=opt.get("bits", 10), constants=constants,
+        gaex_half_m=float(gaex.get("half_m", dflt.gaex_half_m)),
+        gaex_step_m=float(gaex.get("step_m", dflt.gaex_step_m)),
+        sqp_smoothness_n_per_m2=float(opt.get("sqp", {}).get("smoothness_n_per_m2", dflt.sqp_smoothness_n_per_m2)))
+    if optimiser.gaex_step_m > optimiser.gaex_half_m:
+        raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
+    if optimiser.gaex_half_m / optimiser.gaex_step_m > 50:
+        raise InputError(src, "optimiser.gaex", "more than 50 steps per half width (a cube of over 1 million postures "
+                         "per sample)")
+    bal = doc.get("balance", {})
+    rob = bal.get("robust", {})
+    fan_max = min(f.max_thrust_n for f in robot.fans)
+    if bal.get("thrust_max_n", fan_max) > fan_max:
+        raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
+                         f"({fan_max:g} N)")
+    balance = BalanceConfig(float(bal.get("thrust_max_n", fan_max)), float(bal.get("rho_rad", math.radians(5.0))),
+                            float(bal.get("sole_margin_m", 0.0)), bal.get("policy", "robust"),
+                            Tolerance(float(rob.get("thrust_error", ROBUST_DEFAULT.thrust)),
+                                      float(rob.get("mass_error", ROBUST_DEFAULT.mass)),
+                                      float(rob.get("com_error_m", ROBUST_DEFAULT.com_m))))
+    if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
+        raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
+    t = doc.get("timing", {})
+    timing = Timing(float(t.get("swing_s", 8.0)), float(t.get("transfer_s", 3.0)), float(t.get("rate_hz", 50.0)))
+    rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
+    if rows > MAX_ROWS:
+        raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
+                         "(lower rate_hz or the durations)")
+    yaw = doc.get("body_yaw", {})
+    return Scenario(
+        source=src, name=doc.get("name", Path(src).stem), robot=doc.get("robot", "jethr1"), seed=doc.get("seed", 0),
+        start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
+        yaw_mode=yaw.get("mode", "eq4"), yaw_fixed_rad=float(yaw.get("fixed_rad", 0.0)), timing=timing,
+        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})),
+        yaw_mpc={"horizon_s": float(yaw.get("horizon_s", 1.6)), "alpha": float(yaw.get("alpha", 1.0)),
+                 "beta": float(yaw.get("beta", 1e-10))})

@@ -1,0 +1,124 @@
+"""Swing paths of the swing sole centre (Paper A, IV-B: "based on a circular curve").
+
+A path is an array of sole positions (N, 3) [m]. The arc lies in the vertical plane through the
+start and landing sole centres; its sagitta (height of the arc over the midpoint of the chord) is
+the clearance. Terrain checks test the whole sole rectangle against every carton.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Carton:
+    """An axis-aligned box: ``top_centre_m`` is the centre of its top face, ``size_m`` its extent."""
+
+    top_centre_m: tuple[float, float, float]
+    size_m: tuple[float, float, float] = (0.21, 0.11, 0.14)
+
+    @property
+    def top_z(self) -> float:
+        return self.top_centre_m[2]
+
+    def top_rectangle(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the top face [m]."""
+        x, y, _ = self.top_centre_m
+        hx, hy = self.size_m[0] / 2, self.size_m[1] / 2
+        return x - hx, x + hx, y - hy, y + hy
+
+
+def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float, samples: int) -> np.ndarray:
+    """Circular arc from ``start_m`` to ``end_m`` (3,) with sagitta ``clearance_m``, ``samples`` points.
+
+    Points are equally spaced in arc angle; the first and last are exactly the end points. With
+    zero clearance or coincident horizontal positions the path degenerates to the straight chord.
+    """
+    start, end = np.asarray(start_m, dtype=float), np.asarray(end_m, dtype=float)
+    if samples < 2:
+        raise ValueError("an arc needs at least 2 samples")
+    chord = end - start
+    c = float(np.linalg.norm(chord))
+    t = np.linspace(0.0, 1.0, samples)
+    if clearance_m <= 0 or c == 0:
+        return start + t[:, None] * chord
+    # unit vector along the chord and the "up" normal to it in the vertical plane through both ends
+    u = chord / c
+    horiz = np.array([chord[0], chord[1], 0.0])
+    side = np.cross(horiz, [0.0, 0.0, 1.0]) if np.linalg.norm(horiz) > 1e-12 else np.array([0.0, 1.0, 0.0])
+    n = np.cross(side, u)
+    n /= np.linalg.norm(n)
+    if n[2] < 0:
+        n = -n
+    h = clearance_m
+    radius = (c * c / 4 + h * h) / (2 * h)
+    half = np.arcsin(min(1.0, (c / 2) / radius))
+    if h > radius:  # more than a half circle
+        half = np.pi - half
+    centre = start + chord / 2 + n * (h - radius)
+    ang = np.linspace(-half, half, samples)
+    pts = centre + radius * (np.sin(ang)[:, None] * u + np.cos(ang)[:, None] * n)
+    pts[0], pts[-1] = start, end
+    return pts
+
+
+def path_length(points: np.ndarray) -> np.ndarray:
+    """Cumulative length [m] along a polyline (N, 3), starting at 0."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(seg)])
+
+
+def interpolate_path(points: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Positions at normalised arc length ``s`` ∈ [0, 1] along the polyline ``points`` (N, 3)."""
+    cum = path_length(points)
+    total = cum[-1]
+    if total == 0:
+        return np.repeat(points[:1], len(np.atleast_1d(s)), axis=0)
+    target = np.clip(np.asarray(s, dtype=float), 0, 1) * total
+    return np.stack([np.interp(target, cum, points[:, k]) for k in range(3)], axis=-1)
+
+
+def sole_on_carton(centre_m: np.ndarray, yaw_rad: float, length_m: float, width_m: float, carton: Carton,
+                   tol_m: float = 1e-9) -> bool:
+    """True if the flat sole lies fully on the carton's top face (height within ``tol_m``)."""
+    if abs(centre_m[2] - carton.top_z) > 1e-6:
+        return False
+    x0, x1, y0, y1 = carton.top_rectangle()
+    corners = _sole_corners(centre_m, yaw_rad, length_m, width_m)
+    return bool(np.all((corners[:, 0] >= x0 - tol_m) & (corners[:, 0] <= x1 + tol_m)
+                       & (corners[:, 1] >= y0 - tol_m) & (corners[:, 1] <= y1 + tol_m)))
+
+
+def _sole_corners(centre_m: np.ndarray, yaw_rad: float, length_m: float, width_m: float) -> np.ndarray:
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    local = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) * [length_m / 2, width_m / 2]
+    return local @ np.array([[c, s], [-s, c]]) + np.asarray(centre_m)[:2]
+
+
+def first_collision(points: np.ndarray, yaw_rad: float, length_m: float, width_m: float,
+                    cartons: list[Carton], densify: int = 10) -> tuple[int, np.ndarray, int] | None:
+    """First place where the sole, moved along the polyline, dips into a carton.
+
+    The path is checked between its samples too (``densify`` points per segment). The sole is
+    inside a carton when its rectangle overlaps the carton's top face (with positive area) and its
+    height is below the top by more than 1e-9 m.
+
+    Returns:
+        ``None`` if the path is clear, else (segment index, position [m], carton index).
+    """
+    for i in range(len(points) - 1):
+        for t in np.linspace(0.0, 1.0, densify, endpoint=False):
+            p = points[i] + t * (points[i + 1] - points[i])
+            corners = _sole_corners(p, yaw_rad, length_m, width_m)
+            sx0, sx1 = corners[:, 0].min(), corners[:, 0].max()
+            sy0, sy1 = corners[:, 1].min(), corners[:, 1].max()
+            for k, carton in enumerate(cartons):
+                x0, x1, y0, y1 = carton.top_rectangle()
+                overlap = (min(sx1, x1) - max(sx0, x0) > 1e-9) and (min(sy1, y1) - max(sy0, y0) > 1e-9)
+                below_top = p[2] < carton.top_z - 1e-9
+                above_bottom = p[2] > carton.top_z - carton.size_m[2]
+                if overlap and below_top and above_bottom:
+                    return i, p, k
+    return None

@@ -1,0 +1,36 @@
+"""A wheel holds the robot models: installed without the checkout, `jethr1` finds them by name from any
+directory and plans a copied config."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import zipfile
+
+from .conftest import ROOT
+
+
+def test_a_wheel_plans_from_another_directory(tmp_path):
+    wheels = tmp_path / "wheels"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w",
+                    str(wheels), str(ROOT)], check=True, capture_output=True, cwd=tmp_path)
+    wheel = next(wheels.glob("jethr1_plan-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    assert {"jethr1_plan/robots/jethr1/jethr1.urdf", "jethr1_plan/robots/jethr1/jethr1.yaml",
+            "jethr1_plan/sim/twin.py"} <= set(names)
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), str(wheel)],
+                   check=True, capture_output=True)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "side_step.yaml").write_text((ROOT / "configs" / "side_step.yaml").read_text())
+    env = {**os.environ, "PYTHONPATH": str(target)}
+    code = ("import sys, jethr1_plan, jethr1_plan.robot_model as rm; from jethr1_plan.cli import run; "
+            "assert jethr1_plan.__file__.startswith(sys.argv[1]), jethr1_plan.__file__; "
+            "assert str(rm.load_robot('jethr1').urdf_path).startswith(sys.argv[1]); "
+            "sys.exit(run(['plan', 'side_step.yaml', '-o', 'out', '--no-progress', '--optimiser', 'sqp']))")
+    done = subprocess.run([sys.executable, "-c", code, str(target)], cwd=elsewhere, env=env, capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr[-1000:]
+    assert (elsewhere / "out" / "side_step" / "trajectory.csv").exists()

@@ -1,0 +1,90 @@
+"""Processes and files: SIGTERM ends the workers as Ctrl-C does, a killed run's staging folder is
+removed by the next run, files a user put in an output folder survive a new plan, and an unwritable
+output is found before any planning."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from jethr1_plan.cli import run
+
+from .conftest import ROOT
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as f:
+                    if int(f.read().rsplit(")", 1)[1].split()[1]) == pid:
+                        out.append(int(entry))
+            except (OSError, ValueError, IndexError):
+                pass
+    return out
+
+
+def test_sigterm_ends_the_workers(tmp_path):
+    proc = subprocess.Popen([sys.executable, "-c", "from jethr1_plan.cli import entry; entry()", "plan",
+                             str(ROOT / "configs" / "jet_hr1_trial.yaml"), "-o", str(tmp_path / "o"), "-j", "2",
+                             "--no-progress"], stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.time() + 30
+    while time.time() < deadline and len(_children(proc.pid)) < 2:  # the workers are up
+        time.sleep(0.1)
+    assert len(_children(proc.pid)) >= 2
+    proc.send_signal(signal.SIGTERM)
+    err = proc.communicate(timeout=30)[1]
+    assert proc.returncode == 143 and "terminated" in err and "Traceback" not in err
+    deadline = time.time() + 10
+    while time.time() < deadline and _group_alive(proc.pid):
+        time.sleep(0.1)
+    assert not _group_alive(proc.pid)  # no orphaned worker
+    assert not (tmp_path / "o" / "jet_hr1_trial").exists()
+
+
+def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_path, capsys):
+    out = tmp_path / "out"
+    scenario = ROOT / "configs" / "side_step.yaml"
+    assert run(["plan", str(scenario), "-o", str(out), "--no-progress"]) == 0
+    folder = out / "side_step"
+    (folder / "notes.txt").write_text("tested on the robot, 2026-11-20")
+    (folder / "simulation.json").write_text("{}")  # the old plan's rehearsal: jethr1's, stale
+    stale = out / ".side_step.tmp-999999-abcd"  # a run that was killed (pid 999999 is not alive)
+    stale.mkdir()
+    (stale / "trajectory.csv").write_text("half")
+    live = out / f".side_step.tmp-{os.getpid()}-efgh"  # this process is alive: not touched
+    live.mkdir()
+    capsys.readouterr()
+    assert run(["plan", str(scenario), "-o", str(out), "--no-progress"]) == 0
+    assert not stale.exists() and live.exists()
+    assert (folder / "notes.txt").read_text() == "tested on the robot, 2026-11-20"
+    assert not (folder / "simulation.json").exists()
+    assert "kept notes.txt" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "summary.json", "trajectory.csv",
+                                                       "trajectory.mcap"]
+
+
+@pytest.mark.parametrize("target", ["file", "under a file"])
+def test_an_unwritable_output_is_found_before_planning(tmp_path, capsys, target):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    out = blocker if target == "file" else blocker / "out"
+    t0 = time.perf_counter()
+    assert run(["plan", str(ROOT / "configs" / "jet_hr1_trial.yaml"), "-o", str(out), "--no-progress"]) == 2
+    assert time.perf_counter() - t0 < 2  # before a single sample is planned
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "blocker" in err[0]
