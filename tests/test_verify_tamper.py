@@ -58,8 +58,8 @@ def test_a_fresh_plan_passes(planned, capsys):
 ROW_EDITS = {
     "cut to 476 rows": (lambda h, r: r[:476], "row count"),
     "header only": (lambda h, r: [], "no rows"),
-    "two rows swapped": (lambda h, r: r[:300] + [r[301], r[300]] + r[302:], "time"),
-    "a row duplicated": (lambda h, r: r[:300] + [r[300]] + r[300:], "time"),
+    "two rows swapped": (lambda h, r: [*r[:300], r[301], r[300], *r[302:]], "time"),
+    "a row duplicated": (lambda h, r: [*r[:300], r[300], *r[300:]], "time"),
     "every other row dropped": (lambda h, r: r[::2], "time"),
     "time shifted by 0.5 s": (lambda h, r: _set(h, r, 300, "time_s", str(float(r[300].split(",")[0]) + 0.5)), "time"),
     "pelvis_qw = 2": (lambda h, r: _set(h, r, 200, "pelvis_qw", "2.0"), "not a unit quaternion"),
