@@ -155,8 +155,9 @@ def test_parallel_steps_give_identical_bytes(tmp_path, optimiser):
     """Steps planned in worker processes give the same bytes as in one process (sqp did not, by up to
     4.6 mm of P_body: a multi-threaded BLAS in the main process sums in another order)."""
     path = _small_two_step(tmp_path)
-    assert run(["plan", str(path), "-o", str(tmp_path / "a"), "--no-progress", "-j", "1", "--optimiser", optimiser]) == 0
-    assert run(["plan", str(path), "-o", str(tmp_path / "b"), "--no-progress", "-j", "2", "--optimiser", optimiser]) == 0
+    for folder, jobs in (("a", "1"), ("b", "2")):
+        assert run(["plan", str(path), "-o", str(tmp_path / folder), "--no-progress", "-j", jobs,
+                    "--optimiser", optimiser]) == 0
     for name in ("trajectory.csv", "trajectory.mcap"):
         assert (tmp_path / "a" / "small_two_step" / name).read_bytes() == \
             (tmp_path / "b" / "small_two_step" / name).read_bytes()
