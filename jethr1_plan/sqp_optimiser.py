@@ -59,6 +59,7 @@ from .robot_model import GRAVITY, SIDES, RobotModel
 
 TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
+BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
 MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
 EDGE_MARGIN_RAD = 0.002  # margin [rad]
 JOINT_MARGIN_RAD = 0.002  # joint-limit margin [rad]
@@ -416,6 +417,13 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
                 r = solve_from_neighbour(sample, prev.p, guess)
                 if r is None and guess is not None:  # the box moved on along the path
                     r = solve_from_neighbour(sample, guess)
+                for _ in range(BOX_MOVES):  # the box held the answer back: move it there and go on
+                    if r is None or r.settled:
+                        break
+                    r2 = solve_from_neighbour(sample, r.p)
+                    if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
+                        break
+                    r = r2
         if r is None:
             r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, half)
             phase[i] = "sqp-grid"

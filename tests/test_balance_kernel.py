@@ -1,8 +1,8 @@
 """The compiled balance-space objective against the numpy functions it fuses.
 
-The reference composes the public numpy path independently: closed-form IK + CoM
-(``leg_kinematics.solve_postures``, itself checked against PlaCo), the minimal thrust by the ZMP ray
-(``balance.thrust_window``, nominal and robust), the edge angle (``balance.edge_angle_excess``) and the reach balls
+The reference composes the numpy statements of the same formulas (the oracles in ``tests/``):
+closed-form IK + CoM (``leg_oracle``, itself checked against PlaCo), the least balancing thrust
+(``oracle.window_bounds``, nominal and robust), the edge angle (``balance.edge_angle_excess``) and the reach balls
 (``robot_model.reach_centre``). Candidates are random pelvis positions around random swing cells, so
 every reason code occurs.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance import NOMINAL, Tolerance, edge_angle_excess, thrust_window
+from jethr1_plan.balance import NOMINAL, Tolerance
 from jethr1_plan.balance_kernel import into_reach
 from jethr1_plan.balance_space import (
     ABOVE_MAX,
@@ -25,18 +25,32 @@ from jethr1_plan.balance_space import (
     SweepSpec,
     _Evaluator,
 )
-from jethr1_plan.leg_kinematics import solve_postures
-from jethr1_plan.posture import JOINT_LIMIT, UNREACHABLE
+from jethr1_plan.leg_kinematics import check_structure
+from jethr1_plan.posture import JOINT_LIMIT, OK, UNREACHABLE
 from jethr1_plan.robot_model import load_robot, reach_centre
+
+from .leg_oracle import fast_com, leg_ik
+from .oracle import edge_angle_error, window_bounds
 
 
 def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     spec, robot = ev.spec, ev.robot
     swing, yaw, fan = cells.swing[idx], cells.yaw[idx], cells.fan[idx]
     feet = {spec.support_side: (ev.support, 0.0), spec.swing_side: (swing, 0.0)}
-    q, com, status = solve_postures(robot, P, yaw, feet)
-    thrust, _ = thrust_window(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
-    edge = edge_angle_excess(ev.support[:2], com[:, :2], swing[:, :2], spec.rho_rad)
+    geom = check_structure(robot)
+    qs, reach = [], np.ones(len(P), dtype=bool)
+    for side in ("left", "right"):
+        xyz, fyaw = feet[side]
+        q_side, ok = leg_ik(geom, side, P, yaw, np.broadcast_to(xyz, (len(P), 3)), fyaw)
+        qs.append(q_side)
+        reach &= ok
+    q = np.concatenate(qs, axis=1)
+    within = np.all((q >= robot.lower_rad) & (q <= robot.upper_rad), axis=1)
+    status = np.where(~reach, UNREACHABLE, np.where(within, OK, JOINT_LIMIT))
+    com = fast_com(robot, P, yaw, q)
+    lo, hi, blocked = window_bounds(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
+    thrust = np.where((lo <= hi) & ~blocked, lo, np.inf)
+    edge = np.maximum(edge_angle_error(ev.support[:2], com[:, :2], swing[:, :2]) - spec.rho_rad, 0.0)
     limit_excess = np.sum(np.maximum(robot.lower_rad - q, 0) + np.maximum(q - robot.upper_rad, 0), axis=1)
     g = ev.geom
     d_s = np.linalg.norm(P - reach_centre(g, spec.support_side, ev.support, yaw), axis=1)

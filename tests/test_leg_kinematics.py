@@ -1,13 +1,16 @@
-"""The closed-form numpy leg kinematics agree with PlaCo to 1e-9 m on thousands of candidates."""
+"""The closed-form leg kinematics (compiled) agree with PlaCo to 1e-9 m on thousands of candidates, and
+with their numpy statement (the oracle) to rounding."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from jethr1_plan.leg_kinematics import AnalyticPostureSolver, com_batch, link_poses, solve_postures
+from jethr1_plan.leg_kinematics import AnalyticPostureSolver, check_structure, solve_postures
 from jethr1_plan.posture import OK, UNREACHABLE, PostureSolver, Stance
 from jethr1_plan.robot_model import JOINT_NAMES
+
+from .leg_oracle import com_batch, fast_com, leg_ik, link_poses
 
 
 def _random_stances(rng, n):
@@ -91,3 +94,27 @@ def test_straight_leg_is_the_reach_boundary(robot, side):
     z = np.array([robot.leg_length_m - 1e-9, robot.leg_length_m + 1e-6])
     _, _, status = solve_postures(robot, np.stack([np.zeros(2), np.zeros(2), z], axis=1), 0.0, feet)
     assert status[1] == UNREACHABLE and status[0] != UNREACHABLE
+
+
+def test_the_compiled_closed_form_is_the_numpy_one(robot):
+    """balance_kernel.postures against the numpy statement of the same formulas (tests/leg_oracle.py),
+    feet turned as well as straight."""
+    rng = np.random.default_rng(17)
+    n = 20_000
+    P = rng.uniform([-0.2, -0.3, 0.15], [0.5, 0.3, 0.5], (n, 3))
+    yaw = rng.uniform(-1.6, 1.6, n)
+    feet = {"left": (np.column_stack([rng.uniform(-0.2, 0.6, n), rng.uniform(0.0, 0.4, n), rng.uniform(0, 0.1, n)]),
+                     rng.uniform(-0.5, 0.5, n)),
+            "right": (np.array([0.0, -0.1125, 0.0]), 0.0)}
+    q, com, status = solve_postures(robot, P, yaw, feet)
+    geom = check_structure(robot)
+    q_ref, reach = [], np.ones(n, dtype=bool)
+    for side in ("left", "right"):
+        xyz, fyaw = feet[side]
+        qs, ok = leg_ik(geom, side, P, yaw, np.broadcast_to(xyz, (n, 3)), fyaw)
+        q_ref.append(qs)
+        reach &= ok
+    q_ref = np.concatenate(q_ref, axis=1)
+    assert np.array_equal(status == UNREACHABLE, ~reach) and reach.sum() > 2000
+    np.testing.assert_allclose(q[reach], q_ref[reach], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(com[reach], fast_com(robot, P, yaw, q_ref)[reach], rtol=0, atol=1e-12)

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.leg_kinematics import link_poses
 from jethr1_plan.robot_model import GRAVITY, JOINT_NAMES
 from jethr1_plan.statics import energy_consumption, leg_condition_numbers, static_torques
+
+from .leg_oracle import link_poses
 
 
 def _potential(robot, reference, q, support, support_pose, thrust_side, thrust):

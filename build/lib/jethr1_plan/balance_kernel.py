@@ -1,14 +1,16 @@
-"""The balance-space objective compiled (numba): one fused loop per candidate P_body.
+"""The per-candidate physics, compiled (numba): the one implementation every caller uses.
 
-The sweep of ``balance_space`` spends nearly all its time in one function of (P_body, swing cell):
-both legs' closed-form IK (``leg_kinematics.leg_ik``), the whole-body CoM (``leg_kinematics.fast_com``),
-the least balancing thrust (``balance.thrust_window``, any tolerance), the edge angle (A-10) and the
-legs' reach. In numpy those are ~1,300 array operations per batch, each a pass over memory; here
-they are one loop whose per-candidate arithmetic stays in registers (about 10x faster).
+* both legs' closed-form IK and the whole-body CoM (:func:`postures`; ``leg_kinematics.solve_postures``);
+* the thrust window of (A-1, A-2) under any tolerance (:func:`windows`; ``balance.thrust_window``);
+* the edge angle of (A-10) (:func:`edge_errors`; ``balance.edge_angle_error``);
+* the legs' reach balls (:func:`into_reach`), and the balance-space objective fusing all of them in
+  one loop per candidate (:func:`balance_objective`).
 
-The same formulas as the numpy functions named above, operation for operation, so the two agree to
-rounding; ``tests/test_balance_kernel.py`` checks that against the numpy path on random candidates.
-Everything robot-specific comes in as arrays built by :func:`kernel_params` from the URDF model.
+In numpy the objective is ~1,300 array operations per batch, each a pass over memory; here one loop
+whose per-candidate arithmetic stays in registers (about 10x faster). The numpy statements of the
+same formulas are the tests' oracles (``tests/leg_oracle.py``, ``tests/oracle.py``); the tests hold
+the two to rounding. Everything robot-specific comes in as arrays built from the URDF model by
+``leg_kinematics`` (``closed_form_arrays``, ``kernel_params``).
 
 Units: m, rad, kg, N.
 """
@@ -16,53 +18,14 @@ Units: m, rad, kg, N.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numba
 import numpy as np
 
-from .balance import NOMINAL, Tolerance, halfplanes
-from .leg_kinematics import _leg_mass_model, check_structure
 from .posture import JOINT_LIMIT, OK, UNREACHABLE
-from .robot_model import SIDES, RobotModel
 
 # reason codes, as balance_space
 MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)
-
-
-class KernelParams(NamedTuple):
-    """Robot and support constants of the compiled objective (SI units)."""
-
-    geom: np.ndarray  # (4,) hip offset, thigh, shank, ankle height [m]
-    trunk: np.ndarray  # (4,) mass [kg], CoM in the trunk frame [m]
-    joints: np.ndarray  # (2, 3, 3) per leg (left, right): hip, knee, ankle joint placements [m]
-    links: np.ndarray  # (2, 6, 4) per leg and moving link: mass [kg], CoM in the link frame [m]
-    limits: np.ndarray  # (2, 12) lower, upper joint limits [rad]
-    normals: np.ndarray  # (K, 2) outward normals of the support polygon
-    offsets: np.ndarray  # (K,) n·x ≤ b inside
-    support: np.ndarray  # (3,) support sole centre [m]
-    scalars: np.ndarray  # (8,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty
-    # [N/deg], and the tolerance of balance.thrust_window: thrust error, mass error, CoM error [m]
-
-
-def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray, polygon: np.ndarray,
-                  rho_rad: float, thrust_max_n: float, weight_n: float, edge_penalty_n_per_deg: float,
-                  tolerance: Tolerance = NOMINAL) -> KernelParams:
-    """Constants of :func:`balance_objective` from the robot model (URDF masses and placements)."""
-    g = check_structure(robot)
-    (m_t, c_t), legs = _leg_mass_model(robot)
-    normals, offsets = halfplanes(polygon)
-    return KernelParams(
-        geom=np.array([g.hip_offset_m, g.thigh_m, g.shank_m, g.ankle_height_m]),
-        trunk=np.array([m_t, *c_t]),
-        joints=np.array([[legs[s]["hip_xyz"], legs[s]["knee_xyz"], legs[s]["ankle_xyz"]] for s in SIDES], dtype=float),
-        links=np.array([[[m, *c] for m, c in legs[s]["links"]] for s in SIDES], dtype=float),
-        limits=np.stack([robot.lower_rad, robot.upper_rad]).astype(float),
-        normals=np.ascontiguousarray(normals, dtype=float), offsets=np.ascontiguousarray(offsets, dtype=float),
-        support=np.asarray(support_xyz, dtype=float),
-        scalars=np.array([1.0 if support_side == "left" else -1.0, rho_rad, thrust_max_n, weight_n,
-                          edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m]),
-    )
 
 
 @numba.njit(cache=True, inline="always")
@@ -86,16 +49,19 @@ def _cos_sin(y, x):
 
 
 @numba.njit(cache=True)
-def _leg_ik(q, cs, k0, sgn, geom, px, py, pz, cty, sty, fx, fy, fz):
-    """One flat, unturned foot's leg (leg_kinematics.leg_ik with foot yaw 0).
+def _leg_ik(q, cs, k0, sgn, geom, px, py, pz, cty, sty, fx, fy, fz, cf, sf):
+    """One flat foot's leg in closed form (Kajita et al., Introduction to Humanoid Robotics, §2.5): the
+    trunk level at yaw (cos, sin) = (cty, sty) with its origin at (px, py, pz), the sole at
+    (fx, fy, fz) turned by the foot yaw (cos, sin) = (cf, sf).
 
     Writes the six joints [rad] into q[k0:k0+6] and their cosines and sines into cs[k0:k0+6] (the
     CoM needs those, and they follow from the IK's triangle without calling cos and sin again).
     Returns whether the leg reaches.
     """
     w, a, b, ah = geom[0], geom[1], geom[2], geom[3]
-    r0 = px - sty * (sgn * w) - fx  # hip − ankle (the foot frame is the world's)
-    r1 = py + cty * (sgn * w) - fy
+    h0 = px - sty * (sgn * w) - fx  # hip − ankle in the world
+    h1 = py + cty * (sgn * w) - fy
+    r0, r1 = cf * h0 + sf * h1, -sf * h0 + cf * h1  # ... in the foot frame
     r2 = pz - (fz + ah)
     c = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
     cos_k = (a * a + b * b - c * c) / (2 * a * b)
@@ -114,8 +80,10 @@ def _leg_ik(q, cs, k0, sgn, geom, px, py, pz, cty, sty, fx, fy, fz):
     ankle_pitch = -beta - alpha
     c5, s5 = cb_ * cos_alpha - sb_ * sin_alpha, -(sb_ * cos_alpha + cb_ * sin_alpha)
     ck, sk = c4 * c5 - s4 * s5, s4 * c5 + c4 * s5  # knee + ankle pitch
-    # hip: Rz(−yaw) Rx(−roll) Ry(−(knee + pitch)) = Rz(q1) Rx(q2) Ry(q3): the five entries used
-    r01, r11, r21, r20, r22 = sty * c6, cty * c6, -s6, c6 * sk, c6 * ck
+    # hip: Rz(δ) Rx(−roll) Ry(−(knee + pitch)) = Rz(q1) Rx(q2) Ry(q3), δ = foot yaw − trunk yaw: the
+    # five entries used
+    sd, cd = sf * cty - cf * sty, cf * cty + sf * sty
+    r01, r11, r21, r20, r22 = -sd * c6, cd * c6, -s6, c6 * sk, c6 * ck
     hip_yaw = math.atan2(-r01, r11)
     c1, s1 = _cos_sin(-r01, r11)
     t = -r01 * s1 + r11 * c1
@@ -175,12 +143,13 @@ def _com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
     return mx / total, my / total, mz / total
 
 
-@numba.njit(cache=True)
-def _thrust_lo(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
-    """balance.thrust_window's lower end for one CoM (inf where the window is empty): per edge k,
+@numba.njit(cache=True, inline="always")
+def _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """(lo, hi, blocked) of balance.thrust_window for one CoM and one fan: per edge k,
     F·(a_k − X|a_k|) ≥ M·g·((d_k + ε) + Y|d_k + ε|), d_k and a_k the CoM's and the fan's distances beyond
-    edge k. With the tolerance zero this is the minimal thrust H(P_body) of (A-5)."""
+    edge k; ``blocked`` where an edge no thrust moves the ZMP across lies on the wrong side."""
     lo, hi = 0.0, weight * (1.0 - tol_mass) / (1.0 + tol_thrust) * (1.0 - 1e-9)
+    blocked = False
     for k in range(len(offsets)):
         d = cx * normals[k, 0] + cy * normals[k, 1] - offsets[k] + tol_com
         a = fx * normals[k, 0] + fy * normals[k, 1] - offsets[k]
@@ -191,22 +160,76 @@ def _thrust_lo(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, t
         elif coef < 0:
             hi = min(hi, rhs / coef)
         elif rhs > 0:
-            return np.inf
-    return lo if lo <= hi else np.inf
+            blocked = True
+    return lo, hi, blocked
 
 
 @numba.njit(cache=True)
-def _edge_excess(ox, oy, cx, cy, ax, ay, rho):
-    """balance.edge_angle_excess: max(|θ_ZC − θ_CA| − ρ, 0) [rad], 0 where degenerate.
+def _thrust_lo(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """The window's lower end for one CoM (inf where the window is empty). With the tolerance zero this
+    is the minimal thrust H(P_body) of (A-5)."""
+    lo, hi, blocked = _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com)
+    return lo if (lo <= hi and not blocked) else np.inf
 
-    |θ_ZC − θ_CA| wrapped to [0, π] is the unsigned angle between the two directions: atan2(|u×v|, u·v).
-    """
+
+@numba.njit(cache=True)
+def windows(com, fan, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """balance.window_bounds over rows: com, fan (N, 2) [m] → lo, hi (N,) [N], blocked (N,)."""
+    n = len(com)
+    lo, hi, blocked = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
+    for j in range(n):
+        lo[j], hi[j], blocked[j] = _window(com[j, 0], com[j, 1], fan[j, 0], fan[j, 1], normals, offsets, weight,
+                                           tol_thrust, tol_mass, tol_com)
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True, inline="always")
+def _edge_error(ox, oy, cx, cy, ax, ay):
+    """|θ_ZC − θ_CA| of (A-10) wrapped to [0, π] [rad]: the unsigned angle between origin→CoM and
+    CoM→ankle, atan2(|u×v|, u·v); 0 where either is shorter than 1e-9 m (undefined)."""
     zc0, zc1 = cx - ox, cy - oy
     ca0, ca1 = ax - cx, ay - cy
     if math.sqrt(zc0 * zc0 + zc1 * zc1) < 1e-9 or math.sqrt(ca0 * ca0 + ca1 * ca1) < 1e-9:
         return 0.0
-    err = math.atan2(abs(zc0 * ca1 - zc1 * ca0), zc0 * ca0 + zc1 * ca1)
-    return max(err - rho, 0.0)
+    return math.atan2(abs(zc0 * ca1 - zc1 * ca0), zc0 * ca0 + zc1 * ca1)
+
+
+@numba.njit(cache=True)
+def edge_errors(origin, com, ankle):
+    """balance.edge_angle_error over rows: origin, com, ankle (N, 2) [m] → (N,) [rad]."""
+    n = len(com)
+    out = np.empty(n)
+    for j in range(n):
+        out[j] = _edge_error(origin[j, 0], origin[j, 1], com[j, 0], com[j, 1], ankle[j, 0], ankle[j, 1])
+    return out
+
+
+@numba.njit(cache=True)
+def postures(P, yaw, feet, feet_yaw, geom, trunk, joints, links, limits):
+    """Both legs in closed form and the whole-body CoM for trunk positions P (N, 3) [m] at yaws (N,) [rad],
+    the soles at feet (N, 2, 3) [m] (left, right) turned by feet_yaw (N, 2) [rad]: joints (N, 12) [rad],
+    CoM (N, 3) [m], status (N,) (kinematics.OK, UNREACHABLE or JOINT_LIMIT)."""
+    n = len(P)
+    q_out, com_out = np.empty((n, 12)), np.empty((n, 3))
+    status = np.empty(n, dtype=np.int8)
+    q = np.empty(12)
+    cs = np.empty((12, 2))
+    for j in range(n):
+        px, py, pz = P[j, 0], P[j, 1], P[j, 2]
+        cty, sty = math.cos(yaw[j]), math.sin(yaw[j])
+        reach = True
+        for leg in range(2):
+            sgn = 1.0 if leg == 0 else -1.0
+            fyaw = feet_yaw[j, leg]
+            reach &= _leg_ik(q, cs, 6 * leg, sgn, geom, px, py, pz, cty, sty, feet[j, leg, 0], feet[j, leg, 1],
+                             feet[j, leg, 2], math.cos(fyaw), math.sin(fyaw))
+        within = True
+        for k in range(12):
+            within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
+            q_out[j, k] = q[k]
+        status[j] = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
+        com_out[j, 0], com_out[j, 1], com_out[j, 2] = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
+    return q_out, com_out, status
 
 
 @numba.njit(cache=True)
@@ -241,7 +264,7 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
                 fx, fy, fz = support[0], support[1], support[2]
             else:
                 fx, fy, fz = sx, sy, sz
-            reach &= _leg_ik(q, cs, 6 * leg, sgn, geom, px, py, pz, cty, sty, fx, fy, fz)
+            reach &= _leg_ik(q, cs, 6 * leg, sgn, geom, px, py, pz, cty, sty, fx, fy, fz, 1.0, 0.0)
         within = True
         limit_excess = 0.0
         for k in range(12):
@@ -250,7 +273,7 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
         status = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
         cx, cy, _ = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
         f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
-        edge = _edge_excess(support[0], support[1], cx, cy, sx, sy, rho)
+        edge = max(_edge_error(support[0], support[1], cx, cy, sx, sy) - rho, 0.0)
         if status == UNREACHABLE:
             # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank
             ox, oy = sty * (sup_sgn * w), -cty * (sup_sgn * w)

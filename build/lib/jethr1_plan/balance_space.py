@@ -47,9 +47,8 @@ from .balance_kernel import (
     OVERLAP,
     balance_objective,
     into_reach,
-    kernel_params,
 )
-from .leg_kinematics import check_structure, solve_postures
+from .leg_kinematics import check_structure, kernel_params, solve_postures
 from .posture import OK
 from .robot_model import GRAVITY, RobotModel, load_robot, reach_centre
 

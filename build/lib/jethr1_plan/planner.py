@@ -183,7 +183,18 @@ def _optimise_step_job(scenario, si, feet, cfg, seed, keep_going, kinematics, sa
     return optimise_step(scenario, si, feet, cfg, seed, keep_going, kinematics=kinematics, sample_yaw=sample_yaw)
 
 
-def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
+def plan(*args, **kwargs) -> PlanResult:
+    """:func:`_plan` with BLAS on one thread, as in joblib's worker processes: a multi-threaded BLAS
+    sums in another order (measured: sqp's P_body moved by 4.6 mm at one sample of the robust trial
+    between -j 1 and -j 2), so the output would depend on -j. See :func:`_plan` for the arguments."""
+    import scipy.optimize  # noqa: F401  (its own BLAS must be loaded to be limited)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _plan(*args, **kwargs)
+
+
+def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
          progress: Callable[[str, int, int], None] | None = None, keep_going: bool = False,
          build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
          kinematics: str = "placo", strict_torque: bool = False) -> PlanResult:
@@ -208,7 +219,9 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     robot = load_robot(scenario.robot)
     cfg = scenario.optimiser if method is None else replace(scenario.optimiser, method=method)
     seed = scenario.seed if seed is None else seed
-    solver = solver or make_posture_solver(robot, kinematics)
+    # every step, and the sequence, get a solver of their own (as worker processes do), so that the
+    # result does not depend on -j: a PlaCo solver carries state from one solve to the next
+    given = solver
     feet_at = feet_before_each_step(scenario)
     schedule = yaw_schedule(scenario, robot) if scenario.yaw_mode == "mpc" else None
     sample_yaws = schedule.sample_yaw if schedule else [None] * len(scenario.steps)
@@ -227,7 +240,7 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
     else:
         outcomes, done = [], 0
         for si in range(n):
-            out = optimise_step(scenario, si, feet_at[si], cfg, seed, keep_going, solver, kinematics, sample_yaws[si],
+            out = optimise_step(scenario, si, feet_at[si], cfg, seed, keep_going, given, kinematics, sample_yaws[si],
                                 progress, done, total)
             outcomes.append(out)
             done += len(out[0].samples)
@@ -250,7 +263,8 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, solver, steps, schedule)
+        rows, bad_row = build_sequence(scenario, robot, given or make_posture_solver(robot, kinematics), steps,
+                                       schedule)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
