@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.balance_space import MEMBER, OVERLAP, SweepSpec, _Evaluator, _exhaustive_cell, summary, sweep
-from jethr1_plan.robot_model import load_robot
+from jethr1_plan.robot.model import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.test_balance_kernel import numpy_objective  # the numpy path the test compares with

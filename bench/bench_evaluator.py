@@ -18,12 +18,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bare_loop import bare_replay_seconds
 
-from jethr1_plan.balance import body_yaw_eq4
-from jethr1_plan.fitness import evaluate_candidates
-from jethr1_plan.leg_kinematics import AnalyticPostureSolver
-from jethr1_plan.planner import sample_problem
-from jethr1_plan.posture import PostureSolver
-from jethr1_plan.robot_model import load_robot
+from jethr1_plan.kinematics.closed_form import AnalyticPostureSolver
+from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.optimisers.problem import evaluate_candidates
+from jethr1_plan.physics.balance import body_yaw_eq4
+from jethr1_plan.planning.plan import sample_problem
+from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

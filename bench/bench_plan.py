@@ -18,9 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bare_loop import bare_replay_seconds
 
 from jethr1_plan.cli import write_plan_outputs
-from jethr1_plan.planner import plan, plan_summary
-from jethr1_plan.posture import PostureSolver
-from jethr1_plan.robot_model import load_robot
+from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.planning.plan import plan, plan_summary
+from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -24,7 +24,7 @@ import numpy as np
 
 from jethr1_plan.balance_space import MEMBER, _Evaluator
 from jethr1_plan.compare import step_evaluator
-from jethr1_plan.planner import plan
+from jethr1_plan.planning.plan import plan
 from jethr1_plan.scenario import load_scenario
 
 

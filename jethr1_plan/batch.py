@@ -6,7 +6,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InfeasiblePlan, InputError
+from jethr1_plan.errors import InfeasiblePlan, InputError
 
 
 def read_manifest(path: Path) -> list[Path]:
@@ -36,9 +36,9 @@ def check_expectations(expect: dict, summary: dict) -> list[str]:
 
 def run_scenario(path: str, outdir: str) -> dict:
     """Plan one scenario into OUTDIR/<stem>/ (as ``jethr1 plan`` does); return its batch record."""
-    from .cli import write_plan_outputs, write_plan_outputs_summary_only
-    from .planner import plan, plan_summary
-    from .scenario import load_scenario
+    from jethr1_plan.cli import write_plan_outputs, write_plan_outputs_summary_only
+    from jethr1_plan.planning.plan import plan, plan_summary
+    from jethr1_plan.scenario import load_scenario
 
     record = {"scenario": str(path), "name": Path(path).stem}
     try:

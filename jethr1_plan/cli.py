@@ -16,8 +16,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from .errors import InfeasiblePlan, InputError, Jethr1Error
-from .optimiser import METHODS
+from jethr1_plan.errors import InfeasiblePlan, InputError, Jethr1Error
+from jethr1_plan.optimisers.gas import METHODS
 
 err_console = Console(stderr=True)
 if not err_console.is_terminal:  # logs and CI: no terminal width to respect, keep tables readable
@@ -112,7 +112,7 @@ def robot() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the model summary as JSON on stdout.")
 def robot_show(name: str, as_json: bool) -> None:
     """Mass, height, leg length, joints, fans and sole of robot NAME (a name, folder or YAML path)."""
-    from .robot_model import load_robot, robot_summary
+    from jethr1_plan.robot.model import load_robot, robot_summary
 
     summary = robot_summary(load_robot(name))
     if as_json:
@@ -145,8 +145,8 @@ class SelfCheckFailed(Exception):
 
 def _self_check(csv_text: str, result, summary: dict, strict_torque: bool) -> None:
     """Run ``verify`` on the trajectory before anything is written (a failure is a bug)."""
-    from .csv_writer import read_trajectory_csv
-    from .verify import verify_rows
+    from jethr1_plan.io.trajectory_csv import read_trajectory_csv
+    from jethr1_plan.verify import verify_rows
 
     _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path), summary=summary,
                               scenario=result.scenario, torque_limits=strict_torque, max_failures=5)
@@ -165,9 +165,9 @@ def _report_kept(folder: Path, kept: list[str]) -> None:
 
 def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool, strict_torque: bool = False) -> Path:
     """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ atomically; return that folder."""
-    from .atomic import staged_directory
-    from .csv_writer import trajectory_csv
-    from .mcap_writer import trajectory_mcap
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.io.mcap import trajectory_mcap
+    from jethr1_plan.io.trajectory_csv import trajectory_csv
 
     final = outdir / Path(result.scenario.source).stem
     with staged_directory(final, PLAN_FILES) as staging:
@@ -207,10 +207,10 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from dataclasses import replace
 
-    from .atomic import check_writable
-    from .planner import plan as run_plan
-    from .planner import plan_summary
-    from .scenario import load_scenario
+    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.planning.plan import plan as run_plan
+    from jethr1_plan.planning.plan import plan_summary
+    from jethr1_plan.scenario import load_scenario
 
     scenario = load_scenario(scenario_path)
     if policy is not None:
@@ -235,7 +235,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
 
 
 def write_plan_outputs_summary_only(scenario, outdir: Path, summary: dict | None) -> None:
-    from .atomic import staged_directory
+    from jethr1_plan.io.atomic import staged_directory
 
     if summary is None:
         return
@@ -320,10 +320,10 @@ def _pair(ctx, param, value):
 def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
                   pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
-    from .atomic import check_writable, staged_directory
-    from .balance_space import SweepSpec, summary, sweep, verify_members
-    from .balance_space_io import balance_space_csv, balance_space_mcap, balance_space_png
-    from .robot_model import load_robot
+    from jethr1_plan.balance_space import SweepSpec, summary, sweep, verify_members
+    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.balance_space_files import balance_space_csv, balance_space_mcap, balance_space_png
+    from jethr1_plan.robot.model import load_robot
 
     robot = load_robot(robot_name)
     check_writable(outdir.parent)
@@ -376,8 +376,8 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
 def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_progress) -> None:
     """Plan many scenarios: one subdirectory each, a summary.json and a table; exit 0 when every
     expectation holds, 3 when a plan is unexpectedly infeasible, 4 when an expectation fails."""
-    from .atomic import write_text_atomic
-    from .batch import batch_exit_code, read_manifest, run_batch
+    from jethr1_plan.batch import batch_exit_code, read_manifest, run_batch
+    from jethr1_plan.io.atomic import write_text_atomic
 
     paths = list(scenarios) + (read_manifest(manifest) if manifest else [])
     if not paths:
@@ -386,7 +386,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     if len(set(stems)) != len(stems):
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
     _require_dask(executor)
-    from .atomic import check_writable
+    from jethr1_plan.io.atomic import check_writable
 
     check_writable(outdir)
     with _Progress(not no_progress, "batch") as progress:
@@ -427,7 +427,7 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
 
     Exit 0 when every row holds, 5 when any fails (one line per failing row on stderr).
     """
-    from .verify import verify_path
+    from jethr1_plan.verify import verify_path
 
     n, failures, what = verify_path(path, scenario)
     if as_json:
@@ -458,22 +458,22 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
 @click.option("--no-progress", is_flag=True)
 def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_json, no_progress) -> None:
     """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
-    from .atomic import staged_directory
-    from .compare import compare, comparison_pngs
-    from .scenario import load_scenario
+    from jethr1_plan.compare import compare, comparison_pngs
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.scenario import load_scenario
 
     names = tuple(m.strip() for m in methods.split(",") if m.strip())
     unknown = [m for m in names if m not in METHODS]
     if unknown or not names:
         raise InputError("--methods", ",".join(unknown) or methods, f"unknown optimiser (known: {', '.join(METHODS)})")
-    from .scenario import YAW_MODES
+    from jethr1_plan.scenario import YAW_MODES
 
     modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
     if not modes or any(m not in YAW_MODES for m in modes):
         raise InputError("--yaw-modes", yaw_modes, f"expected modes among {', '.join(YAW_MODES)}")
     scenario = load_scenario(scenario_path)
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
-    from .atomic import check_writable
+    from jethr1_plan.io.atomic import check_writable
 
     check_writable(outdir.parent)
     with _Progress(not no_progress, "compare") as progress:
@@ -519,8 +519,8 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
 @click.option("--json", "as_json", is_flag=True)
 def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as_json) -> None:
     """Paper B's step-length analysis (B-1..B-5), and the robot's numerical reach with PlaCo IK."""
-    from .reach import DYROS_JET, ReachFigures, discrepancy_note, numerical_reach, step_lengths
-    from .robot_model import load_robot
+    from jethr1_plan.reach import DYROS_JET, ReachFigures, discrepancy_note, numerical_reach, step_lengths
+    from jethr1_plan.robot.model import load_robot
 
     numeric = None
     if dyros_jet:
@@ -586,10 +586,10 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
 
     import numpy as np
 
-    from .atomic import staged_directory
-    from .ditch_curve import curve, curve_png, default_base
-    from .robot_model import load_robot
-    from .scenario import load_scenario
+    from jethr1_plan.ditch_curve import curve, curve_png, default_base
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.scenario import load_scenario
 
     gap_values = np.array(_range_spec(gaps, "--gaps"))
     try:
@@ -598,7 +598,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
         raise InputError("--scales", scales, "expected comma-separated numbers") from None
     if not scale_values or any(not math.isfinite(v) or v < 0 or v > 5 for v in scale_values):
         raise InputError("--scales", scales, "expected numbers in [0, 5]")
-    from .atomic import check_writable
+    from jethr1_plan.io.atomic import check_writable
 
     base = load_scenario(base_path) if base_path else default_base()
     check_writable(outdir.parent)
@@ -654,9 +654,9 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     """
     import numpy as np
 
-    from .atomic import check_writable, write_bytes_atomic, write_text_atomic
-    from .mcap_writer import simulation_mcap
-    from .sim.rehearsal import Perturbation, load_plan, simulate
+    from jethr1_plan.io.atomic import check_writable, write_bytes_atomic, write_text_atomic
+    from jethr1_plan.io.mcap import simulation_mcap
+    from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
 
     track = load_plan(plan_dir)
     check_writable(plan_dir)
@@ -666,7 +666,7 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
         perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
     with _Progress(not no_progress, f"simulate {plan_dir}") as progress:
         runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw)
-    from .sim.controller import Gains
+    from jethr1_plan.sim.controller import Gains
 
     ok = sum(r.survived for r in runs)
     simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)

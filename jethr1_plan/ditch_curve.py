@@ -16,10 +16,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from .balance import Tolerance
-from .errors import InfeasiblePlan
-from .scenario import BalanceConfig, Scenario, Step, Timing
-from .swing_path import Carton, arc_path
+from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.physics.balance import Tolerance
+from jethr1_plan.scenario import BalanceConfig, Scenario, Step, Timing
+from jethr1_plan.swing_path import Carton, arc_path
 
 __all__ = ["TOE_X_M", "curve", "curve_png", "ditch_scenario", "landing_x"]
 
@@ -52,7 +52,7 @@ def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_leng
 
 def _feasible_thrust(scenario: Scenario) -> tuple[float | None, str | None]:
     """(max thrust [N], None) of a feasible plan; (None, the reason) of an infeasible one."""
-    from .planner import plan
+    from jethr1_plan.planning.plan import plan
 
     try:
         result = plan(scenario)
@@ -139,7 +139,7 @@ def curve_png(doc: dict) -> bytes:
 
 def default_base() -> Scenario:
     """A scenario with every default (robot jethr1, Paper A's timing), as the curve's base."""
-    from .optimiser import OptimiserConfig
+    from jethr1_plan.optimisers.gas import OptimiserConfig
 
     return Scenario(source="ditch-curve", name="ditch", robot="jethr1", seed=1, start={}, cartons=(), steps=(),
                     optimiser=OptimiserConfig(), balance=BalanceConfig(), yaw_mode="eq4", yaw_fixed_rad=0.0,

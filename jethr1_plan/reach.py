@@ -74,9 +74,9 @@ def numerical_reach(robot_name: str, z0: float, w_step: float, trunk_yaw_rad: fl
     Searched with the closed-form kinematics on a grid of pelvis positions (``resolution_m``), then the
     winning posture is solved again by PlaCo's IK from a bent-knee seed (``placo_converged``).
     """
-    from .leg_kinematics import solve_postures
-    from .posture import OK, PostureSolver, Stance
-    from .robot_model import load_robot
+    from jethr1_plan.kinematics.closed_form import solve_postures
+    from jethr1_plan.kinematics.placo import OK, PostureSolver, Stance
+    from jethr1_plan.robot.model import load_robot
 
     robot = load_robot(robot_name)
     support = np.array([0.0, -w_step / 2, 0.0])

@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .balance import NOMINAL, Tolerance
-from .errors import InputError
-from .fitness import FitnessConstants
-from .optimiser import METHODS, GAPhase, OptimiserConfig
-from .robot_model import GRAVITY
-from .swing_path import Carton, arc_path, first_collision, sole_on_carton
+from jethr1_plan.errors import InputError
+from jethr1_plan.optimisers.gas import METHODS, GAPhase, OptimiserConfig
+from jethr1_plan.optimisers.problem import FitnessConstants
+from jethr1_plan.physics.balance import NOMINAL, Tolerance
+from jethr1_plan.robot.model import GRAVITY
+from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_carton
 
 DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
 F3_UNITS = {"mm": 0.001, "m": 1.0}
@@ -316,7 +316,7 @@ def load_scenario_text(text: str, src: str) -> Scenario:
     _count_values(doc, src)
     _check_finite(doc, src)
     _schema_error(doc, src)
-    from .robot_model import load_robot
+    from jethr1_plan.robot.model import load_robot
 
     try:
         robot = load_robot(doc.get("robot", "jethr1"))

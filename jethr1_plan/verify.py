@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .balance import inside_polygon, sole_polygon
-from .errors import InputError
-from .posture import pose_from_quaternion
-from .robot_model import GRAVITY, JOINT_NAMES, SIDES, load_robot
-from .sequence import convex_hull
+from jethr1_plan.errors import InputError
+from jethr1_plan.kinematics.placo import pose_from_quaternion
+from jethr1_plan.physics.balance import inside_polygon, sole_polygon
+from jethr1_plan.planning.sequence import convex_hull
+from jethr1_plan.robot.model import GRAVITY, JOINT_NAMES, SIDES, load_robot
 
 __all__ = ["Failure", "verify_path", "verify_rows"]
 
@@ -66,7 +66,7 @@ class Failure:
 
 
 def _rows_from_csv(text: str, source: str) -> dict[str, np.ndarray]:
-    from .csv_writer import columns, read_trajectory_csv
+    from jethr1_plan.io.trajectory_csv import columns, read_trajectory_csv
 
     c = read_trajectory_csv(text, source)
     missing = [k for k in columns() if k not in c]
@@ -79,7 +79,7 @@ def _rows_from_csv(text: str, source: str) -> dict[str, np.ndarray]:
 def _rows_from_mcap(data: bytes, source: str) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
     """Rows from an MCAP (the ``/joint_states``, ``/thrust``, ``/p_body``, ``/com``, ``/zmp`` and
     ``/analysis`` of each instant) and its swing paths."""
-    from .mcap_writer import EPOCH_NS, read_mcap
+    from jethr1_plan.io.mcap import EPOCH_NS, read_mcap
 
     if len(data) > MAX_MCAP_BYTES:
         raise InputError(source, "", f"{len(data):,} bytes: larger than any plan's MCAP")
@@ -149,7 +149,7 @@ def _json(path: Path) -> dict:
 def _scenario_for(summary_path: Path, summary: dict | None, explicit: Path | None):
     """The scenario to check against: ``--scenario`` (must exist), else the file summary.json names
     (as written, then beside summary.json), else the copy summary.json holds."""
-    from .scenario import load_scenario, load_scenario_text
+    from jethr1_plan.scenario import load_scenario, load_scenario_text
 
     if explicit is not None:
         if not Path(explicit).is_file():
@@ -251,7 +251,7 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray, statics:
     """Per row, from the written pelvis pose and joints (fresh PlaCo robot): both sole poses (n, 4, 4),
     the CoM (n, 3), both fans' ground points (n, 2); with ``statics`` also the static torques under the
     written thrust (n, 12) and each leg's κ (n, 2)."""
-    from .statics import leg_condition_numbers, static_torques
+    from jethr1_plan.physics.statics import leg_condition_numbers, static_torques
 
     wrapper = robot.wrapper()
     n = len(q)
@@ -282,7 +282,7 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray, statics:
 
 def _expected_sequence(sc, rate_hz: float) -> list[tuple[str, int, int, str]]:
     """(phase, step, sample, support) of every row the scenario's plan has, in order (``sequence``)."""
-    from .sequence import swing_row_positions
+    from jethr1_plan.planning.sequence import swing_row_positions
 
     n_tr = max(1, round(sc.timing.transfer_s * rate_hz))
     rows = []
@@ -297,7 +297,7 @@ def _expected_sequence(sc, rate_hz: float) -> list[tuple[str, int, int, str]]:
 def _scenario_feet(sc, row_step: np.ndarray, phase: np.ndarray) -> dict[str, np.ndarray]:
     """Per row, where the scenario puts each sole on the ground: before step k (transfers leading into
     step k, and the support sole of swing k); NaN for the swing sole of a swing row."""
-    from .planner import feet_before_each_step
+    from jethr1_plan.planning.plan import feet_before_each_step
 
     before = feet_before_each_step(sc)
     final = {k: v.copy() for k, v in before[-1].items()}
@@ -529,7 +529,7 @@ def _supports(c, robot, pos, single) -> list[np.ndarray]:
 
 def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> None:
     """The written thrust window, ZMP margin and (with the plan's balance settings) the tolerance."""
-    from .balance import Tolerance, balance_slack, polygon_margin, thrust_window
+    from jethr1_plan.physics.balance import Tolerance, balance_slack, polygon_margin, thrust_window
 
     polys = _supports(c, robot, pos, single)
     lo_w, hi_w = c["thrust_window_lo_n"].astype(float), c["thrust_window_hi_n"].astype(float)
@@ -596,7 +596,7 @@ def _check_statics(c, robot, fk, torque_limits: bool, found) -> None:
 
 def _check_commands(c, robot, q, thrust, found) -> None:
     """The command columns against the commands recomputed from the written rows (``commands``)."""
-    from .commands import fan_commands, servo_commands
+    from jethr1_plan.planning.commands import fan_commands, servo_commands
 
     dt = np.diff(c["time_s"].astype(float))
     if not (np.all(dt > 0) and np.all(np.isfinite(dt))):

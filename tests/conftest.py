@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from jethr1_plan.robot_model import load_robot
+from jethr1_plan.robot.model import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.leg_kinematics import LegGeometry, leg_mass_model, mass_model, mm_batch, rot_axis
-from jethr1_plan.robot_model import RobotModel
+from jethr1_plan.kinematics.closed_form import LegGeometry, leg_mass_model, mass_model, mm_batch, rot_axis
+from jethr1_plan.robot.model import RobotModel
 
 
 def _mv(A: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -1,5 +1,5 @@
 """The numpy statements of the per-candidate physics that the package computes compiled
-(``jethr1_plan.balance_kernel``): kept here as the oracle the tests hold the compiled code to.
+(``jethr1_plan.physics.compiled``): kept here as the oracle the tests hold the compiled code to.
 
 The closed-form leg IK and CoM oracle is ``tests/leg_oracle.py``; the forward kinematics oracle is
 ``tests/urdf_reference.py``.
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.balance import NOMINAL, Tolerance, halfplanes
-from jethr1_plan.robot_model import GRAVITY
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, halfplanes
+from jethr1_plan.robot.model import GRAVITY
 
 
 def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance import (
+from jethr1_plan.physics.balance import (
     Tolerance,
     balance_slack,
     body_yaw_eq4,
@@ -106,7 +106,7 @@ def test_body_yaw_eq4_turns_the_hip_line_towards_the_fan():
 
 
 def test_edge_excess():
-    from jethr1_plan.balance import edge_angle_excess
+    from jethr1_plan.physics.balance import edge_angle_excess
 
     z, com, ankle = np.zeros(2), np.array([0.0, 0.1]), np.array([0.1, 0.2])  # a 45 deg bend
     rho = np.radians(5)

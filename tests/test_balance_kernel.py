@@ -12,8 +12,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance import NOMINAL, Tolerance
-from jethr1_plan.balance_kernel import into_reach
 from jethr1_plan.balance_space import (
     ABOVE_MAX,
     EDGE,
@@ -25,9 +23,11 @@ from jethr1_plan.balance_space import (
     SweepSpec,
     _Evaluator,
 )
-from jethr1_plan.leg_kinematics import check_structure
-from jethr1_plan.posture import JOINT_LIMIT, OK, UNREACHABLE
-from jethr1_plan.robot_model import load_robot, reach_centre
+from jethr1_plan.kinematics.closed_form import check_structure
+from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE
+from jethr1_plan.physics.balance import NOMINAL, Tolerance
+from jethr1_plan.physics.compiled import into_reach
+from jethr1_plan.robot.model import load_robot, reach_centre
 
 from .leg_oracle import fast_com, leg_ik
 from .oracle import edge_angle_error, window_bounds

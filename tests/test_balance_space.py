@@ -9,11 +9,11 @@ import jsonschema
 import numpy as np
 import pytest
 
-from jethr1_plan.balance import edge_angle_error, inside_polygon, minimal_thrust, sole_polygon
 from jethr1_plan.balance_space import MEMBER, OVERLAP, SweepSpec, _Evaluator, _exhaustive_cell, sweep_layers
 from jethr1_plan.cli import run
-from jethr1_plan.mcap_writer import mcap_schemas, read_mcap
-from jethr1_plan.posture import OK, PostureSolver, Stance
+from jethr1_plan.io.mcap import mcap_schemas, read_mcap
+from jethr1_plan.kinematics.placo import OK, PostureSolver, Stance
+from jethr1_plan.physics.balance import edge_angle_error, inside_polygon, minimal_thrust, sole_polygon
 
 ARGS = ["balance-space", "--resolution", "0.1", "--no-progress"]
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.leg_kinematics import AnalyticPostureSolver, check_structure, solve_postures
-from jethr1_plan.posture import OK, UNREACHABLE, PostureSolver, Stance
-from jethr1_plan.robot_model import JOINT_NAMES
+from jethr1_plan.kinematics.closed_form import AnalyticPostureSolver, check_structure, solve_postures
+from jethr1_plan.kinematics.placo import OK, UNREACHABLE, PostureSolver, Stance
+from jethr1_plan.robot.model import JOINT_NAMES
 
 from .leg_oracle import com_batch, fast_com, leg_ik, link_poses
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.optimiser import (
+from jethr1_plan.optimisers.gas import (
     GAPhase,
     decode,
     genome_keys,

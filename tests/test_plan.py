@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 import yaml
 
-from jethr1_plan.balance import inside_polygon, sole_polygon, zmp_with_thrust
 from jethr1_plan.cli import run
-from jethr1_plan.csv_writer import columns, read_trajectory_csv
-from jethr1_plan.mcap_writer import mcap_schemas, read_mcap
-from jethr1_plan.robot_model import JOINT_NAMES
+from jethr1_plan.io.mcap import mcap_schemas, read_mcap
+from jethr1_plan.io.trajectory_csv import columns, read_trajectory_csv
+from jethr1_plan.physics.balance import inside_polygon, sole_polygon, zmp_with_thrust
+from jethr1_plan.planning.sequence import convex_hull
+from jethr1_plan.robot.model import JOINT_NAMES
 from jethr1_plan.scenario import load_scenario
-from jethr1_plan.sequence import convex_hull
 
 from .conftest import ROOT
 
@@ -234,7 +234,7 @@ def test_tf_moves_the_feet_where_the_csv_says(planned):
 
 
 def test_torques_kappa_and_energy_are_written(planned, robot):
-    from jethr1_plan.statics import leg_condition_numbers, static_torques
+    from jethr1_plan.physics.statics import leg_condition_numbers, static_torques
 
     c = read_trajectory_csv((planned / "trajectory.csv").read_text())
     s = json.loads((planned / "summary.json").read_text())
@@ -303,7 +303,7 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     import datetime
 
     from jethr1_plan.cli import LAYOUT
-    from jethr1_plan.mcap_writer import EPOCH_NS
+    from jethr1_plan.io.mcap import EPOCH_NS
 
     msgs = read_mcap((planned / "trajectory.mcap").read_bytes())  # validates the CRCs
     desc = [m for m in msgs if m[0] == "/robot_description"]

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.posture import JOINT_LIMIT, OK, UNREACHABLE, PostureSolver, Stance
-from jethr1_plan.robot_model import JOINT_NAMES
+from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE, PostureSolver, Stance
+from jethr1_plan.robot.model import JOINT_NAMES
 
 
 def _stance(swing, yaw):

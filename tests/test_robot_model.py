@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.robot_model import JOINT_NAMES, load_robot, robot_summary
+from jethr1_plan.robot.model import JOINT_NAMES, load_robot, robot_summary
 
 from .conftest import ROOT
 

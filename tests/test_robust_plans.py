@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 import yaml
 
-from jethr1_plan.balance import polygon_margin, sole_polygon, thrust_window, zmp_with_thrust
 from jethr1_plan.cli import run
-from jethr1_plan.commands import low_pass
-from jethr1_plan.csv_writer import read_trajectory_csv
-from jethr1_plan.posture import pose_from_quaternion
-from jethr1_plan.robot_model import JOINT_NAMES
+from jethr1_plan.io.trajectory_csv import read_trajectory_csv
+from jethr1_plan.kinematics.placo import pose_from_quaternion
+from jethr1_plan.physics.balance import polygon_margin, sole_polygon, thrust_window, zmp_with_thrust
+from jethr1_plan.planning.commands import low_pass
+from jethr1_plan.robot.model import JOINT_NAMES
 
 from .conftest import ROOT
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import yaml
 
-from jethr1_plan import sqp_optimiser as sqp
+from jethr1_plan.optimisers import sqp
 from jethr1_plan.balance_space import _exhaustive_cell
 from jethr1_plan.cli import run
 from jethr1_plan.compare import step_evaluator
-from jethr1_plan.planner import feet_before_each_step, path_problems, plan
-from jethr1_plan.robot_model import GRAVITY
+from jethr1_plan.planning.plan import feet_before_each_step, path_problems, plan
+from jethr1_plan.robot.model import GRAVITY
 from jethr1_plan.scenario import load_scenario
 
 from .conftest import ROOT

@@ -8,7 +8,7 @@ import shutil
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.csv_writer import columns
+from jethr1_plan.io.trajectory_csv import columns
 
 from .conftest import ROOT
 

@@ -27,12 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..balance import polygon_margin, sole_polygon
-from ..errors import InputError
-from ..robot_model import SIDES, RobotModel, load_robot
-from ..swing_path import Carton, sole_on_carton
-from . import controller as ctl
-from .twin import Twin, TwinParams, build_twin
+from jethr1_plan.errors import InputError
+from jethr1_plan.physics.balance import polygon_margin, sole_polygon
+from jethr1_plan.robot.model import SIDES, RobotModel, load_robot
+from jethr1_plan.sim import controller as ctl
+from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
+from jethr1_plan.swing_path import Carton, sole_on_carton
 
 __all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "Perturbation", "PlanTrack", "RunResult", "load_plan", "rehearse"]
 
@@ -107,7 +107,7 @@ def load_plan(folder: Path) -> PlanTrack:
     Raises:
         InputError: a missing or unreadable file, a plan written infeasible, a robot that cannot load.
     """
-    from ..csv_writer import read_trajectory_csv
+    from jethr1_plan.io.trajectory_csv import read_trajectory_csv
 
     folder = Path(folder)
     if not folder.is_dir():
@@ -238,7 +238,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
 
     With ``compensate`` the servos follow the plan's command columns (``<joint>_cmd_rad``: the
     posture plus the sag of the servos under the row's static torque) and the fans its
-    ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.commands`), and
+    ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.planning.commands`), and
     the feedback's extra thrust moves the swing leg's commands by J_fanᵀ·ΔF/k as the robot would;
     without it the servos follow the joint columns and the fans the thrust columns.
     """

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import RobotModelError
-from ..robot_model import SIDES, RobotModel
-from ..swing_path import Carton
+from jethr1_plan.errors import RobotModelError
+from jethr1_plan.robot.model import SIDES, RobotModel
+from jethr1_plan.swing_path import Carton
 
 __all__ = ["Twin", "TwinParams", "build_twin"]
 

@@ -36,8 +36,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .balance import NOMINAL, Tolerance, body_yaw_eq4, sole_polygon
-from .balance_kernel import (
+from jethr1_plan.kinematics.closed_form import check_structure, kernel_params, solve_postures
+from jethr1_plan.kinematics.placo import OK
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4, sole_polygon
+from jethr1_plan.physics.compiled import (
     ABOVE_MAX,
     EDGE,
     LIMITS,
@@ -48,9 +50,7 @@ from .balance_kernel import (
     balance_objective,
     into_reach,
 )
-from .leg_kinematics import check_structure, kernel_params, solve_postures
-from .posture import OK
-from .robot_model import GRAVITY, RobotModel, load_robot, reach_centre
+from jethr1_plan.robot.model import GRAVITY, RobotModel, load_robot, reach_centre
 
 REASONS = {MEMBER: "", OVERLAP: "overlaps the support sole", OUT_OF_REACH: "out of reach",
            LIMITS: "joint limits", NO_BALANCE: "no thrust can balance", EDGE: "edge angle (A-10)",

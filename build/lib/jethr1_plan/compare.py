@@ -15,10 +15,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from .balance_space import SweepSpec, _Cells, _Evaluator, _exhaustive_cell
-from .planner import feet_before_each_step, plan, plan_summary, smoothness
-from .robot_model import load_robot
-from .scenario import Scenario
+from jethr1_plan.balance_space import SweepSpec, _Cells, _Evaluator, _exhaustive_cell
+from jethr1_plan.planning.plan import feet_before_each_step, plan, plan_summary, smoothness
+from jethr1_plan.robot.model import load_robot
+from jethr1_plan.scenario import Scenario
 
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:

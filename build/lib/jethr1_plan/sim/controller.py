@@ -33,7 +33,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..balance import halfplanes
+from jethr1_plan.physics.balance import halfplanes
 
 __all__ = ["Gains", "band_error", "law", "ray_extent", "step"]
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .errors import RobotModelError
+from jethr1_plan.errors import RobotModelError
 
 SIDES = ("left", "right")
 

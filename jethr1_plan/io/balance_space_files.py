@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 
-from .balance_space import REASONS, SweepResult
-from .csv_writer import _num
-from .mcap_writer import SCHEMAS, _entity, _pose, _vec, stamp
+from jethr1_plan.balance_space import REASONS, SweepResult
+from jethr1_plan.io.mcap import SCHEMAS, _entity, _pose, _vec, stamp
+from jethr1_plan.io.trajectory_csv import _num
 
 POINT_CLOUD_SCHEMA = {
     "title": "foxglove.PointCloud", "type": "object",

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sequence import min_jerk, swing_row_positions
+from jethr1_plan.planning.sequence import min_jerk, swing_row_positions
 
 
 def mpc_smooth(ref: np.ndarray, dt: float, horizon_s: float = 1.6, alpha: float = 1.0, beta: float = 1e-10,

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fitness import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
-from .posture import PostureSolver
+from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.optimisers.problem import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
 
 METHODS = ("gas", "ga", "gaex", "sqp")  # sqp: sqp_optimiser.optimise_path_sqp (whole paths)
 

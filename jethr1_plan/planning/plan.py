@@ -9,18 +9,18 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .balance import NOMINAL, body_yaw_eq4, body_yaw_forward_axis, sole_polygon
-from .commands import fan_commands, servo_commands
-from .errors import InfeasiblePlan
-from .fitness import VIOLATIONS, SampleProblem
-from .leg_kinematics import make_posture_solver
-from .optimiser import SampleResult, optimise_sample
-from .posture import PostureSolver, Stance
-from .robot_model import SIDES, RobotModel, load_robot, reach_centre
-from .scenario import Scenario
-from .sequence import Rows, SequenceBuilder, swing_row_positions
-from .statics import KAPPA_WARNING, analyse_rows
+from jethr1_plan import __version__
+from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.kinematics.closed_form import make_posture_solver
+from jethr1_plan.kinematics.placo import PostureSolver, Stance
+from jethr1_plan.optimisers.gas import SampleResult, optimise_sample
+from jethr1_plan.optimisers.problem import VIOLATIONS, SampleProblem
+from jethr1_plan.physics.balance import NOMINAL, body_yaw_eq4, body_yaw_forward_axis, sole_polygon
+from jethr1_plan.physics.statics import KAPPA_WARNING, analyse_rows
+from jethr1_plan.planning.commands import fan_commands, servo_commands
+from jethr1_plan.planning.sequence import Rows, SequenceBuilder, swing_row_positions
+from jethr1_plan.robot.model import SIDES, RobotModel, load_robot, reach_centre
+from jethr1_plan.scenario import Scenario
 
 STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
 NOMINAL_HEIGHT_FRACTION = 0.8  # centre of the initial phase's box, same unit
@@ -150,7 +150,7 @@ def optimise_step(scenario: Scenario, si: int, feet: dict[str, np.ndarray], cfg,
                 for swing_xyz in step.path_m]
     path_results = None
     if cfg.method == "sqp":  # optimises the whole path at once (forward and backward passes)
-        from .sqp_optimiser import optimise_path_sqp
+        from jethr1_plan.optimisers.sqp import optimise_path_sqp
 
         path_results = optimise_path_sqp(solver, robot, problems, nominals, cfg,
                                          [np.random.default_rng([seed, si, i]) for i in range(len(problems))],
@@ -309,7 +309,7 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
 
 def reachable_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, half: float) -> dict:
     """The largest share of the tolerance a sample reaches (``sqp_optimiser.largest_tolerance``)."""
-    from .sqp_optimiser import largest_tolerance
+    from jethr1_plan.optimisers.sqp import largest_tolerance
 
     k, p = largest_tolerance(robot, problem, centre, half)
     t = problem.tolerance.scaled(k)
@@ -355,7 +355,7 @@ def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float
 
 def yaw_schedule(scenario: Scenario, robot: RobotModel):
     """The MPC-smoothed body yaw (yaw mode ``mpc``) at every row and swing sample."""
-    from .yaw_mpc import build_schedule
+    from jethr1_plan.planning.yaw_mpc import build_schedule
 
     feet_at = feet_before_each_step(scenario)
     eq4 = [yaw_function(scenario, robot, st.support, f[st.support]) for st, f in zip(scenario.steps, feet_at,
@@ -469,7 +469,7 @@ def plan_summary(result: PlanResult) -> dict:
                              "duration_s": len(rows) / sc.timing.rate_hz,
                              "max_thrust_n": float(max(tl.max(), tr.max()))}
         out["robustness"] = robustness_summary(rows)
-        from .sim.controller import Gains, law
+        from jethr1_plan.sim.controller import Gains, law
 
         tol = sc.balance.tolerance
         out["controller"] = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)

@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import InputError
+from jethr1_plan.errors import InputError
 
 __all__ = ["Staging", "check_writable", "staged_directory", "write_bytes_atomic", "write_text_atomic"]
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .robot_model import SIDES
+from jethr1_plan.robot.model import SIDES
 
 KAPPA_WARNING = 100.0  # leg Jacobian condition number above which a row is flagged
 FORCE_DIRECTION = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # a vertical force, world-aligned

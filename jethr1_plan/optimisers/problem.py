@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .balance import NOMINAL, Tolerance, edge_angle_excess, window_bounds, zmp_with_thrust
-from .posture import OK, REASONS, PostureSolver, Stance
-from .robot_model import GRAVITY
+from jethr1_plan.kinematics.placo import OK, REASONS, PostureSolver, Stance
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, edge_angle_excess, window_bounds, zmp_with_thrust
+from jethr1_plan.robot.model import GRAVITY
 
 # violation codes, in the order a reason is reported: IK status 1..3, then these
 FEASIBLE, NO_BALANCE, THRUST_MAX, EDGE_ANGLE = 0, 10, 11, 12

@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .balance import (
+from jethr1_plan.kinematics.placo import OK, REASONS, PostureSolver, Stance
+from jethr1_plan.physics.balance import (
     NOMINAL,
     Tolerance,
     balance_slack,
@@ -35,8 +36,7 @@ from .balance import (
     wrap_angle,
     zmp_with_thrust,
 )
-from .posture import OK, REASONS, PostureSolver, Stance
-from .robot_model import GRAVITY, RobotModel
+from jethr1_plan.robot.model import GRAVITY, RobotModel
 
 
 def min_jerk(t: np.ndarray) -> np.ndarray:

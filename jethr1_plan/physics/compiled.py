@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from .posture import JOINT_LIMIT, OK, UNREACHABLE
+from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE
 
 # reason codes, as balance_space
 MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)

@@ -20,8 +20,8 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .robot_model import RobotModel, urdf_joints
-from .swing_path import Carton
+from jethr1_plan.robot.model import RobotModel, urdf_joints
+from jethr1_plan.swing_path import Carton
 
 EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
 ROBOT_DESCRIPTION_SCHEMA = "std_msgs/String"  # a name Foxglove's URDF layer accepts for a topic source

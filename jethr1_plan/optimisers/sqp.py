@@ -49,13 +49,13 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize
 
-from .balance import edge_angle_error, halfplanes, thrust_window
-from .balance_space import DIRECTIONS
-from .fitness import SampleProblem, evaluate_candidates, fitness
-from .leg_kinematics import check_structure, solve_postures
-from .optimiser import OptimiserConfig, SampleResult, _initial_phase
-from .posture import UNREACHABLE, PostureSolver
-from .robot_model import GRAVITY, SIDES, RobotModel
+from jethr1_plan.balance_space import DIRECTIONS
+from jethr1_plan.kinematics.closed_form import check_structure, solve_postures
+from jethr1_plan.kinematics.placo import UNREACHABLE, PostureSolver
+from jethr1_plan.optimisers.gas import OptimiserConfig, SampleResult, _initial_phase
+from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
+from jethr1_plan.physics.balance import edge_angle_error, halfplanes, thrust_window
+from jethr1_plan.robot.model import GRAVITY, SIDES, RobotModel
 
 TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .robot_model import GRAVITY
+from jethr1_plan.robot.model import GRAVITY
 
 
 def zmp_with_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, mass_kg: float,
@@ -121,7 +121,7 @@ def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
     window is [lo, hi] where ``lo <= hi`` and not ``blocked``; where ``lo > hi``, lo − hi [N] says how
     far it is from opening. Computed by ``balance_kernel.windows`` (one implementation for every caller).
     """
-    from .balance_kernel import windows
+    from jethr1_plan.physics.compiled import windows
 
     shape = np.broadcast_shapes(np.shape(com_xy)[:-1], np.shape(fan_xy)[:-1])
     n, b = halfplanes(polygon)
@@ -196,7 +196,7 @@ def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nda
     swing ankle. Where either direction is shorter than 1e-9 m the angle is undefined: 0. Computed by
     ``balance_kernel.edge_errors``.
     """
-    from .balance_kernel import edge_errors
+    from jethr1_plan.physics.compiled import edge_errors
 
     shape = np.broadcast_shapes(np.shape(origin_xy)[:-1], np.shape(com_xy)[:-1], np.shape(ankle_xy)[:-1])
     return edge_errors(_rows(origin_xy, shape), _rows(com_xy, shape), _rows(ankle_xy, shape)).reshape(shape)

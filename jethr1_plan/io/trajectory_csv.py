@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from .robot_model import JOINT_NAMES
-from .sequence import Rows
+from jethr1_plan.planning.sequence import Rows
+from jethr1_plan.robot.model import JOINT_NAMES
 
 CSV_FORMAT_VERSION = 1
 
@@ -68,7 +68,7 @@ def read_trajectory_csv(text: str, source: str = "trajectory.csv") -> dict[str, 
         InputError: a header that is not this format's, a row with the wrong number of cells (a file
             cut mid-line), a number that does not parse, a ``feasible`` that is not true/false.
     """
-    from .errors import InputError
+    from jethr1_plan.errors import InputError
 
     if len(text) > MAX_CSV_BYTES:
         raise InputError(source, "", f"{len(text)} characters: larger than any trajectory ({MAX_CSV_BYTES})")

@@ -20,10 +20,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .balance import NOMINAL, Tolerance, halfplanes
-from .errors import RobotModelError
-from .posture import OK, UNREACHABLE
-from .robot_model import SIDES, RobotModel, urdf_joints
+from jethr1_plan.errors import RobotModelError
+from jethr1_plan.kinematics.placo import OK, UNREACHABLE
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, halfplanes
+from jethr1_plan.robot.model import SIDES, RobotModel, urdf_joints
 
 AXES = {"hip_yaw": (0, 0, 1), "hip_roll": (1, 0, 0), "hip_pitch": (0, 1, 0), "knee": (0, 1, 0),
         "ankle_pitch": (0, 1, 0), "ankle_roll": (1, 0, 0)}
@@ -171,7 +171,7 @@ def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarr
     ``feet[side] = (xyz (N, 3) or (3,), yaw (N,) or scalar)``. Status: OK, UNREACHABLE (the
     hip–ankle distance exceeds the leg) or JOINT_LIMIT (the solution leaves the URDF limits).
     """
-    from .balance_kernel import postures
+    from jethr1_plan.physics.compiled import postures
 
     P = np.ascontiguousarray(np.atleast_2d(np.asarray(trunk_xyz, dtype=float)))
     n = len(P)
@@ -184,9 +184,9 @@ def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarr
 
 
 class AnalyticPostureSolver:
-    """Drop-in for :class:`~jethr1_plan.posture.PostureSolver` using the closed form (no PlaCo).
+    """Drop-in for :class:`~jethr1_plan.kinematics.placo.PostureSolver` using the closed form (no PlaCo).
 
-    ``solve_batch`` returns the same :class:`~jethr1_plan.posture.PostureBatch`; the residual is 0
+    ``solve_batch`` returns the same :class:`~jethr1_plan.kinematics.placo.PostureBatch`; the residual is 0
     (the closed form is exact to rounding) and no IK iterations are spent.
     """
 
@@ -197,7 +197,7 @@ class AnalyticPostureSolver:
         self.replay_log = None
 
     def solve_batch(self, stance, p_body: np.ndarray, warm: np.ndarray | None = None):
-        from .posture import PostureBatch
+        from jethr1_plan.kinematics.placo import PostureBatch
 
         p_body = np.atleast_2d(np.asarray(p_body, dtype=float))
         feet = {}
@@ -216,7 +216,7 @@ def make_posture_solver(model: RobotModel, kinematics: str = "placo"):
     if kinematics == "analytic":
         return AnalyticPostureSolver(model)
     if kinematics == "placo":
-        from .posture import PostureSolver
+        from jethr1_plan.kinematics.placo import PostureSolver
 
         return PostureSolver(model)
     raise ValueError(f"unknown kinematics {kinematics!r}")

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .robot_model import SIDES, RobotModel, reach_centre
+from jethr1_plan.robot.model import SIDES, RobotModel, reach_centre
 
 OK, UNREACHABLE, JOINT_LIMIT, NOT_CONVERGED = 0, 1, 2, 3
 REASONS = {OK: "ok", UNREACHABLE: "unreachable", JOINT_LIMIT: "joint limit", NOT_CONVERGED: "ik not converged"}

@@ -1,0 +1,328 @@
+"""``trajectory.mcap``: JSON messages with jsonschema schemas, Foxglove schema names where one exists.
+
+Topics (CONTRACT.md): ``/robot_description`` (the URDF as a ``std_msgs/String``-shaped message, the
+form Foxglove's URDF layer reads from a topic: the file alone shows the robot), ``/tf``
+(foxglove.FrameTransforms: world→trunk and every URDF joint's parent→child link, so the URDF layer
+plays the motion), ``/joint_states``, ``/thrust``, ``/p_body``, ``/com``, ``/zmp``
+(foxglove.PoseInFrame), ``/terrain`` and ``/swing_path`` (foxglove.SceneUpdate), ``/analysis``.
+
+Times: every message is logged at ``EPOCH_NS`` + its time from the scenario's start, the epoch being
+2000-01-01T00:00:00Z (a fixed date, so that the same plan gives the same bytes; Foxglove's timeline
+shows the plan starting at midnight on 1 January 2000). Message timestamps carry the same time.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+from jethr1_plan.robot.model import RobotModel, urdf_joints
+from jethr1_plan.swing_path import Carton
+
+EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
+ROBOT_DESCRIPTION_SCHEMA = "std_msgs/String"  # a name Foxglove's URDF layer accepts for a topic source
+
+# --- JSON schemas (every field required, as in Foxglove's current schemas) ------------------
+
+
+def _object(props: dict) -> dict:
+    return {"type": "object", "properties": props, "required": list(props)}
+
+
+NUMBER = {"type": "number"}
+TIME = {"type": "object", "title": "time", "properties": {"sec": {"type": "integer", "minimum": 0},
+                                                           "nsec": {"type": "integer", "minimum": 0,
+                                                                    "maximum": 999999999}},
+        "required": ["sec", "nsec"]}
+VECTOR3 = {"title": "foxglove.Vector3", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER})}
+QUATERNION = {"title": "foxglove.Quaternion", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER, "w": NUMBER})}
+POSE = {"title": "foxglove.Pose", **_object({"position": VECTOR3, "orientation": QUATERNION})}
+COLOR = {"title": "foxglove.Color", **_object({"r": NUMBER, "g": NUMBER, "b": NUMBER, "a": NUMBER})}
+DURATION = {"type": "object", "title": "duration", "properties": {"sec": {"type": "integer"},
+                                                                  "nsec": {"type": "integer", "minimum": 0}},
+            "required": ["sec", "nsec"]}
+LINE = {"title": "foxglove.LinePrimitive", **_object({
+    "type": {"type": "integer", "enum": [0, 1, 2]}, "pose": POSE, "thickness": NUMBER,
+    "scale_invariant": {"type": "boolean"}, "points": {"type": "array", "items": VECTOR3}, "color": COLOR,
+    "colors": {"type": "array", "items": COLOR}, "indices": {"type": "array", "items": {"type": "integer"}}})}
+CUBE = {"title": "foxglove.CubePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
+SPHERE = {"title": "foxglove.SpherePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
+ENTITY = {"title": "foxglove.SceneEntity", **_object({
+    "timestamp": TIME, "frame_id": {"type": "string"}, "id": {"type": "string"}, "lifetime": DURATION,
+    "frame_locked": {"type": "boolean"}, "metadata": {"type": "array"}, "arrows": {"type": "array"},
+    "cubes": {"type": "array", "items": CUBE}, "spheres": {"type": "array", "items": SPHERE},
+    "cylinders": {"type": "array"}, "lines": {"type": "array", "items": LINE}, "triangles": {"type": "array"},
+    "texts": {"type": "array"}, "models": {"type": "array"}})}
+
+SCHEMAS: dict[str, dict] = {
+    "foxglove.FrameTransforms": _object({"transforms": {"type": "array", "items": {
+        "title": "foxglove.FrameTransform", **_object({
+            "timestamp": TIME, "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
+            "translation": VECTOR3, "rotation": QUATERNION})}}}),
+    "foxglove.PoseInFrame": _object({"timestamp": TIME, "frame_id": {"type": "string"}, "pose": POSE}),
+    "foxglove.SceneUpdate": _object({"deletions": {"type": "array"}, "entities": {"type": "array", "items": ENTITY}}),
+    "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
+                                  "position_rad": {"type": "array", "items": NUMBER},
+                                  "command_rad": {"type": "array", "items": NUMBER},
+                                  "effort_nm": {"type": "array", "items": NUMBER}}),
+    ROBOT_DESCRIPTION_SCHEMA: _object({"data": {"type": "string"}}),
+    "jethr1.LegAnalysis": _object({"timestamp": TIME, "kappa_left": NUMBER, "kappa_right": NUMBER,
+                                   "yaw_momentum_nms": NUMBER}),
+    "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
+                              "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
+                              "sample": {"type": "integer"}, "feasible": {"type": "boolean"},
+                              "reason": {"type": "string"}, "left_cmd_n": NUMBER, "right_cmd_n": NUMBER,
+                              "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
+                              "zmp_margin_m": NUMBER}),
+}
+for _name, _schema in SCHEMAS.items():
+    _schema.setdefault("title", _name)
+
+TOPICS = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
+          "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
+          "/p_body": "foxglove.PoseInFrame", "/com": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
+          "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate", "/analysis": "jethr1.LegAnalysis"}
+
+# --- helpers ------------------------------------------------------------------------------
+
+
+def log_time(t_s: float) -> int:
+    """Log time [ns] of a message at ``t_s`` [s] from the scenario's start."""
+    return EPOCH_NS + round(t_s * 1e9)
+
+
+def stamp(t_s: float) -> dict:
+    ns = log_time(t_s)
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of quaternions (x, y, z, w)."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return np.array([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz])
+
+
+def quat_axis_angle(axis, angle_rad: float) -> np.ndarray:
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    return np.array([*(a * math.sin(angle_rad / 2)), math.cos(angle_rad / 2)])
+
+
+def quat_rpy(rpy) -> np.ndarray:
+    """Quaternion of URDF fixed-axis roll, pitch, yaw: R = Rz(y)·Ry(p)·Rx(r)."""
+    r, p, y = rpy
+    return quat_mul(quat_axis_angle((0, 0, 1), y), quat_mul(quat_axis_angle((0, 1, 0), p),
+                                                            quat_axis_angle((1, 0, 0), r)))
+
+
+def _vec(v) -> dict:
+    return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+
+
+def _quat(q) -> dict:
+    return {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "w": float(q[3])}
+
+
+def _pose(pos, quat=(0.0, 0.0, 0.0, 1.0)) -> dict:
+    return {"position": _vec(pos), "orientation": _quat(quat)}
+
+
+def _entity(t: float, ident: str, cubes=(), lines=(), spheres=()) -> dict:
+    return {"timestamp": stamp(t), "frame_id": "world", "id": ident, "lifetime": {"sec": 0, "nsec": 0},
+            "frame_locked": False, "metadata": [], "arrows": [], "cubes": list(cubes), "spheres": list(spheres),
+            "cylinders": [], "lines": list(lines), "triangles": [], "texts": [], "models": []}
+
+
+def terrain_update(cartons: Iterable[Carton], t: float = 0.0) -> dict:
+    """/terrain: one cube per carton (brown)."""
+    cubes = []
+    for c in cartons:
+        x, y, ztop = c.top_centre_m
+        cubes.append({"pose": _pose((x, y, ztop - c.size_m[2] / 2)), "size": _vec(c.size_m),
+                      "color": {"r": 0.72, "g": 0.53, "b": 0.32, "a": 0.9}})
+    return {"deletions": [], "entities": [_entity(t, "cartons", cubes=cubes)]}
+
+
+def swing_path_update(paths: Iterable[np.ndarray], t: float = 0.0) -> dict:
+    """/swing_path: one line strip per step through its swing samples."""
+    lines = [{"type": 0, "pose": _pose((0, 0, 0)), "thickness": 0.005, "scale_invariant": False,
+              "points": [_vec(p) for p in path], "color": {"r": 0.1, "g": 0.6, "b": 1.0, "a": 1.0}, "colors": [],
+              "indices": []} for path in paths]
+    return {"deletions": [], "entities": [_entity(t, "swing_paths", lines=lines)]}
+
+
+def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
+    """Per URDF joint, the parent→child rotation quaternions (N, 4) for joint angles ``q`` (N, 12)."""
+    q = np.atleast_2d(q)
+    index = {name: k for k, name in enumerate(robot.joint_names)}
+    out = []
+    for j in urdf_joints(robot.urdf_path):
+        base = quat_rpy(j.rpy)
+        if j.kind in ("revolute", "continuous"):
+            axis = np.asarray(j.axis, dtype=float) / np.linalg.norm(j.axis)
+            half = 0.5 * q[:, index[j.name]]
+            rot = np.concatenate([np.sin(half)[:, None] * axis, np.cos(half)[:, None]], axis=1)
+            bx, by, bz, bw = base
+            x, y, z, w = rot.T
+            out.append(np.stack([bw * x + bx * w + by * z - bz * y, bw * y - bx * z + by * w + bz * x,
+                                 bw * z + bx * y - by * x + bz * w, bw * w - bx * x - by * y - bz * z], axis=1))
+        else:
+            out.append(np.repeat(base[None], len(q), axis=0))
+    return out
+
+
+def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np.ndarray,
+                     rotations: list[np.ndarray] | None = None, prefix: str = "") -> dict:
+    """/tf at one instant: world→trunk and each joint's parent→child (``rotations``: precomputed rows).
+
+    ``prefix`` goes before every frame of the robot (``sim/`` for a rehearsal), so two robots can
+    play in one scene; Foxglove's URDF layer takes the same prefix.
+    """
+    ts = stamp(t)
+    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + "trunk",
+            "translation": _vec(p_body), "rotation": _quat(trunk_quat_xyzw)}]
+    if rotations is None:
+        rotations = [r[0] for r in joint_rotations(robot, q)]
+    for j, rot in zip(urdf_joints(robot.urdf_path), rotations, strict=True):
+        tfs.append({"timestamp": ts, "parent_frame_id": prefix + j.parent, "child_frame_id": prefix + j.child,
+                    "translation": _vec(j.xyz), "rotation": _quat(rot)})
+    return {"transforms": tfs}
+
+
+def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
+    """The MCAP bytes of a planned trajectory (zstd-compressed chunks)."""
+    from mcap.writer import CompressionType, Writer
+
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.ZSTD)
+    w.start(profile="", library="jethr1-plan")
+    schema_ids = {name: w.register_schema(name=name, encoding="jsonschema",
+                                          data=json.dumps(s, sort_keys=True).encode()) for name, s in SCHEMAS.items()}
+    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=schema_ids[name])
+                for topic, name in TOPICS.items()}
+    seq = 0
+
+    def put(topic: str, t: float, msg: dict) -> None:
+        nonlocal seq
+        ns = log_time(t)
+        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
+                      data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
+        seq += 1
+
+    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
+    put("/terrain", 0.0, terrain_update(cartons))
+    put("/swing_path", 0.0, swing_path_update(paths))
+    c = rows.columns
+    names = list(robot.joint_names)
+    rotations = joint_rotations(robot, np.asarray(c["q"])) if len(rows) else []
+    for i in range(len(rows)):
+        t = float(c["time_s"][i])
+        p, yaw, q = c["p_body"][i], float(c["yaw"][i]), np.asarray(c["q"][i])
+        put("/tf", t, frame_transforms(robot, t, p, quat_axis_angle((0, 0, 1), yaw), q, [r[i] for r in rotations]))
+        put("/joint_states", t, {"timestamp": stamp(t), "name": names, "position_rad": [float(v) for v in q],
+                                 "command_rad": [float(v) for v in c["q_cmd"][i]],
+                                 "effort_nm": [float(v) for v in c["tau"][i]]})
+        put("/analysis", t, {"timestamp": stamp(t), "kappa_left": float(c["kappa"][i][0]),
+                             "kappa_right": float(c["kappa"][i][1]),
+                             "yaw_momentum_nms": float(c["yaw_momentum"][i])})
+        put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
+                           "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
+                           "support": c["support"][i], "step": int(c["step"][i]), "sample": int(c["sample"][i]),
+                           "feasible": bool(c["feasible"][i]), "reason": c["reason"][i],
+                           "left_cmd_n": float(c["thrust_cmd_left"][i]), "right_cmd_n": float(c["thrust_cmd_right"][i]),
+                           "window_lo_n": _or_none(c["window"][i][0]), "window_hi_n": _or_none(c["window"][i][1]),
+                           "zmp_margin_m": float(c["zmp_margin"][i])})
+        put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
+                           "pose": _pose(p, quat_axis_angle((0, 0, 1), yaw))})
+        put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(c["com"][i])})
+        zmp = c["zmp"][i]
+        put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose((zmp[0], zmp[1], _ground(c, i)))})
+    w.finish()
+    return buf.getvalue()
+
+
+def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
+    """The MCAP bytes of a rehearsal: ``/tf`` with every robot frame prefixed ``sim/`` (the plan's
+    ``trajectory.mcap`` uses the bare names, so both files play side by side in one scene),
+    ``/sim/thrust`` (applied per fan [N]), ``/sim/cop`` and ``/sim/com`` (foxglove.PoseInFrame),
+    ``/terrain``. Times as in ``trajectory.mcap``: seconds from the plan's start."""
+    from mcap.writer import CompressionType, Writer
+
+    schemas = {ROBOT_DESCRIPTION_SCHEMA: SCHEMAS[ROBOT_DESCRIPTION_SCHEMA],
+               "foxglove.FrameTransforms": SCHEMAS["foxglove.FrameTransforms"],
+               "foxglove.PoseInFrame": SCHEMAS["foxglove.PoseInFrame"],
+               "foxglove.SceneUpdate": SCHEMAS["foxglove.SceneUpdate"],
+               "jethr1.SimThrust": _object({"timestamp": TIME, "frame": {"type": "array", "items": {"type": "string"}},
+                                            "thrust_n": {"type": "array", "items": NUMBER}})}
+    schemas["jethr1.SimThrust"].setdefault("title", "jethr1.SimThrust")
+    topics = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
+              "/sim/thrust": "jethr1.SimThrust", "/sim/cop": "foxglove.PoseInFrame",
+              "/sim/com": "foxglove.PoseInFrame", "/terrain": "foxglove.SceneUpdate"}
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.ZSTD)
+    w.start(profile="", library="jethr1-plan")
+    ids = {name: w.register_schema(name=name, encoding="jsonschema", data=json.dumps(s, sort_keys=True).encode())
+           for name, s in schemas.items()}
+    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=ids[name])
+                for topic, name in topics.items()}
+    seq = 0
+
+    def put(topic: str, t: float, msg: dict) -> None:
+        nonlocal seq
+        ns = log_time(max(t, 0.0))
+        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
+                      data=json.dumps(msg, separators=(",", ":")).encode())
+        seq += 1
+
+    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
+    put("/terrain", 0.0, terrain_update(cartons))
+    qpos = np.asarray(record["qpos"], dtype=float).reshape(-1, 19)
+    rotations = joint_rotations(robot, qpos[:, 7:]) if len(qpos) else []
+    frames = [f.frame for f in robot.fans]
+    for i, t in enumerate(record["t"]):
+        w_, x, y, z = qpos[i, 3:7]
+        put("/tf", t, frame_transforms(robot, t, qpos[i, :3], (x, y, z, w_), qpos[i, 7:], [r[i] for r in rotations],
+                                       prefix="sim/"))
+        put("/sim/thrust", t, {"timestamp": stamp(t), "frame": frames, "thrust_n": record["thrust"][i]})
+        put("/sim/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(record["com"][i])})
+        cop = record["cop"][i]
+        if cop is not None:
+            put("/sim/cop", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(cop)})
+    w.finish()
+    return buf.getvalue()
+
+
+def _or_none(x: float) -> float | None:
+    """A number, or None (JSON null) where there is none (NaN)."""
+    return None if math.isnan(x) else float(x)
+
+
+def _ground(c: dict, i: int) -> float:
+    """Height of the ZMP: the support sole's height (the lower sole in double support)."""
+    return float(c["ground_z"][i]) if "ground_z" in c else 0.0
+
+
+def read_mcap(data: bytes) -> list[tuple[str, str, dict, int]]:
+    """Every message of an MCAP file: (topic, schema name, decoded JSON, log_time [ns]), the chunks'
+    CRCs checked."""
+    from mcap.reader import make_reader
+
+    out = []
+    reader = make_reader(io.BytesIO(data), validate_crcs=True)
+    for schema, channel, message in reader.iter_messages():
+        out.append((channel.topic, schema.name, json.loads(message.data), message.log_time))
+    return out
+
+
+def mcap_schemas(data: bytes) -> dict[str, dict]:
+    """Schema name → the JSON schema stored in the file."""
+    from mcap.reader import make_reader
+
+    summary = make_reader(io.BytesIO(data)).get_summary()
+    return {s.name: json.loads(s.data) for s in summary.schemas.values()}

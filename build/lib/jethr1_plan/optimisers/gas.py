@@ -1,0 +1,230 @@
+"""Paper A's optimisers of P_body along a swing path: GAS, GA and GAEx (III-D, IV-B).
+
+* **GAS**: binary GA (A-14). Initial phase (Table 2) without f3 over ±150 mm around a nominal
+  pelvis; intermediate phase (Table 3) with the smoothness term f3 over ±25 mm around the previous
+  P_body.
+* **GA**: GAS without f3.
+* **GAEx**: GAS's initial phase, then for each sample the 12 mm cube at 1 mm around the previous
+  P_body, visited nearest first; the first candidate that satisfies every constraint is taken,
+  without minimising thrust.
+
+Choices the paper leaves open (README, "Optimiser choices"): binary tournament selection,
+single-point crossover on the 30-bit string with probability ``crossover``, per-bit mutation,
+one elite carried over unchanged, genomes evaluated once per sample (a cache keyed by the bit
+string), and a *restart*: where the intermediate phase finds no feasible candidate, the initial
+phase is run again at that sample before the sample is declared infeasible.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.optimisers.problem import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
+
+METHODS = ("gas", "ga", "gaex", "sqp")  # sqp: sqp_optimiser.optimise_path_sqp (whole paths)
+
+
+@dataclass(frozen=True)
+class GAPhase:
+    """One phase of the binary GA (Tables 2 and 3)."""
+
+    population: int
+    generations: int
+    half_range_m: float  # search box half-width around the phase's centre [m]
+    crossover: float = 0.5  # probability that a pair of parents is crossed
+    mutation: float = 0.01  # probability that a bit flips
+
+
+@dataclass(frozen=True)
+class OptimiserConfig:
+    """Optimiser parameters; defaults are Paper A's."""
+
+    method: str = "gas"
+    initial: GAPhase = GAPhase(200, 50, 0.150)
+    intermediate: GAPhase = GAPhase(150, 8, 0.025)
+    bits: int = 10
+    constants: FitnessConstants = field(default_factory=FitnessConstants)
+    gaex_half_m: float = 0.006
+    gaex_step_m: float = 0.001
+    tournament_size: int = 2
+    elites: int = 1
+    sqp_smoothness_n_per_m2: float = 10.0  # sqp: ε of the tie-break ε·‖ΔP_body‖² [N/m²]
+
+
+@dataclass
+class SampleResult:
+    """The chosen P_body at one sample and how it was found."""
+
+    best: Candidates  # a single evaluated candidate (arrays of length 1)
+    fitness: float
+    evaluations: int
+    phase: str  # 'initial', 'intermediate', 'exhaustive' or 'restart'
+
+    @property
+    def p_body(self) -> np.ndarray:
+        return self.best.p_body[0]
+
+    @property
+    def feasible(self) -> bool:
+        return bool(self.best.feasible[0])
+
+
+# --- binary GA operators (A-14), pure functions -------------------------------------------
+
+
+def decode(genomes: np.ndarray, lb: np.ndarray, ub: np.ndarray, bits: int) -> np.ndarray:
+    """(P, 3·bits) of 0/1 to P_body (P, 3) [m]: lb + (ub − lb)·value / (2^bits − 1) per axis (A-14)."""
+    weights = 1 << np.arange(bits - 1, -1, -1)
+    values = genomes.reshape(len(genomes), 3, bits).astype(np.int64) @ weights
+    return lb + (ub - lb) * values / float((1 << bits) - 1)
+
+
+def genome_keys(genomes: np.ndarray) -> np.ndarray:
+    """One integer per genome (its bit string read as a binary number)."""
+    n = genomes.shape[1]
+    return genomes.astype(np.int64) @ (1 << np.arange(n - 1, -1, -1, dtype=np.int64))
+
+
+def tournament_select(fit: np.ndarray, n: int, size: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of ``n`` parents, each the fittest (lowest ``fit``) of ``size`` drawn at random."""
+    contenders = rng.integers(0, len(fit), size=(n, size))
+    return contenders[np.arange(n), np.argmin(fit[contenders], axis=1)]
+
+
+def single_point_crossover(parents: np.ndarray, rate: float, rng: np.random.Generator) -> np.ndarray:
+    """Children of consecutive parent pairs: with probability ``rate`` their tails after a random cut swap."""
+    children = parents.copy()
+    n_pairs = len(parents) // 2
+    length = parents.shape[1]
+    cross = rng.random(n_pairs) < rate
+    cuts = rng.integers(1, length, size=n_pairs)
+    swap = cross[:, None] & (np.arange(length)[None, :] >= cuts[:, None])  # (pairs, bits)
+    a, b = parents[0:2 * n_pairs:2], parents[1:2 * n_pairs:2]
+    children[0:2 * n_pairs:2] = np.where(swap, b, a)
+    children[1:2 * n_pairs:2] = np.where(swap, a, b)
+    return children
+
+
+def mutate(genomes: np.ndarray, rate: float, rng: np.random.Generator) -> np.ndarray:
+    """Flip each bit with probability ``rate``."""
+    return genomes ^ (rng.random(genomes.shape) < rate).astype(genomes.dtype)
+
+
+def run_ga(objective: Callable[[np.ndarray], np.ndarray], lb: np.ndarray, ub: np.ndarray, phase: GAPhase,
+           bits: int, rng: np.random.Generator, tournament_size: int = 2, elites: int = 1
+           ) -> tuple[np.ndarray, float, int]:
+    """Minimise ``objective`` (P_body (M, 3) → fitness (M,)) over the box [lb, ub].
+
+    Returns the best P_body found, its fitness and the number of distinct candidates evaluated.
+    """
+    cache: dict[int, float] = {}
+    pop = rng.integers(0, 2, size=(phase.population, 3 * bits), dtype=np.uint8)
+    best_f, best_genome = np.inf, pop[0]
+
+    def score(genomes: np.ndarray) -> np.ndarray:
+        keys = genome_keys(genomes)
+        todo = {}
+        for i, key in enumerate(keys.tolist()):
+            if key not in cache and key not in todo:
+                todo[key] = i
+        if todo:
+            idx = np.fromiter(todo.values(), dtype=np.int64)
+            values = objective(decode(genomes[idx], lb, ub, bits))
+            for key, v in zip(todo, values.tolist(), strict=True):
+                cache[key] = v
+        return np.array([cache[k] for k in keys.tolist()])
+
+    for gen in range(phase.generations):
+        fit = score(pop)
+        i = int(np.argmin(fit))
+        if fit[i] < best_f:
+            best_f, best_genome = float(fit[i]), pop[i].copy()
+        if gen == phase.generations - 1:
+            break
+        order = np.argsort(fit, kind="stable")
+        parents = pop[tournament_select(fit, phase.population, tournament_size, rng)]
+        children = mutate(single_point_crossover(parents, phase.crossover, rng), phase.mutation, rng)
+        children[:elites] = pop[order[:elites]]
+        pop = children
+    return decode(best_genome[None], lb, ub, bits)[0], best_f, len(cache)
+
+
+# --- per-sample drivers -----------------------------------------------------------------------
+
+
+def _objective(solver: PostureSolver, problem: SampleProblem, k: FitnessConstants, previous: np.ndarray | None):
+    return lambda p: fitness(evaluate_candidates(solver, problem, p), k, problem.thrust_max_n, previous)
+
+
+def _initial_phase(solver, problem, cfg, rng, nominal):
+    """Table 2's phase: no f3, ±half_range around ``nominal``."""
+    half = cfg.initial.half_range_m
+    p, f, n = run_ga(_objective(solver, problem, cfg.constants, None), nominal - half, nominal + half,
+                     cfg.initial, cfg.bits, rng, cfg.tournament_size, cfg.elites)
+    return p, f, n
+
+
+def exhaustive_cube(solver: PostureSolver, problem: SampleProblem, centre: np.ndarray, half_m: float,
+                    step_m: float, chunk: int = 128) -> tuple[Candidates, int]:
+    """GAEx's local exhaustion: the cube of half-width ``half_m`` at ``step_m`` around ``centre``,
+    nearest first; returns the first feasible candidate (or the one of lowest thrust if none is)
+    and the number evaluated."""
+    n = round(half_m / step_m)
+    ax = np.arange(-n, n + 1) * step_m
+    grid = np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), axis=-1).reshape(-1, 3)
+    order = np.lexsort((grid[:, 2], grid[:, 1], grid[:, 0], np.round(np.sum(grid * grid, axis=1), 12)))
+    grid = centre + grid[order]
+    best, best_thrust, count = None, np.inf, 0
+    for s in range(0, len(grid), chunk):
+        c = evaluate_candidates(solver, problem, grid[s:s + chunk])
+        count += len(c.p_body)
+        hits = np.flatnonzero(c.feasible)
+        if len(hits):
+            return c.take(int(hits[0])), count
+        key = np.where(c.violation >= 10, c.thrust_n, np.inf)
+        i = int(np.argmin(key)) if np.isfinite(key).any() else 0
+        if best is None or key[i] < best_thrust:
+            best, best_thrust = c.take(i), key[i]
+    return best, count
+
+
+def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
+                    previous: np.ndarray | None, nominal: np.ndarray) -> SampleResult:
+    """Choose P_body at one sample with ``cfg.method``.
+
+    Args:
+        previous: P_body at the previous sample of the same step, or None at the step's first sample.
+        nominal: centre of the initial phase's search box [m].
+    """
+    if cfg.method not in METHODS or cfg.method == "sqp":
+        raise ValueError(f"method {cfg.method!r} is not a per-sample optimiser")
+    evals = 0
+    if previous is None:
+        p, f, n = _initial_phase(solver, problem, cfg, rng, nominal)
+        phase = "initial"
+        evals += n
+    elif cfg.method == "gaex":
+        best, n = exhaustive_cube(solver, problem, previous, cfg.gaex_half_m, cfg.gaex_step_m)
+        evals += n
+        if best.feasible[0]:
+            return SampleResult(best, float(fitness(best, cfg.constants, problem.thrust_max_n)[0]), evals,
+                                "exhaustive")
+        p, f, n = _initial_phase(solver, problem, cfg, rng, previous)
+        phase, evals = "restart", evals + n
+    else:
+        prev_f3 = previous if cfg.method == "gas" else None
+        half = cfg.intermediate.half_range_m
+        p, f, n = run_ga(_objective(solver, problem, cfg.constants, prev_f3), previous - half, previous + half,
+                         cfg.intermediate, cfg.bits, rng, cfg.tournament_size, cfg.elites)
+        evals += n
+        phase = "intermediate"
+        best = evaluate_candidates(solver, problem, p[None])
+        if not best.feasible[0]:
+            p, f, n = _initial_phase(solver, problem, cfg, rng, previous)
+            phase, evals = "restart", evals + n
+    best = evaluate_candidates(solver, problem, p[None])
+    return SampleResult(best, float(f), evals, phase)

@@ -1,0 +1,483 @@
+"""A better optimiser for P_body than a binary GA: SLSQP along the swing path, forward then backward.
+
+For one swing sample the problem is 3-variable, bounded and smooth almost everywhere: minimise the
+exact minimal thrust H(P_body) (A-5) subject to (A-8) joint limits, the legs' reach, (A-9)
+0 ≤ F ≤ F_max and (A-10) the edge angle. Sequential quadratic programming (scipy's SLSQP) solves
+such a problem in a few iterations when it starts near the answer, and along a swing path the
+neighbouring sample's P_body is such a start (continuation). Written with the thrust as a variable,
+the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
+closed-form kinematics (``leg_kinematics``), exact to rounding, three postures per gradient.
+
+Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
+that makes it a tie-break (ε = 10 N/m²: a 1 cm move costs 0.001 N; ``optimiser.sqp.
+smoothness_n_per_m2`` in a scenario trades thrust for smoothness) instead of a price (the paper's
+ω = 50 per mm² against 10 per N is 5·10⁶ N/m², which holds P_body back by up to 3 N of thrust).
+An exact optimiser needs no more: wherever the optimum is unique P_body moves continuously with
+the sample; where it is not (no thrust needed) the tie-break keeps P_body still. Two passes make
+the path smooth where a greedy pass cannot know what is coming:
+
+1. *forward*: each sample from the previous sample's P_body (kept when it needs no thrust and
+   holds every constraint; else a predictor, the last move repeated, then the previous P_body
+   itself), inside a ±20 mm trust box (SLSQP's linearisation is poor far away: the closed-form
+   legs change branch in deep crouches); the first sample, or one where that fails, from the three
+   best points of a coarse grid;
+2. *backward*: each sample again (except where the forward pass settled on a thrust optimum
+   inside its box), now from the next sample's final P_body with the tie-break towards it. The
+   result replaces the forward one when its thrust is no higher (within ``ACCEPT_N``). Where no
+   thrust is needed the postures so line up behind the first sample that needs thrust, and the
+   pelvis moves once instead of twice;
+3. *smoothing*: a few sweeps move each P_body towards the midpoint of its neighbours where that
+   holds every constraint and costs at most ``SMOOTH_N`` of thrust (jitter in directions where the
+   thrust is flat).
+
+SLSQP starts are first brought inside the constraints by least-norm Gauss-Newton steps (the
+neighbour's posture is often just outside them: the foot has moved), and an answer that ends a
+hair outside is stepped back in the same way; where SLSQP still fails, a compass search follows.
+Constraints keep small margins, so that postures interpolated between samples (the 50 Hz rows)
+and PlaCo's check of the chosen postures pass too: ZMP 0.1 mm inside the sole, 0.002 rad inside
+the (A-10) cone, 0.002 rad inside the joint limits, the knees bent by at least about 0.05 rad.
+Each chosen P_body is finally evaluated with the planner's posture solver (PlaCo by default); a
+sample that fails there falls back to GAS's initial phase around it.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import minimize
+
+from jethr1_plan.balance_space import DIRECTIONS
+from jethr1_plan.kinematics.closed_form import check_structure, solve_postures
+from jethr1_plan.kinematics.placo import UNREACHABLE, PostureSolver
+from jethr1_plan.optimisers.gas import OptimiserConfig, SampleResult, _initial_phase
+from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
+from jethr1_plan.physics.balance import edge_angle_error, halfplanes, thrust_window
+from jethr1_plan.robot.model import GRAVITY, SIDES, RobotModel
+
+TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
+ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
+BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
+MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
+EDGE_MARGIN_RAD = 0.002  # (A-10) margin [rad]
+JOINT_MARGIN_RAD = 0.002  # joint-limit margin [rad]
+ZMP_MARGIN_M = 1e-4  # ZMP margin inside the support polygon [m]
+REACH_MARGIN_M2 = 1e-4  # L² − ‖hip − ankle‖² ≥ this: the knee stays bent by about 0.05 rad
+FD_STEP = 1e-7  # forward-difference step [m]
+MAX_ITER = 25  # SLSQP iterations per solve
+RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside the constraints
+GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
+SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
+SMOOTH_SWEEPS = 4
+BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
+BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7)
+
+
+@functools.cache
+def limit_mask(robot: RobotModel) -> np.ndarray:
+    """(24,) which of the rows q − lower, upper − q are joint-limit constraints: all but a knee's
+    straight-leg limit, which is the legs' reach; the reach constraint (with its margin) keeps it,
+    and the two together would be degenerate at full stretch."""
+    knee_straight = np.array([n.endswith("_knee") and lo <= 1e-9 for n, lo in
+                              zip(robot.joint_names, robot.lower_rad, strict=True)])
+    return np.concatenate([~knee_straight, np.ones(len(knee_straight), dtype=bool)])
+
+
+class AnalyticSample:
+    """One sample as a smooth program in x = (P_body [m], u = F / (M·g)), on the closed-form legs.
+
+    With the thrust as a variable, the balance condition ZMP ∈ S becomes, for each edge n·z ≤ b of
+    the support polygon, u·a − d ≥ 0 with a = n·P_T − b and d = n·CoM − b (the moment balance
+    divided by M·g): smooth in x, where the closed-form H(P_body) has kinks. Under the robust
+    policy (``balance.thrust_window``) the row is u·(a − X|a|) ≥ d' + Y|d'| with d' = d + ε, and
+    the maximum splits into two smooth rows, u·(a − X|a|) − (1 ± Y)·d' ≥ 0 (a is fixed by the
+    sample's fan, so |a| is a constant). Objective u plus the tie-break
+    ε_s/(M·g)·‖P_body − anchor‖² (ε_s: ``smoothness_n_per_m2``); constraints: the polygon, (A-10),
+    the legs' reach and the joint limits; bounds 0 ≤ u ≤ F_max / (M·g).
+    """
+
+    def __init__(self, robot: RobotModel, problem: SampleProblem, anchor: np.ndarray | None,
+                 smoothness_n_per_m2: float = 10.0, margin_scale: float = 1.0):
+        self.robot, self.problem, self.anchor = robot, problem, anchor
+        self.eps = smoothness_n_per_m2
+        self.margins = margin_scale * np.array([EDGE_MARGIN_RAD, REACH_MARGIN_M2, JOINT_MARGIN_RAD, ZMP_MARGIN_M])
+        st = problem.stance
+        self.feet = {s: (st.foot_pose(s)[:3, 3], st.support_yaw if s == st.support_side else st.swing_yaw)
+                     for s in SIDES}
+        g = check_structure(robot)
+        self.reach = g.thigh_m + g.shank_m
+        self.hip = g.hip_offset_m
+        self.up = np.array([0.0, 0.0, g.ankle_height_m])
+        self.weight = problem.mass_kg * GRAVITY
+        self.normals, offsets = halfplanes(problem.support_polygon)
+        self.offsets = offsets - self.margins[3]
+        tol = problem.tolerance
+        a = self.normals @ problem.fan_xy - self.offsets
+        self.coef = a - tol.thrust * np.abs(a)  # dg/du of every balance row
+        self.mass_factors = np.array([1.0 + tol.mass, 1.0 - tol.mass]) if tol.mass > 0 else np.ones(1)
+        self.coef_rows = np.tile(self.coef, len(self.mass_factors))
+        self.u_max = problem.thrust_max_n / self.weight
+        self.evaluations = 0
+        self._cache: dict[bytes, tuple] = {}
+        self._limit_mask = limit_mask(robot)
+
+    def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CoM (M, 3) [m], the P-only constraints (M, K) (≥ 0 when held) and the exact minimal
+        thrust (M,) [N] for P_body (M, 3) [m]."""
+        pr = self.problem
+        self.evaluations += len(P)
+        q, com, status = solve_postures(self.robot, P, pr.stance.body_yaw, self.feet)
+        edge = edge_angle_error(pr.edge_origin_xy, com[:, :2], pr.ankle_xy)
+        c, s = np.cos(pr.stance.body_yaw), np.sin(pr.stance.body_yaw)
+        reach = []
+        for side, sgn in (("left", 1.0), ("right", -1.0)):  # hip − ankle, as in leg_kinematics.leg_ik
+            d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
+            reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - self.margins[1])
+        lo, hi = self.robot.lower_rad, self.robot.upper_rad
+        # out of reach the closed form returns a stretched leg whose knee sits on its limit with no
+        # gradient; there the reach constraints alone (which have one) lead back
+        limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
+        cons = np.column_stack([pr.rho_rad - edge - self.margins[0], *reach, limits[:, self._limit_mask]])
+        thrust, _ = thrust_window(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg, pr.tolerance)
+        return com, cons, thrust
+
+    def _constraints(self, x: np.ndarray, com_xy: np.ndarray, cons: np.ndarray) -> np.ndarray:
+        """All constraint values (≥ 0 when held) at x, from the CoM and the P-only constraints."""
+        d = com_xy @ self.normals.T - self.offsets + self.problem.tolerance.com_m
+        poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
+        return np.concatenate([poly, cons])
+
+    def _values(self, x: np.ndarray) -> np.ndarray:
+        key = x.tobytes()
+        if key not in self._cache:
+            com, cons, _ = self.posture_terms(x[None, :3])
+            self._cache[key] = self._constraints(x, com[0, :2], cons[0])
+        return self._cache[key]
+
+    def _jacobian(self, x: np.ndarray) -> np.ndarray:
+        """(C, 4): forward differences in P_body (three postures in one batch), exact in u."""
+        g0 = self._values(x)
+        com, cons, _ = self.posture_terms(x[:3] + FD_STEP * np.eye(3))
+        g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
+        dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
+        return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
+
+    def _objective(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """u plus the tie-break, and its gradient: no posture needed."""
+        obj, grad = float(x[3]), np.array([0.0, 0.0, 0.0, 1.0])
+        if self.anchor is not None:
+            d = x[:3] - self.anchor
+            k = self.eps / self.weight
+            obj += k * float(d @ d)
+            grad[:3] += 2 * k * d
+        return obj, grad
+
+    def feasible(self, P: np.ndarray) -> tuple[bool, float]:
+        """Whether P_body (3,) holds every constraint (within MARGIN), and its exact thrust [N]."""
+        _, cons, thrust = self.posture_terms(P[None])
+        t = float(thrust[0])
+        ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and t <= self.problem.thrust_max_n
+        return ok, t
+
+    def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6, max_step: float = 0.005
+                ) -> np.ndarray:
+        """Least-norm Gauss-Newton steps that bring slightly violated P-only constraints back to
+        ``target`` (the constraints' own units); four postures per step."""
+        P = P.copy()
+        for _ in range(iterations):
+            _, c0, _ = self.posture_terms(P[None])
+            bad = c0[0] < target
+            if not bad.any():
+                break
+            _, c1, _ = self.posture_terms(P + FD_STEP * np.eye(3))
+            J = ((c1 - c0) / FD_STEP).T[bad]  # (V, 3)
+            step, *_ = np.linalg.lstsq(J, target - c0[0][bad], rcond=None)
+            if not np.all(np.isfinite(step)) or np.linalg.norm(step) > max_step:
+                break
+            P = P + step
+        return P
+
+    def solve(self, p0: np.ndarray, bounds: list[tuple[float, float]] | None = None
+              ) -> tuple[np.ndarray, float, bool]:
+        """SLSQP from P_body ``p0`` [m] (first brought inside the P-only constraints by ``restore``
+        where it is outside them); returns (P_body, exact minimal thrust [N], feasible)."""
+        p0 = self.restore(p0, iterations=RESTORE_START_ITER, max_step=TRUST_M)
+        if bounds is not None:
+            p0 = np.clip(p0, [b[0] for b in bounds], [b[1] for b in bounds])
+        _, _, thrust0 = self.posture_terms(p0[None])
+        u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
+        box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
+        res = minimize(self._objective, np.append(p0, u0), jac=True, method="SLSQP", bounds=box,
+                       options={"maxiter": MAX_ITER, "ftol": 1e-7},
+                       constraints=[{"type": "ineq", "fun": self._values, "jac": self._jacobian}])
+        P = np.asarray(res.x[:3], dtype=float)
+        ok, t = self.feasible(P)
+        if not ok:  # SLSQP often ends a hair outside (at a leg's full stretch it zig-zags): step back in
+            P = self.restore(P)
+            ok, t = self.feasible(P)
+        return P, t, ok
+
+
+def _penalised(sample: AnalyticSample, P: np.ndarray) -> np.ndarray:
+    """Thrust [N] plus exact penalties for violated constraints, plus the tie-break (M,)."""
+    _, cons, thrust = sample.posture_terms(P)
+    viol = np.maximum(-cons, 0.0)
+    obj = np.where(np.isfinite(thrust), thrust, 1e3) + 5e3 * viol[:, 0] + 1e3 * viol[:, 1:].sum(axis=1)
+    if sample.anchor is not None:
+        obj = obj + sample.eps * np.sum((P - sample.anchor) ** 2, axis=1)
+    return obj
+
+
+def compass(sample: AnalyticSample, p0: np.ndarray, step: float = 0.004, min_step: float = 0.0005,
+            max_iter: int = 40) -> np.ndarray:
+    """A 26-neighbour pattern search on the penalised thrust: the fallback where SLSQP stalls."""
+    p = np.asarray(p0, dtype=float)
+    f = float(_penalised(sample, p[None])[0])
+    for _ in range(max_iter):
+        if step < min_step:
+            break
+        cand = p + step * DIRECTIONS
+        obj = _penalised(sample, cand)
+        j = int(np.argmin(obj))
+        if obj[j] < f - 1e-12:
+            p, f = cand[j], float(obj[j])
+        else:
+            step *= 0.5
+    return p
+
+
+def grid_starts(sample: AnalyticSample, centre: np.ndarray, half: float, k: int = 3) -> list[np.ndarray]:
+    """The ``k`` best points of a coarse grid (``GRID``) over the box ``centre`` ± ``half`` [m]:
+    least thrust among the feasible ones, then the least constraint violation."""
+    axes = [np.linspace(-half, half, n) for n in GRID]
+    grid = centre + np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    _, cons, thrust = sample.posture_terms(grid)
+    violation = np.sum(np.minimum(cons, 0.0) ** 2, axis=1) + np.where(np.isfinite(thrust), 0.0, 1.0)
+    order = np.lexsort((np.where(np.isfinite(thrust), thrust, np.inf), violation))
+    return [grid[i] for i in order[:k]]
+
+
+class Found(NamedTuple):
+    """A sample's chosen P_body [m], its exact minimal thrust [N], and whether SLSQP settled inside
+    its trust box (the box did not hold it back)."""
+
+    p: np.ndarray
+    thrust: float
+    settled: bool
+
+
+def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
+    return [(float(c) - half, float(c) + half) for c in centre]
+
+
+def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.ndarray | None = None
+                         ) -> Found | None:
+    """SLSQP inside the trust box around the neighbour's P_body ``centre``, from ``guess`` and then,
+    if that fails, from the centre; the compass search from the centre where both end infeasible.
+
+    Returns None where nothing feasible was found.
+    """
+    box = _box(centre, TRUST_M)
+    starts = [centre.copy()]
+    if guess is not None:
+        starts.insert(0, np.clip(guess, centre - TRUST_M, centre + TRUST_M))
+    for start in starts:
+        x, f, ok = sample.solve(start, box)
+        if ok:
+            return Found(x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4)))
+    x = compass(sample, centre)
+    ok, f = sample.feasible(x)
+    return Found(x, f, False) if ok else None
+
+
+def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> Found | None:
+    """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
+    best = None
+    for x0 in grid_starts(sample, centre, half):
+        x, f, ok = sample.solve(x0, _box(centre, half))
+        if not ok:
+            x = compass(sample, x0, step=0.016)
+            ok, f = sample.feasible(x)
+        if ok and (best is None or f < best.thrust - 1e-9):
+            best = Found(x, f, False)
+    return best
+
+
+def largest_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, half: float,
+                      iterations: int = 7) -> tuple[float, np.ndarray | None]:
+    """The largest k in [0, 1] for which some P_body balances ``problem`` within k × its tolerance
+    (every other constraint held, thrust within F_max), by bisection on k; each k is an SLSQP solve
+    from the best points of a grid over ``centre`` ± ``half`` [m] (a local answer: a lower bound).
+
+    Returns (k, that P_body [m]); (0.0, None) where not even the nominal problem is solved.
+    """
+    from dataclasses import replace
+
+    def solve(k: float) -> np.ndarray | None:
+        sample = AnalyticSample(robot, replace(problem, tolerance=problem.tolerance.scaled(k)), None)
+        found = solve_from_grid(sample, centre, half)
+        return None if found is None else found.p
+
+    best = solve(0.0)
+    if best is None:
+        return 0.0, None
+    lo, hi = 0.0, 1.0
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        p = solve(mid)
+        if p is None:
+            hi = mid
+        else:
+            lo, best = mid, p
+    return lo, best
+
+
+def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
+                sweeps: int = SMOOTH_SWEEPS) -> None:
+    """Sweeps that move each P_body towards the midpoint of its neighbours (full, half or quarter
+    way, the first that holds), as long as every constraint holds and the thrust rises by at most
+    ``SMOOTH_N``: the jitter a local optimum leaves in directions where the thrust is flat goes,
+    the thrust stays within SMOOTH_N of what was found. Updates ``found`` and ``evals`` in place."""
+    n = len(found)
+    base = [None if f is None else f.thrust for f in found]  # the thrusts the optimiser found
+    for _ in range(sweeps):
+        for i in range(1, n - 1):
+            a, b, cur = found[i - 1], found[i + 1], found[i]
+            if a is None or b is None or cur is None:
+                continue
+            mid = 0.5 * (a.p + b.p)
+            if np.linalg.norm(mid - cur.p) < 1e-5:
+                continue
+            sample = AnalyticSample(robot, problems[i], None)
+            for alpha in (1.0, 0.5, 0.25):
+                p = cur.p + alpha * (mid - cur.p)
+                ok, t = sample.feasible(p)
+                if ok and t <= base[i] + SMOOTH_N:
+                    found[i] = Found(p, t, cur.settled)
+                    break
+            evals[i] += sample.evaluations
+
+
+def infeasible_between(robot: RobotModel, found: list[Found | None], between: Callable[[int, float], SampleProblem],
+                       evals: np.ndarray, fractions: dict[int, list[float]] | None = None) -> list[int]:
+    """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
+    the sequence builds there interpolate P_body and the swing sole linearly. Checked without
+    margins at ``fractions[i]`` (the fractions of the way at which the rows fall), or, without
+    them, at a quarter, half and three quarters of the way."""
+    bad = []
+    for i in range(len(found) - 1):
+        if found[i] is None or found[i + 1] is None:
+            continue
+        for lam in (BETWEEN if fractions is None else fractions.get(i, ())):
+            sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
+            ok, _ = sample.feasible((1 - lam) * found[i].p + lam * found[i + 1].p)
+            evals[i] += sample.evaluations
+            if not ok:
+                bad.append(i)
+                break
+    return bad
+
+
+def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
+                      nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator],
+                      between: Callable[[int, float], SampleProblem] | None = None,
+                      row_positions: np.ndarray | None = None) -> list[SampleResult]:
+    """P_body at every sample of one swing path (see the module docstring).
+
+    Args:
+        problems: the samples in path order.
+        nominals: per sample, the centre of the search box where no neighbour helps [m].
+        rngs: per sample, the random stream of the GA fallback.
+        between: ``between(i, λ)``, the problem at the fraction λ of the way from sample i to i + 1
+            (the swing sole interpolated as the sequence does); with it, segments whose interpolated
+            postures break a constraint get their two samples re-solved with wider margins.
+        row_positions: the fractional sample indices at which the output rows fall
+            (``sequence.swing_row_positions``): the segments are checked exactly there.
+    """
+    n = len(problems)
+    half = cfg.initial.half_range_m
+    eps = cfg.sqp_smoothness_n_per_m2
+    found: list[Found | None] = [None] * n
+    evals = np.zeros(n, dtype=np.int64)
+    phase = ["sqp"] * n
+    # forward pass
+    for i in range(n):
+        prev = found[i - 1] if i else None
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps)
+        r = None
+        if prev is not None:
+            ok, f = sample.feasible(prev.p)
+            if ok and f == 0.0:  # no thrust needed and no move: the optimum of u + tie-break
+                r = Found(prev.p.copy(), 0.0, True)
+            else:  # predictor: the last move repeated; corrector: SLSQP
+                before = found[i - 2] if i >= 2 else None
+                guess = 2 * prev.p - before.p if before is not None and before.thrust > 0 else None
+                r = solve_from_neighbour(sample, prev.p, guess)
+                if r is None and guess is not None:  # the box moved on along the path
+                    r = solve_from_neighbour(sample, guess)
+                for _ in range(BOX_MOVES):  # the box held the answer back: move it there and go on
+                    if r is None or r.settled:
+                        break
+                    r2 = solve_from_neighbour(sample, r.p)
+                    if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
+                        break
+                    r = r2
+        if r is None:
+            r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, half)
+            phase[i] = "sqp-grid"
+        found[i] = r
+        evals[i] += sample.evaluations
+    # backward pass
+    for i in range(n - 2, -1, -1):
+        nxt, cur = found[i + 1], found[i]
+        if nxt is None:
+            continue
+        sample = AnalyticSample(robot, problems[i], nxt.p, eps)
+        ok, f = sample.feasible(nxt.p)  # the next posture itself, when it serves as well, is the answer
+        if ok and cur is not None and f <= cur.thrust + ACCEPT_N:
+            r = Found(nxt.p.copy(), f, True)
+        elif cur is not None and cur.thrust > 0 and cur.settled:
+            r = None  # the forward pass settled on a thrust optimum there: nothing to gain
+        else:
+            r = solve_from_neighbour(sample, nxt.p)
+        evals[i] += sample.evaluations
+        if r is not None and (cur is None or r.thrust <= cur.thrust + ACCEPT_N):
+            found[i] = r
+    smooth_path(robot, problems, found, evals)
+    scale = np.ones(n)
+    fractions = None
+    if row_positions is not None:
+        fractions = {}
+        for u in np.asarray(row_positions, dtype=float):
+            i = int(np.floor(u))
+            if u - i > 1e-12 and i < n - 1:
+                fractions.setdefault(i, []).append(float(u - i))
+    for _ in range(BETWEEN_ROUNDS if between is not None else 0):
+        bad = infeasible_between(robot, found, between, evals, fractions)
+        if not bad:
+            break
+        redo = sorted({j for i in bad for j in (i, i + 1)})
+        scale[redo] *= 2.0
+        for j in redo:
+            anchor = found[j - 1].p if j and found[j - 1] is not None else None
+            sample = AnalyticSample(robot, problems[j], anchor, eps, margin_scale=scale[j])
+            r = solve_from_neighbour(sample, found[j].p)
+            evals[j] += sample.evaluations
+            if r is not None:
+                found[j] = r
+    # the chosen postures, evaluated with the planner's solver
+    out = []
+    for i, pr in enumerate(problems):
+        p = found[i].p if found[i] is not None else nominals[i]
+        cand = evaluate_candidates(solver, pr, p[None])
+        evals[i] += 1
+        if not cand.feasible[0]:
+            p, _, m = _initial_phase(solver, pr, cfg, rngs[i], p)
+            cand = evaluate_candidates(solver, pr, p[None])
+            evals[i] += m + 1
+            phase[i] = "restart"
+        f = float(fitness(cand, cfg.constants, pr.thrust_max_n)[0])
+        out.append(SampleResult(cand, f, int(evals[i]), phase[i]))
+    return out

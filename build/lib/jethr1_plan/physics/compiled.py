@@ -1,0 +1,350 @@
+"""The per-candidate physics, compiled (numba): the one implementation every caller uses.
+
+* both legs' closed-form IK and the whole-body CoM (:func:`postures`; ``leg_kinematics.solve_postures``);
+* the thrust window of (A-1, A-2) under any tolerance (:func:`windows`; ``balance.thrust_window``);
+* the edge angle of (A-10) (:func:`edge_errors`; ``balance.edge_angle_error``);
+* the legs' reach balls (:func:`into_reach`), and the balance-space objective fusing all of them in
+  one loop per candidate (:func:`balance_objective`).
+
+In numpy the objective is ~1,300 array operations per batch, each a pass over memory; here one loop
+whose per-candidate arithmetic stays in registers (about 10x faster). The numpy statements of the
+same formulas are the tests' oracles (``tests/leg_oracle.py``, ``tests/oracle.py``); the tests hold
+the two to rounding. Everything robot-specific comes in as arrays built from the URDF model by
+``leg_kinematics`` (``closed_form_arrays``, ``kernel_params``).
+
+Units: m, rad, kg, N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE
+
+# reason codes, as balance_space
+MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)
+
+
+@numba.njit(cache=True, inline="always")
+def _rot_zxyx(cz, sz, cx, sx, cy, sy, v0, v1, v2, cx2, sx2):
+    """Rz·Rx·Ry·Rx2 applied to (v0, v1, v2), as leg_kinematics._rot_zxyx (angles as cosine, sine)."""
+    x, y, z = v0, v1, v2
+    y, z = cx2 * y - sx2 * z, sx2 * y + cx2 * z
+    z, x = cy * z - sy * x, sy * z + cy * x
+    y, z = cx * y - sx * z, sx * y + cx * z
+    x, y = cz * x - sz * y, sz * x + cz * y
+    return x, y, z
+
+
+@numba.njit(cache=True, inline="always")
+def _cos_sin(y, x):
+    """cos and sin of atan2(y, x) without the angle (1, 0 where x = y = 0, as atan2(0, 0) = 0)."""
+    n = math.sqrt(x * x + y * y)
+    if n == 0.0:
+        return 1.0, 0.0
+    return x / n, y / n
+
+
+@numba.njit(cache=True)
+def _leg_ik(q, cs, k0, sgn, geom, px, py, pz, cty, sty, fx, fy, fz, cf, sf):
+    """One flat foot's leg in closed form (Kajita et al., Introduction to Humanoid Robotics, §2.5): the
+    trunk level at yaw (cos, sin) = (cty, sty) with its origin at (px, py, pz), the sole at
+    (fx, fy, fz) turned by the foot yaw (cos, sin) = (cf, sf).
+
+    Writes the six joints [rad] into q[k0:k0+6] and their cosines and sines into cs[k0:k0+6] (the
+    CoM needs those, and they follow from the IK's triangle without calling cos and sin again).
+    Returns whether the leg reaches.
+    """
+    w, a, b, ah = geom[0], geom[1], geom[2], geom[3]
+    h0 = px - sty * (sgn * w) - fx  # hip − ankle in the world
+    h1 = py + cty * (sgn * w) - fy
+    r0, r1 = cf * h0 + sf * h1, -sf * h0 + cf * h1  # ... in the foot frame
+    r2 = pz - (fz + ah)
+    c = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    cos_k = (a * a + b * b - c * c) / (2 * a * b)
+    reach = cos_k >= -1.0 and cos_k <= 1.0 and c > 0
+    cos_k = min(max(cos_k, -1.0), 1.0)
+    knee = math.pi - math.acos(cos_k)
+    c4, s4 = -cos_k, math.sqrt(1.0 - cos_k * cos_k)
+    ankle_roll = math.atan2(r1, r2)
+    c6, s6 = _cos_sin(r1, r2)
+    sin_alpha = min(max(a * s4 / (c if c > 0 else 1.0), -1.0), 1.0)
+    alpha = math.asin(sin_alpha)
+    cos_alpha = math.sqrt(1.0 - sin_alpha * sin_alpha)
+    g = (1.0 if r2 > 0 else (-1.0 if r2 < 0 else 0.0)) * math.sqrt(r1 * r1 + r2 * r2)
+    beta = math.atan2(r0, g)
+    cb_, sb_ = _cos_sin(r0, g)
+    ankle_pitch = -beta - alpha
+    c5, s5 = cb_ * cos_alpha - sb_ * sin_alpha, -(sb_ * cos_alpha + cb_ * sin_alpha)
+    ck, sk = c4 * c5 - s4 * s5, s4 * c5 + c4 * s5  # knee + ankle pitch
+    # hip: Rz(δ) Rx(−roll) Ry(−(knee + pitch)) = Rz(q1) Rx(q2) Ry(q3), δ = foot yaw − trunk yaw: the
+    # five entries used
+    sd, cd = sf * cty - cf * sty, cf * cty + sf * sty
+    r01, r11, r21, r20, r22 = -sd * c6, cd * c6, -s6, c6 * sk, c6 * ck
+    hip_yaw = math.atan2(-r01, r11)
+    c1, s1 = _cos_sin(-r01, r11)
+    t = -r01 * s1 + r11 * c1
+    hip_roll = math.atan2(r21, t)
+    c2, s2 = _cos_sin(r21, t)
+    hip_pitch = math.atan2(-r20, r22)
+    c3, s3 = _cos_sin(-r20, r22)
+    q[k0], q[k0 + 1], q[k0 + 2] = hip_yaw, hip_roll, hip_pitch
+    q[k0 + 3], q[k0 + 4], q[k0 + 5] = knee, ankle_pitch, ankle_roll
+    cs[k0, 0], cs[k0 + 1, 0], cs[k0 + 2, 0], cs[k0 + 3, 0], cs[k0 + 4, 0], cs[k0 + 5, 0] = c1, c2, c3, c4, c5, c6
+    cs[k0, 1], cs[k0 + 1, 1], cs[k0 + 2, 1], cs[k0 + 3, 1], cs[k0 + 4, 1], cs[k0 + 5, 1] = s1, s2, s3, s4, s5, s6
+    return reach
+
+
+@numba.njit(cache=True)
+def _com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
+    """Whole-body CoM (leg_kinematics.fast_com) from the joints' cosines and sines ``cs`` (12, 2):
+    trunk, then the left leg's six links, then the right's."""
+    x, y, z = _rot_zxyx(cyaw, syaw, 1.0, 0.0, 1.0, 0.0, trunk[1], trunk[2], trunk[3], 1.0, 0.0)
+    m_t = trunk[0]
+    mx, my, mz = m_t * (px + x), m_t * (py + y), m_t * (pz + z)
+    total = m_t
+    for leg in range(2):
+        k0 = 6 * leg
+        c1, c2, c3, c4, c5, c6 = cs[k0, 0], cs[k0 + 1, 0], cs[k0 + 2, 0], cs[k0 + 3, 0], cs[k0 + 4, 0], cs[k0 + 5, 0]
+        s1, s2, s3, s4, s5, s6 = cs[k0, 1], cs[k0 + 1, 1], cs[k0 + 2, 1], cs[k0 + 3, 1], cs[k0 + 4, 1], cs[k0 + 5, 1]
+        jx = joints[leg]
+        hx, hy, hz = _rot_zxyx(cyaw, syaw, 1.0, 0.0, 1.0, 0.0, jx[0, 0], jx[0, 1], jx[0, 2], 1.0, 0.0)
+        hip0, hip1, hip2 = px + hx, py + hy, pz + hz
+        cz, sz = cyaw * c1 - syaw * s1, syaw * c1 + cyaw * s1  # yaw + q1
+        c34, s34 = c3 * c4 - s3 * s4, s3 * c4 + c3 * s4
+        c345, s345 = c34 * c5 - s34 * s5, s34 * c5 + c34 * s5
+        kx, ky, kz = _rot_zxyx(cz, sz, c2, s2, c3, s3, jx[1, 0], jx[1, 1], jx[1, 2], 1.0, 0.0)
+        kn0, kn1, kn2 = hip0 + kx, hip1 + ky, hip2 + kz
+        ax, ay, az = _rot_zxyx(cz, sz, c2, s2, c34, s34, jx[2, 0], jx[2, 1], jx[2, 2], 1.0, 0.0)
+        an0, an1, an2 = kn0 + ax, kn1 + ay, kn2 + az
+        for i in range(6):
+            m = links[leg, i, 0]
+            cr, sr, cp, sp, cr2, sr2 = c2, s2, 1.0, 0.0, 1.0, 0.0
+            o0, o1, o2 = hip0, hip1, hip2
+            if i == 0:
+                cr, sr = 1.0, 0.0
+            elif i == 2:
+                cp, sp = c3, s3
+            elif i == 3:
+                cp, sp = c34, s34
+                o0, o1, o2 = kn0, kn1, kn2
+            elif i >= 4:
+                cp, sp = c345, s345
+                o0, o1, o2 = an0, an1, an2
+                if i == 5:
+                    cr2, sr2 = c6, s6
+            vx, vy, vz = _rot_zxyx(cz, sz, cr, sr, cp, sp, links[leg, i, 1], links[leg, i, 2], links[leg, i, 3],
+                                   cr2, sr2)
+            mx, my, mz = mx + m * (o0 + vx), my + m * (o1 + vy), mz + m * (o2 + vz)
+            total += m
+    return mx / total, my / total, mz / total
+
+
+@numba.njit(cache=True, inline="always")
+def _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """(lo, hi, blocked) of balance.thrust_window for one CoM and one fan: per edge k,
+    F·(a_k − X|a_k|) ≥ M·g·((d_k + ε) + Y|d_k + ε|), d_k and a_k the CoM's and the fan's distances beyond
+    edge k; ``blocked`` where an edge no thrust moves the ZMP across lies on the wrong side."""
+    lo, hi = 0.0, weight * (1.0 - tol_mass) / (1.0 + tol_thrust) * (1.0 - 1e-9)
+    blocked = False
+    for k in range(len(offsets)):
+        d = cx * normals[k, 0] + cy * normals[k, 1] - offsets[k] + tol_com
+        a = fx * normals[k, 0] + fy * normals[k, 1] - offsets[k]
+        rhs = weight * (d + tol_mass * abs(d))
+        coef = a - tol_thrust * abs(a)
+        if coef > 0:
+            lo = max(lo, rhs / coef)
+        elif coef < 0:
+            hi = min(hi, rhs / coef)
+        elif rhs > 0:
+            blocked = True
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True)
+def _thrust_lo(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """The window's lower end for one CoM (inf where the window is empty). With the tolerance zero this
+    is the minimal thrust H(P_body) of (A-5)."""
+    lo, hi, blocked = _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com)
+    return lo if (lo <= hi and not blocked) else np.inf
+
+
+@numba.njit(cache=True)
+def windows(com, fan, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """balance.window_bounds over rows: com, fan (N, 2) [m] → lo, hi (N,) [N], blocked (N,)."""
+    n = len(com)
+    lo, hi, blocked = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
+    for j in range(n):
+        lo[j], hi[j], blocked[j] = _window(com[j, 0], com[j, 1], fan[j, 0], fan[j, 1], normals, offsets, weight,
+                                           tol_thrust, tol_mass, tol_com)
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True, inline="always")
+def _edge_error(ox, oy, cx, cy, ax, ay):
+    """|θ_ZC − θ_CA| of (A-10) wrapped to [0, π] [rad]: the unsigned angle between origin→CoM and
+    CoM→ankle, atan2(|u×v|, u·v); 0 where either is shorter than 1e-9 m (undefined)."""
+    zc0, zc1 = cx - ox, cy - oy
+    ca0, ca1 = ax - cx, ay - cy
+    if math.sqrt(zc0 * zc0 + zc1 * zc1) < 1e-9 or math.sqrt(ca0 * ca0 + ca1 * ca1) < 1e-9:
+        return 0.0
+    return math.atan2(abs(zc0 * ca1 - zc1 * ca0), zc0 * ca0 + zc1 * ca1)
+
+
+@numba.njit(cache=True)
+def edge_errors(origin, com, ankle):
+    """balance.edge_angle_error over rows: origin, com, ankle (N, 2) [m] → (N,) [rad]."""
+    n = len(com)
+    out = np.empty(n)
+    for j in range(n):
+        out[j] = _edge_error(origin[j, 0], origin[j, 1], com[j, 0], com[j, 1], ankle[j, 0], ankle[j, 1])
+    return out
+
+
+@numba.njit(cache=True)
+def postures(P, yaw, feet, feet_yaw, geom, trunk, joints, links, limits):
+    """Both legs in closed form and the whole-body CoM for trunk positions P (N, 3) [m] at yaws (N,) [rad],
+    the soles at feet (N, 2, 3) [m] (left, right) turned by feet_yaw (N, 2) [rad]: joints (N, 12) [rad],
+    CoM (N, 3) [m], status (N,) (kinematics.OK, UNREACHABLE or JOINT_LIMIT)."""
+    n = len(P)
+    q_out, com_out = np.empty((n, 12)), np.empty((n, 3))
+    status = np.empty(n, dtype=np.int8)
+    q = np.empty(12)
+    cs = np.empty((12, 2))
+    for j in range(n):
+        px, py, pz = P[j, 0], P[j, 1], P[j, 2]
+        cty, sty = math.cos(yaw[j]), math.sin(yaw[j])
+        reach = True
+        for leg in range(2):
+            sgn = 1.0 if leg == 0 else -1.0
+            fyaw = feet_yaw[j, leg]
+            reach &= _leg_ik(q, cs, 6 * leg, sgn, geom, px, py, pz, cty, sty, feet[j, leg, 0], feet[j, leg, 1],
+                             feet[j, leg, 2], math.cos(fyaw), math.sin(fyaw))
+        within = True
+        for k in range(12):
+            within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
+            q_out[j, k] = q[k]
+        status[j] = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
+        com_out[j, 0], com_out[j, 1], com_out[j, 2] = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
+    return q_out, com_out, status
+
+
+@numba.njit(cache=True)
+def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support,
+                      scalars):
+    """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
+
+    As ``balance_space._Evaluator``: an unreachable posture scores 4000 + 1e4·(reach excess [m]), one
+    beyond the joint limits 3000 + 1e3·(excess [rad]), one no thrust balances 2000 + 1e3·(CoM to the
+    support centre [m]); otherwise F* + (edge penalty)·(A-10 excess [deg]). The thrust is inf unless
+    the posture is a member or only above the fan's maximum.
+    """
+    n = len(idx)
+    obj = np.empty(n)
+    thrust_out = np.empty(n)
+    reason = np.empty(n, dtype=np.int8)
+    q = np.empty(12)
+    cs = np.empty((12, 2))
+    sup_sgn, rho, thrust_max, weight, edge_pen = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
+    tol_thrust, tol_mass, tol_com = scalars[5], scalars[6], scalars[7]
+    w, L, ah = geom[0], geom[1] + geom[2], geom[3]
+    for j in range(n):
+        c = idx[j]
+        px, py, pz = P[j, 0], P[j, 1], P[j, 2]
+        ty = yaw[c]
+        cty, sty = math.cos(ty), math.sin(ty)
+        sx, sy, sz = swing[c, 0], swing[c, 1], swing[c, 2]
+        reach = True
+        for leg in range(2):  # left, right
+            sgn = 1.0 if leg == 0 else -1.0
+            if sgn == sup_sgn:
+                fx, fy, fz = support[0], support[1], support[2]
+            else:
+                fx, fy, fz = sx, sy, sz
+            reach &= _leg_ik(q, cs, 6 * leg, sgn, geom, px, py, pz, cty, sty, fx, fy, fz, 1.0, 0.0)
+        within = True
+        limit_excess = 0.0
+        for k in range(12):
+            limit_excess += max(limits[0, k] - q[k], 0.0) + max(q[k] - limits[1, k], 0.0)
+            within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
+        status = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
+        cx, cy, _ = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
+        f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
+        edge = max(_edge_error(support[0], support[1], cx, cy, sx, sy) - rho, 0.0)
+        if status == UNREACHABLE:
+            # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank
+            ox, oy = sty * (sup_sgn * w), -cty * (sup_sgn * w)
+            ds = math.sqrt((px - (support[0] + ox)) ** 2 + (py - (support[1] + oy)) ** 2
+                           + (pz - (support[2] + ah)) ** 2)
+            ds_w = math.sqrt((px - (sx - ox)) ** 2 + (py - (sy - oy)) ** 2 + (pz - (sz + ah)) ** 2)
+            obj[j] = 4000 + 1e4 * max(max(ds, ds_w) - L, 0.0)
+            reason[j] = OUT_OF_REACH
+        elif status == JOINT_LIMIT:
+            obj[j] = 3000 + 1e3 * limit_excess
+            reason[j] = LIMITS
+        elif not math.isfinite(f):
+            obj[j] = 2000 + 1e3 * math.sqrt((cx - support[0]) ** 2 + (cy - support[1]) ** 2)
+            reason[j] = NO_BALANCE
+        else:
+            obj[j] = f + edge_pen * math.degrees(edge)
+            reason[j] = EDGE if edge > 0 else (ABOVE_MAX if f > thrust_max else MEMBER)
+        thrust_out[j] = f if (reason[j] == MEMBER or reason[j] == ABOVE_MAX) else np.inf
+    return obj, thrust_out, reason
+
+
+@numba.njit(cache=True, inline="always")
+def _onto_ball(p0, p1, p2, c0, c1, c2, d, radius, o0, o1, o2):
+    """P at distance ``d`` from centre c moved onto c's ball of ``radius``; and whether it lands
+    within ``radius`` of the other centre o."""
+    s = radius / d
+    q0, q1, q2 = c0 + (p0 - c0) * s, c1 + (p1 - c1) * s, c2 + (p2 - c2) * s
+    return (q0 - o0) ** 2 + (q1 - o1) ** 2 + (q2 - o2) ** 2 <= radius * radius, q0, q1, q2
+
+
+@numba.njit(cache=True)
+def into_reach(P, idx, centre_w, centre_s, radius):
+    """P (M, 3) [m] projected onto the intersection of the two legs' reach balls (radius ``radius``
+    [m] around the cells' swing and support centres, rows ``idx``): the nearest point from which both
+    legs reach. Points already inside are unchanged; where the balls do not meet, P is returned.
+    A new array.
+    """
+    out = P.copy()
+    for j in range(len(idx)):
+        c = idx[j]
+        a0, a1, a2 = centre_w[c, 0], centre_w[c, 1], centre_w[c, 2]
+        b0, b1, b2 = centre_s[c, 0], centre_s[c, 1], centre_s[c, 2]
+        p0, p1, p2 = P[j, 0], P[j, 1], P[j, 2]
+        da = math.sqrt((p0 - a0) ** 2 + (p1 - a1) ** 2 + (p2 - a2) ** 2)
+        db = math.sqrt((p0 - b0) ** 2 + (p1 - b1) ** 2 + (p2 - b2) ** 2)
+        if da <= radius and db <= radius:
+            continue
+        if da > radius:  # onto the swing ball; done if that lands inside the support ball
+            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, a0, a1, a2, da, radius, b0, b1, b2)
+            if inside:
+                out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
+                continue
+        if db > radius:  # onto the support ball; done if that lands inside the swing ball
+            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, b0, b1, b2, db, radius, a0, a1, a2)
+            if inside:
+                out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
+                continue
+        # onto the circle where the two spheres meet: centre halfway, radius √(R² − (h/2)²), in the
+        # plane normal to the line of centres
+        e0, e1, e2 = b0 - a0, b1 - a1, b2 - a2
+        h = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if h == 0.0 or h > 2 * radius:
+            continue
+        e0, e1, e2 = e0 / h, e1 / h, e2 / h
+        m0, m1, m2 = (a0 + b0) / 2, (a1 + b1) / 2, (a2 + b2) / 2
+        rc = math.sqrt(max(radius * radius - h * h / 4, 0.0))
+        t = (p0 - m0) * e0 + (p1 - m1) * e1 + (p2 - m2) * e2
+        u0, u1, u2 = p0 - m0 - t * e0, p1 - m1 - t * e1, p2 - m2 - t * e2
+        nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        if nu == 0.0:
+            continue
+        s = rc * (1.0 - 1e-12) / nu
+        out[j, 0], out[j, 1], out[j, 2] = m0 + u0 * s, m1 + u1 * s, m2 + u2 * s
+    return out

@@ -1,0 +1,93 @@
+"""Paper B's analyses on a planned trajectory: static joint torques, leg condition numbers (B-45),
+energy (B-44) and yaw angular momentum (B-41).
+
+* Static torques: with gravity, the fans' vertical thrust and the ground reaction, the equations of
+  motion at rest read g(q) = Sᵀτ + J_cᵀ w_c + J_fᵀ w_f. The six floating-base rows fix the support
+  wrench w_c (one foot: exactly; both feet: the least-norm split, one of the infinitely many
+  internal-force distributions), and the joint rows give τ. PlaCo (pinocchio) supplies g(q) and the
+  Jacobians (world-aligned at each frame).
+* κ(J) = σ_max / σ_min of each leg's 6 × 6 Jacobian of the sole relative to the trunk (B-45):
+  large near the stretched-knee singularity where long steps live.
+* E_con = Σ_i ∫ max(τ_i·q̇_i, 0) dt (B-44), with q̇ from central differences of the rows.
+* Yaw angular momentum h = A_CMM,yaw · v (B-41): the yaw row of PlaCo's centroidal momentum matrix
+  times the generalised velocity (base twist in the trunk frame, then joint rates).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jethr1_plan.robot.model import SIDES
+
+KAPPA_WARNING = 100.0  # leg Jacobian condition number above which a row is flagged
+FORCE_DIRECTION = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # a vertical force, world-aligned
+
+
+def static_torques(wrapper, thrust_n: dict[str, float], supports: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques (12,) [N·m] and the support wrench(es) [N, N·m] holding the current posture.
+
+    ``wrapper`` must have its kinematics updated at the posture.
+    """
+    g = wrapper.generalized_gravity()
+    rhs = g.copy()
+    for side, f in thrust_n.items():
+        if f:
+            rhs -= wrapper.frame_jacobian(f"{side}_fan", "local_world_aligned").T @ (f * FORCE_DIRECTION)
+    Jc = np.vstack([wrapper.frame_jacobian(f"{s}_foot", "local_world_aligned") for s in supports])
+    w, *_ = np.linalg.lstsq(Jc[:, :6].T, rhs[:6], rcond=None)
+    tau = rhs[6:] - Jc[:, 6:].T @ w
+    return tau, w
+
+
+def leg_condition_numbers(wrapper) -> dict[str, float]:
+    """κ of each leg: σ_max/σ_min of d(sole twist relative to the trunk)/d(leg joints) (6 × 6)."""
+    out = {}
+    for k, side in enumerate(SIDES):
+        J = wrapper.frame_jacobian(f"{side}_foot", "local_world_aligned")[:, 6 + 6 * k:12 + 6 * k]
+        s = np.linalg.svd(J, compute_uv=False)
+        out[side] = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    return out
+
+
+def energy_consumption(tau: np.ndarray, q: np.ndarray, dt: float) -> float:
+    """E_con [J] of (B-44): Σ_i ∫ max(τ_i·q̇_i, 0) dt, q̇ by central differences (one-sided at the
+    ends), the integral by the trapezoidal rule."""
+    qdot = np.gradient(q, dt, axis=0)
+    power = np.maximum(tau * qdot, 0.0).sum(axis=1)
+    return float(0.5 * dt * np.sum(power[1:] + power[:-1]))
+
+
+def generalized_velocities(p: np.ndarray, yaw: np.ndarray, q: np.ndarray, dt: float) -> np.ndarray:
+    """(N, 18): trunk linear velocity in the trunk frame, trunk angular velocity (about z), joint rates."""
+    pdot = np.gradient(p, dt, axis=0)
+    yawdot = np.gradient(np.unwrap(yaw), dt)
+    c, s = np.cos(yaw), np.sin(yaw)
+    v_local = np.stack([c * pdot[:, 0] + s * pdot[:, 1], -s * pdot[:, 0] + c * pdot[:, 1], pdot[:, 2]], axis=1)
+    return np.column_stack([v_local, np.zeros((len(p), 2)), yawdot, np.gradient(q, dt, axis=0)])
+
+
+def analyse_rows(robot, rows, dt: float) -> dict[str, np.ndarray]:
+    """Torques (N, 12), κ per leg (N, 2) and yaw momentum (N,) for every output row."""
+    wrapper = robot.wrapper()
+    c = rows.columns
+    n = len(rows)
+    p = np.asarray(c["p_body"], dtype=float)
+    yaw = np.asarray(c["yaw"], dtype=float)
+    q = np.asarray(c["q"], dtype=float)
+    v = generalized_velocities(p, yaw, q, dt)
+    tau = np.zeros((n, 12))
+    kappa = np.zeros((n, 2))
+    h_yaw = np.zeros(n)
+    for i in range(n):
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(yaw[i]), -np.sin(yaw[i])], [np.sin(yaw[i]), np.cos(yaw[i])]]
+        T[:3, 3] = p[i]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        supports = SIDES if c["support"][i] == "both" else (c["support"][i],)
+        tau[i], _ = static_torques(wrapper, {"left": c["thrust_left"][i], "right": c["thrust_right"][i]}, supports)
+        k = leg_condition_numbers(wrapper)
+        kappa[i] = k["left"], k["right"]
+        h_yaw[i] = float(wrapper.centroidal_map()[5] @ v[i])
+    return {"tau": tau, "kappa": kappa, "yaw_momentum": h_yaw, "energy_j": energy_consumption(tau, q, dt)}
