@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from jethr1_plan.balance_space import MEMBER, OVERLAP, SweepSpec, _Evaluator, _exhaustive_cell, summary, sweep
+from jethr1_plan.balance_space import SweepSpec, summary, sweep
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
+from jethr1_plan.search import Evaluator, exhaustive_cell
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.test_balance_kernel import numpy_objective  # the numpy path the test compares with
@@ -18,7 +20,7 @@ from tests.test_balance_kernel import numpy_objective  # the numpy path the test
 
 def kernel_speed(spec: SweepSpec, n: int = 200_000) -> None:
     """The compiled objective against the numpy functions it fuses, on the same random candidates."""
-    ev = _Evaluator(load_robot(spec.robot), spec)
+    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
     rng = np.random.default_rng(0)
     swing = np.column_stack([rng.uniform(-0.6, 0.7, 2000), rng.uniform(-0.7, 0.6, 2000), rng.uniform(0, 0.3, 2000)])
     cells = ev.cells(swing)
@@ -52,17 +54,17 @@ def main(resolution: float = 0.01, samples: int = 1000) -> None:
         print(f"  {name}: {w['cells']} cells, {w['volume_m3']:.4f} m^3, forward {w['max_forward_m']} m, "
               f"sideways {w['max_sideways_m']} m")
     robot = load_robot(spec.robot)
-    ev = _Evaluator(robot, spec)
+    ev = Evaluator(robot, spec.support_stance())
     cells = ev.cells(result.swing)
     rng = np.random.default_rng(1)
-    candidates = np.flatnonzero((result.reason != OVERLAP) & ev.reach_possible(cells))
+    candidates = np.flatnonzero((result.reason != Reason.OVERLAP) & ev.reach_possible(cells))
     picks = rng.choice(candidates, int(samples), replace=False)
     t0 = time.perf_counter()
     agree, differ = 0, []
     for i in picks:
-        _, f_ex, r_ex = _exhaustive_cell(ev, cells, i)
-        same = (result.reason[i] == MEMBER) == (r_ex == MEMBER)
-        gap = result.thrust[i] - f_ex if same and r_ex == MEMBER else 0.0
+        _, f_ex, r_ex = exhaustive_cell(ev, cells, i, spec.pbody_resolution_m)
+        same = (result.reason[i] == Reason.OK) == (r_ex == Reason.OK)
+        gap = result.thrust[i] - f_ex if same and r_ex == Reason.OK else 0.0
         if same and abs(gap) <= 0.1:
             agree += 1
         else:

@@ -18,11 +18,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bare_loop import bare_replay_seconds
 
-from jethr1_plan.kinematics.closed_form import AnalyticPostureSolver
-from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver
+from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.optimisers.problem import evaluate_candidates
 from jethr1_plan.physics.balance import body_yaw_eq4
-from jethr1_plan.planning.plan import sample_problem
+from jethr1_plan.planning import sample_problem
 from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import load_scenario
 
@@ -50,7 +50,7 @@ def main(repeats: int = 5) -> None:
     robot = load_robot("jethr1")
     problems, populations = workload(robot)
     n_cand = sum(len(p) for p in populations)
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     ours, bare = [], []
     for _ in range(repeats):
         solver.replay_log = []
@@ -69,7 +69,7 @@ def main(repeats: int = 5) -> None:
     print(f"ratio evaluator / bare loop: {o / b:.2f} (target <= 1.5); per run: "
           + ", ".join(f"{x / y:.2f}" for x, y in zip(ours, bare, strict=True)))
     # the closed-form numpy path on the same populations, and on one large batch (as in sweeps)
-    analytic = AnalyticPostureSolver(robot)
+    analytic = ClosedFormPostureSolver(robot)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

@@ -17,9 +17,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bare_loop import bare_replay_seconds
 
-from jethr1_plan.cli import write_plan_outputs
-from jethr1_plan.kinematics.placo import PostureSolver
-from jethr1_plan.planning.plan import plan, plan_summary
+from jethr1_plan.io.plan_files import write_plan_outputs
+from jethr1_plan.kinematics.placo import PlacoPostureSolver
+from jethr1_plan.planning import plan, plan_summary
 from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import load_scenario
 
@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_once(robot, config: str):
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     solver.replay_log = []
     t0 = time.perf_counter()
     scenario = load_scenario(ROOT / "configs" / f"{config}.yaml")
@@ -59,7 +59,7 @@ def main(config: str = "jet_hr1_trial", repeats: int = 5) -> None:
     # the optimiser alone (no 50 Hz sequence, analysis, self-check or files)
     opt = []
     for _ in range(int(repeats)):
-        solver = PostureSolver(robot)
+        solver = PlacoPostureSolver(robot)
         solver.replay_log = []
         t0 = time.perf_counter()
         plan(load_scenario(ROOT / "configs" / f"{config}.yaml"), solver=solver, build_rows=False)

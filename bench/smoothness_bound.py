@@ -22,13 +22,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from jethr1_plan.balance_space import MEMBER, _Evaluator
 from jethr1_plan.compare import step_evaluator
-from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning import plan
+from jethr1_plan.reasons import Reason
 from jethr1_plan.scenario import load_scenario
+from jethr1_plan.search import Evaluator
 
 
-def near_optimal_sets(ev: _Evaluator, cells, centres: np.ndarray, thrust: np.ndarray, tol: float, step: float,
+def near_optimal_sets(ev: Evaluator, cells, centres: np.ndarray, thrust: np.ndarray, tol: float, step: float,
                       half: float) -> list[np.ndarray]:
     """Per sample, the grid points (K_i, 3) [m] that balance with a thrust within ``tol`` [N] of the least known."""
     ax = np.arange(-half, half + 1e-12, step)
@@ -37,7 +38,7 @@ def near_optimal_sets(ev: _Evaluator, cells, centres: np.ndarray, thrust: np.nda
     for i, c in enumerate(centres):
         grid = c + offsets
         _, t, reason = ev(cells, np.full(len(grid), i), grid)
-        ok = reason == MEMBER
+        ok = reason == Reason.OK
         best = min(float(thrust[i]), float(t[ok].min()) if ok.any() else np.inf)
         out.append(grid[ok & (t <= best + tol)])
     return out

@@ -19,7 +19,7 @@ Two inner searches over P_body:
   agrees with ``exhaustive`` on sampled cells (same membership, thrust within 0.1 N).
 
 Both search over pelvis positions moved onto the legs' reach balls where they lie beyond
-(:meth:`_Evaluator.into_reach`): the optimum of most cells has a leg at full stretch, where a
+(:meth:`~jethr1_plan.search.Evaluator.into_reach`): the optimum of most cells has a leg at full stretch, where a
 grid or a pattern search otherwise stalls (the CoM moves like the square root of the distance).
 
 The objective is compiled (``balance_kernel``: closed-form IK, CoM, thrust, edge angle, reach in
@@ -36,49 +36,38 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from jethr1_plan.kinematics.closed_form import check_structure, kernel_params, solve_postures
-from jethr1_plan.kinematics.placo import OK
-from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4, sole_polygon
-from jethr1_plan.physics.compiled import (
-    ABOVE_MAX,
-    EDGE,
-    LIMITS,
-    MEMBER,
-    NO_BALANCE,
-    OUT_OF_REACH,
-    OVERLAP,
-    balance_objective,
-    into_reach,
+from jethr1_plan.kinematics.closed_form import solve_postures
+from jethr1_plan.physics.balance import NOMINAL, Tolerance
+from jethr1_plan.reasons import Reason, balances, has_posture
+from jethr1_plan.robot.model import load_robot
+from jethr1_plan.search import (
+    Cells,
+    Evaluator,
+    SupportStance,
+    compass_search,
+    exhaustive_cell,
+    generic_seeds,
+    lens_seeds,
 )
-from jethr1_plan.robot.model import GRAVITY, RobotModel, load_robot, reach_centre
 
-REASONS = {MEMBER: "", OVERLAP: "overlaps the support sole", OUT_OF_REACH: "out of reach",
-           LIMITS: "joint limits", NO_BALANCE: "no thrust can balance", EDGE: "edge angle (A-10)",
-           ABOVE_MAX: "thrust above its maximum"}
+__all__ = [
+    "CELL_REASONS",
+    "LayerResult",
+    "SweepResult",
+    "SweepSpec",
+    "summary",
+    "sweep",
+    "sweep_layers",
+    "verify_members",
+]
+
+#: the reasons a cell can have, in the order summary.json counts them
+CELL_REASONS = (Reason.OK, Reason.OVERLAP, Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.NO_BALANCE,
+                Reason.EDGE_ANGLE, Reason.THRUST_MAX)
 SEED_EVERY = 4  # continuation: generic seeds on every 4th x slice
 RELAX_PASSES = 3  # continuation: rounds of neighbour relaxation
 RELAX_SLACK_N = 0.3  # continuation: a neighbour's optimum is searched from when it scores below this above the cell's
-EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the penalty is exact
-REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
-REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (sqp_optimiser keeps ~0.13 mm)
 LAYERS_PER_TASK = 2  # the fixed partition of the work: output never depends on the number of workers
-
-
-def feasible(reason: np.ndarray) -> np.ndarray:
-    """Postures that meet every constraint but perhaps the thrust limit (members and ABOVE_MAX)."""
-    return (reason == MEMBER) | (reason == ABOVE_MAX)
-
-
-def has_posture(reason: np.ndarray) -> np.ndarray:
-    """Cells whose best P_body is a kinematically valid posture (legs reach, within limits)."""
-    return (reason == MEMBER) | (reason >= NO_BALANCE)
-
-
-AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
-DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0  # 26 neighbours
-# the compass's fine polls: the 6 axes and the 8 cube corners (the 12 edge directions as well cost 1.5x
-# the evaluations for no measured gain in agreement with the exhaustive search)
-FINE_DIRECTIONS = DIRECTIONS[np.abs(DIRECTIONS).sum(axis=1) != 2]
 
 
 @dataclass(frozen=True)
@@ -104,6 +93,11 @@ class SweepSpec:
     def swing_side(self) -> str:
         return "left" if self.support_side == "right" else "right"
 
+    def support_stance(self) -> SupportStance:
+        """What the searches hold fixed."""
+        return SupportStance(self.support_side, self.support_xyz, self.rho_rad, self.thrust_max_n, self.sole_margin_m,
+                             self.tolerance)
+
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Grid coordinates [m] along x, y, z (inclusive bounds, rounded to 1e-9 m)."""
         def ax(lo, hi):
@@ -124,174 +118,14 @@ class LayerResult:
     evaluations: int = 0
 
 
-@dataclass
-class _Cells:
-    """Per-candidate data of the cells being searched."""
-
-    swing: np.ndarray  # (C, 3) swing sole centres [m]
-    yaw: np.ndarray  # (C,) body yaw (A-4) [rad]
-    fan: np.ndarray  # (C, 2) thrust point [m]
-    centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot_model.reach_centre) [m]
-    centre_w: np.ndarray  # (C, 3) centre of the swing leg's reach ball [m]
-
-
-class _Evaluator:
-    """Vectorised objective over candidates of many cells at once."""
-
-    def __init__(self, robot: RobotModel, spec: SweepSpec):
-        self.robot, self.spec = robot, spec
-        self.geom = check_structure(robot)
-        self.support = np.asarray(spec.support_xyz, dtype=float)
-        self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, spec.sole_margin_m)
-        self.fan_offset = np.asarray(robot.fan_for(spec.swing_side).offset_in_foot_m[:2])
-        self.evaluations = 0
-        self.params = kernel_params(robot, spec.support_side, self.support, self.poly, spec.rho_rad,
-                                    spec.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG, spec.tolerance)
-
-    def cells(self, swing: np.ndarray) -> _Cells:
-        swing = np.ascontiguousarray(swing, dtype=float)
-        fan = np.ascontiguousarray(swing[:, :2] + self.fan_offset)
-        yaw = body_yaw_eq4(self.support[:2], fan, self.spec.support_side)
-        centre_s = reach_centre(self.geom, self.spec.support_side, np.broadcast_to(self.support, swing.shape), yaw)
-        centre_w = reach_centre(self.geom, self.spec.swing_side, swing, yaw)
-        return _Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w))
-
-    def into_reach(self, c: _Cells, idx: np.ndarray, P: np.ndarray) -> np.ndarray:
-        """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them.
-
-        The optimum of most cells has a leg at full stretch, where the CoM moves like the square root
-        of the distance to the ball's surface: a pattern search stalls against it. Searching over the
-        projection instead lets it slide along the surface (and along the circle where both legs
-        are straight). See ``balance_kernel.into_reach``. The balls' radius is REACH_MARGIN_M short
-        of thigh + shank: a leg exactly straight is singular (PlaCo's IK cannot place its CoM to
-        better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
-        """
-        radius = self.geom.thigh_m + self.geom.shank_m - REACH_MARGIN_M
-        return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
-                          c.centre_w, c.centre_s, radius)
-
-    def reach_possible(self, c: _Cells) -> np.ndarray:
-        """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
-        around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
-        g = self.geom
-        return np.linalg.norm(c.centre_w - c.centre_s, axis=1) <= 2 * (g.thigh_m + g.shank_m)
-
-    def __call__(self, c: _Cells, idx: np.ndarray, P: np.ndarray):
-        """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
-
-        The objective is F* plus an exact penalty for (A-10) (continuous, so the search can slide
-        along the cone's edge), and graded penalties above 2000 for postures that do not reach, leave
-        the joint limits or cannot be balanced (see ``balance_kernel.balance_objective``).
-        """
-        self.evaluations += len(P)
-        P = np.ascontiguousarray(P, dtype=float)
-        idx = np.ascontiguousarray(idx, dtype=np.int64)
-        return balance_objective(P, idx, c.swing, c.yaw, c.fan, *self.params)
-
-
-def _generic_seeds(ev: _Evaluator, c: _Cells, idx: np.ndarray) -> np.ndarray:
-    """Pelvis positions per cell: over the support foot, a quarter and half way to the swing foot,
-    each from a deep crouch to nearly straight legs: (len(idx), 12, 3)."""
-    g = ev.geom
-    sup = ev.support
-    sw = c.swing[idx]
-    leg = g.thigh_m + g.shank_m + g.ankle_height_m
-    seeds = []
-    for t in (0.0, 0.25, 0.5):
-        base = sup + t * (sw - sup)
-        for hz in (0.42, 0.57, 0.72, 0.87):
-            p = base.copy()
-            p[:, 2] = np.minimum(sup[2], sw[:, 2]) + hz * leg
-            seeds.append(p)
-    return np.stack(seeds, axis=1)
-
-
-def _lens_seeds(ev: _Evaluator, c: _Cells, idx: np.ndarray) -> np.ndarray:
-    """Pelvis positions spread over the lens where both legs reach (the two reach balls of radius
-    thigh + shank): three cuts across the line of centres, two radii, five directions from straight
-    up to level on either side: (len(idx), 30, 3) [m]."""
-    L = ev.geom.thigh_m + ev.geom.shank_m
-    a, b = c.centre_w[idx], c.centre_s[idx]
-    axis = b - a
-    h = np.linalg.norm(axis, axis=1)
-    e = axis / np.maximum(h, 1e-12)[:, None]
-    up = np.array([0.0, 0.0, 1.0]) - e[:, 2:3] * e
-    up /= np.maximum(np.linalg.norm(up, axis=1), 1e-12)[:, None]
-    side = np.cross(e, up)
-    half = np.maximum(L - h / 2, 0.0)  # the lens's half thickness along the line of centres
-    seeds = []
-    for t in (-0.5, 0.0, 0.5):
-        rt = np.sqrt(np.maximum(L ** 2 - (h / 2 + abs(t) * half) ** 2, 0.0))
-        centre = (a + b) / 2 + (t * half)[:, None] * e
-        for frac in (0.45, 0.9):
-            for phi in (0.0, np.pi / 4, -np.pi / 4, np.pi / 2, -np.pi / 2):
-                seeds.append(centre + (frac * rt)[:, None] * (np.cos(phi) * up + np.sin(phi) * side))
-    return np.stack(seeds, axis=1)
-
-
-def _from_neighbour(ev: _Evaluator, c: _Cells, idx: np.ndarray, P0: np.ndarray, spec: SweepSpec):
+def _from_neighbour(ev: Evaluator, c: Cells, idx: np.ndarray, P0: np.ndarray, spec: SweepSpec):
     """A short compass search (from 4 mm) started at a neighbour's optimum."""
     P0 = ev.into_reach(c, idx, P0)
     f0, _, _ = ev(c, idx, P0)
     return compass_search(ev, c, idx, P0, f0, np.full(len(idx), 0.004), spec.min_step_m)
 
 
-def compass_search(ev: _Evaluator, c: _Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
-                   min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002):
-    """Vectorised compass search from P (B, 3) with objective f (B,), one cell per row.
-
-    Polls the 6 axis directions while the step is at least ``coarse_until``, then the 6 axes and
-    8 cube corners (so the search can slide along a constraint's edge). Every poll point is moved
-    onto the reach balls first. A cell stops when its step falls below ``min_step``, when it
-    reaches zero thrust, or, after ``give_up_after`` iterations, when it has still found no
-    kinematically valid posture. A cell that ends on an invalid posture (a
-    penalty a hair above zero) gets the best valid posture it met, if any.
-    """
-    P, f, step = P.copy(), f.copy(), step0.copy()
-    P_ok, f_ok = np.full_like(P, np.nan), np.full(len(P), np.inf)
-    for stage, dirs in ((0, AXIS_DIRECTIONS), (1, FINE_DIRECTIONS)):
-        floor = coarse_until if stage == 0 else min_step
-        P, f, step = _poll(ev, c, idx, P, f, step, floor, dirs, max_iter, give_up_after, P_ok, f_ok)
-    # the penalties are exact, but a search that ends a hair outside a constraint falls back on the
-    # best valid posture it met
-    _, _, reason = ev(c, idx, P)
-    back = ~feasible(reason) & np.isfinite(f_ok)
-    P[back], f[back] = P_ok[back], f_ok[back]
-    return P, f
-
-
-def _poll(ev, c, idx, P, f, step, min_step, dirs, max_iter, give_up_after, P_ok, f_ok):
-    """Compass polls until every row's step falls below ``min_step``; P_ok, f_ok keep (in place) the
-    best valid posture met per row (a member, or only above the thrust limit)."""
-    active = (step >= min_step) & (f > 0)
-    for it in range(max_iter):
-        if it == give_up_after:
-            active &= f < 2000
-        a = np.flatnonzero(active)
-        if not len(a):
-            break
-        k = len(dirs)
-        rows = np.repeat(idx[a], k)
-        cand = ev.into_reach(c, rows, (P[a, None, :] + step[a, None, None] * dirs[None]).reshape(-1, 3))
-        obj, _, reason = ev(c, rows, cand)
-        obj, cand = obj.reshape(len(a), k), cand.reshape(len(a), k, 3)
-        valid = np.where(feasible(reason).reshape(len(a), k), obj, np.inf)
-        jv = np.argmin(valid, axis=1)
-        best_valid = valid[np.arange(len(a)), jv]
-        up = best_valid < f_ok[a]
-        P_ok[a[up]], f_ok[a[up]] = cand[np.flatnonzero(up), jv[up]], best_valid[up]
-        j = np.argmin(obj, axis=1)
-        best = obj[np.arange(len(a)), j]
-        better = best < f[a] - 1e-12
-        moved = a[better]
-        P[moved] = cand[np.flatnonzero(better), j[better]]
-        f[moved] = best[better]
-        step[a[~better]] *= 0.5
-        active = (step >= min_step) & (f > 0)
-    return P, f, step
-
-
-def _relax_slice(ev: _Evaluator, c: _Cells, spec: SweepSpec, todo: np.ndarray, P_all: np.ndarray, f_all: np.ndarray,
+def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_all: np.ndarray, f_all: np.ndarray,
                  src: np.ndarray, dst: np.ndarray) -> int:
     """Cells ``dst`` try their neighbours' (``src``, one cell away) optima; P_all, f_all updated in
     place. Returns how many cells improved.
@@ -310,7 +144,7 @@ def _relax_slice(ev: _Evaluator, c: _Cells, spec: SweepSpec, todo: np.ndarray, P
     f0, _, r0 = ev(c, d_idx, P0)
     fmax = spec.thrust_max_n
     go = ((f0 < f_all[d_idx] + RELAX_SLACK_N) | ((f_all[d_idx] > fmax) & (f_all[s_idx] <= fmax))
-          | ((r0 == EDGE) & (f_all[d_idx] > 0)))
+          | ((r0 == Reason.EDGE_ANGLE) & (f_all[d_idx] > 0)))
     if not go.any():
         return 0
     d_idx, P0, f0 = d_idx[go], P0[go], f0[go]
@@ -326,22 +160,22 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
     Layers are independent; sweeping a few together only makes the numpy batches larger.
     """
     robot = load_robot(spec.robot)
-    ev = _Evaluator(robot, spec)
+    ev = Evaluator(robot, spec.support_stance())
     xs, ys, _ = spec.axes()
     X, Y, Z = np.meshgrid(xs, ys, np.asarray(zs, dtype=float), indexing="ij")
     swing = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
     n = len(swing)
     c = ev.cells(swing)
-    reason = np.full(n, OUT_OF_REACH, dtype=np.int8)
+    reason = np.full(n, Reason.UNREACHABLE, dtype=np.int8)
     thrust = np.full(n, np.inf)
     best_p = np.full((n, 3), np.nan)
     sup = ev.support
     overlap = (np.abs(swing[:, 0] - sup[0]) < robot.sole_length_m) & (np.abs(swing[:, 1] - sup[1]) < robot.sole_width_m)
-    reason[overlap] = OVERLAP
+    reason[overlap] = Reason.OVERLAP
     todo = ~overlap & ev.reach_possible(c)
     if spec.method == "exhaustive":
         for i in np.flatnonzero(todo):
-            best_p[i], thrust[i], reason[i] = _exhaustive_cell(ev, c, i)
+            best_p[i], thrust[i], reason[i] = exhaustive_cell(ev, c, i, spec.pbody_resolution_m)
     else:
         per_slice = len(ys) * len(zs)
         slices = [np.arange(ix * per_slice, (ix + 1) * per_slice) for ix in range(len(xs))]
@@ -363,7 +197,7 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
                     P[has], f[has] = _from_neighbour(ev, c, idx[has], P_all[nb[has]] + shift, spec)
             # generic seeds, scored on every cell: searched from on every SEED_EVERY-th slice, where
             # the neighbour gave nothing, and wherever a seed already scores below the cell's optimum
-            seeds = np.concatenate([_generic_seeds(ev, c, idx), _lens_seeds(ev, c, idx)], axis=1)
+            seeds = np.concatenate([generic_seeds(ev, c, idx), lens_seeds(ev, c, idx)], axis=1)
             b, k = seeds.shape[:2]
             rows_k = np.repeat(idx, k)
             seeds = ev.into_reach(c, rows_k, seeds.reshape(-1, 3)).reshape(b, k, 3)
@@ -397,74 +231,9 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
             thrust[idx], reason[idx] = t, r
             valid = has_posture(r)
             best_p[idx[valid]] = P_all[idx[valid]]
-    member = reason == MEMBER
-    return LayerResult(swing=swing, thrust=np.where(member | (reason == ABOVE_MAX), thrust, np.inf),
+    return LayerResult(swing=swing, thrust=np.where(balances(reason), thrust, np.inf),
                        p_body=np.where(has_posture(reason)[:, None], best_p, np.nan), yaw=c.yaw, reason=reason,
                        evaluations=ev.evaluations)
-
-
-def pelvis_box(ev: _Evaluator, c: _Cells, i: int, res: float) -> np.ndarray:
-    """Grid points [m] of every P_body from which both ankles may be reached (bounding box of the
-    intersection of the two reach spheres) at spacing ``res``."""
-    g = ev.geom
-    L = g.thigh_m + g.shank_m
-    cs = reach_centre(g, ev.spec.support_side, ev.support, c.yaw[i])
-    cw = reach_centre(g, ev.spec.swing_side, c.swing[i], c.yaw[i])
-    lo = np.maximum(cs - L, cw - L)
-    hi = np.minimum(cs + L, cw + L)
-    lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
-    axes = [np.arange(lo[k], hi[k] + 1e-12, res) for k in range(3)]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-
-
-def _exhaustive_cell(ev: _Evaluator, c: _Cells, i: int, basins: int = REFINE_BASINS):
-    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid (±2 coarse steps) around
-    each of the ``basins`` best coarse points that lie at least 2.5 coarse steps apart (a thin
-    feasible sliver can hold the optimum in a basin whose best coarse point is not the best).
-
-    Grid points beyond a leg's reach are moved onto its reach ball (:meth:`_Evaluator.into_reach`):
-    the optimum usually has a leg at full stretch, on the ball's surface, which a plain grid only
-    approaches to within its spacing while the thrust changes like the square root of the distance
-    there (without it, up to 0.8 N and whole members were missed on 300 sampled cells).
-
-    The answer is the best valid posture met (the penalties are exact, but a grid point a hair
-    outside a constraint can score below every valid one); the best score where none is valid."""
-    grid = pelvis_box(ev, c, i, ev.spec.pbody_resolution_m)
-    if not len(grid):
-        return np.full(3, np.nan), np.inf, OUT_OF_REACH
-    grid = ev.into_reach(c, np.full(len(grid), i), grid)
-    scored = [ev(c, np.full(len(chunk), i), chunk) for chunk in (grid[s:s + 20000] for s in range(0, len(grid), 20000))]
-    obj = np.concatenate([o for o, _, _ in scored])
-    valid = np.where(feasible(np.concatenate([rr for _, _, rr in scored])), obj, np.inf)
-    r = ev.spec.pbody_resolution_m
-    order = np.argsort(obj, kind="stable")
-    centres: list[np.ndarray] = []
-    for j in order:
-        if centres and obj[j] >= 2000:  # only kinematically valid, balanced points beyond the first
-            break
-        if all(np.max(np.abs(grid[j] - q)) > 2.5 * r for q in centres):
-            centres.append(grid[j])
-            if len(centres) == basins:
-                break
-    best_p, best_f = centres[0], float(obj[order[0]])
-    j = int(np.argmin(valid))
-    best_valid_p, best_valid_f = grid[j], float(valid[j])
-    fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
-    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
-    for q in centres:
-        local = ev.into_reach(c, np.full(len(offsets), i), q + offsets)
-        o, _, rr = ev(c, np.full(len(local), i), local)
-        j = int(np.argmin(o))
-        if o[j] < best_f:
-            best_f, best_p = float(o[j]), local[j]
-        v = np.where(feasible(rr), o, np.inf)
-        j = int(np.argmin(v))
-        if v[j] < best_valid_f:
-            best_valid_f, best_valid_p = float(v[j]), local[j]
-    if np.isfinite(best_valid_f):
-        best_p = best_valid_p
-    _, t, rr = ev(c, np.array([i]), best_p[None])
-    return best_p, float(t[0]), int(rr[0])
 
 
 @dataclass
@@ -481,11 +250,11 @@ class SweepResult:
 
     @property
     def with_thrust(self) -> np.ndarray:
-        return self.reason == MEMBER
+        return self.reason == Reason.OK
 
     @property
     def without_thrust(self) -> np.ndarray:
-        return (self.reason == MEMBER) & (self.thrust == 0.0)
+        return (self.reason == Reason.OK) & (self.thrust == 0.0)
 
 
 def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
@@ -549,7 +318,7 @@ def verify_members(result: SweepResult) -> int:
         wrapper.update_kinematics()
         err_s = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.support_side}_foot")[:3, 3] - support)
         err_w = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.swing_side}_foot")[:3, 3] - result.swing[i])
-        if status[0] != OK or max(err_s, err_w) > 1e-9 or np.linalg.norm(wrapper.com_world() - com[0]) > 1e-9:
+        if status[0] != Reason.OK or max(err_s, err_w) > 1e-9 or np.linalg.norm(wrapper.com_world() - com[0]) > 1e-9:
             raise AssertionError(f"balance-space cell {result.swing[i]} fails its PlaCo re-check")
     return len(idx)
 
@@ -582,6 +351,6 @@ def summary(result: SweepResult) -> dict:
             "max_sideways_m": float((side * (pts[:, 1] - sup[1])).max()) if len(pts) else None,
             "max_reach_m": float(np.linalg.norm(pts[:, :2] - sup[:2], axis=1).max()) if len(pts) else None,
         }
-    out["reasons"] = {REASONS[k] or "member": int(np.sum(result.reason == k)) for k in REASONS}
+    out["reasons"] = {k.message or "member": int(np.sum(result.reason == k)) for k in CELL_REASONS}
     out["spec"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(spec).items()}
     return out

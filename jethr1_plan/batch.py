@@ -8,6 +8,8 @@ import yaml
 
 from jethr1_plan.errors import InfeasiblePlan, InputError
 
+__all__ = ["batch_exit_code", "check_expectations", "read_manifest", "run_batch", "run_scenario"]
+
 
 def read_manifest(path: Path) -> list[Path]:
     """Scenario paths listed in a manifest: a YAML list (or ``scenarios:`` list), relative to the manifest."""
@@ -36,8 +38,8 @@ def check_expectations(expect: dict, summary: dict) -> list[str]:
 
 def run_scenario(path: str, outdir: str) -> dict:
     """Plan one scenario into OUTDIR/<stem>/ (as ``jethr1 plan`` does); return its batch record."""
-    from jethr1_plan.cli import write_plan_outputs, write_plan_outputs_summary_only
-    from jethr1_plan.planning.plan import plan, plan_summary
+    from jethr1_plan.io.plan_files import write_plan_outputs, write_summary_only
+    from jethr1_plan.planning import plan, plan_summary
     from jethr1_plan.scenario import load_scenario
 
     record = {"scenario": str(path), "name": Path(path).stem}
@@ -49,7 +51,7 @@ def run_scenario(path: str, outdir: str) -> dict:
         result = plan(scenario)
     except InfeasiblePlan as exc:
         summary = exc.summary or {}
-        write_plan_outputs_summary_only(scenario, Path(outdir), summary)
+        write_summary_only(scenario, Path(outdir), summary)
         infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
     except Exception as exc:  # a bug in one scenario must not lose every other scenario's result
         return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",

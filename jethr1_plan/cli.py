@@ -6,7 +6,6 @@ Progress and messages go to stderr; ``--json`` prints one JSON document on stdou
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -17,36 +16,12 @@ from rich.console import Console
 from rich.table import Table
 
 from jethr1_plan.errors import InfeasiblePlan, InputError, Jethr1Error
-from jethr1_plan.optimisers.gas import METHODS
+from jethr1_plan.io.json_text import json_text
+from jethr1_plan.optimisers import METHODS
 
 err_console = Console(stderr=True)
 if not err_console.is_terminal:  # logs and CI: no terminal width to respect, keep tables readable
     err_console = Console(stderr=True, width=160)
-
-
-def _dump(doc: dict) -> str:
-    """JSON text; a value that is not a finite number (no such value: a row without a posture) is null."""
-    return json.dumps(_finite_only(doc), indent=2, sort_keys=False, allow_nan=False, default=_jsonable) + "\n"
-
-
-def _finite_only(x):
-    if isinstance(x, dict):
-        return {k: _finite_only(v) for k, v in x.items()}
-    if isinstance(x, list | tuple):
-        return [_finite_only(v) for v in x]
-    if isinstance(x, float | np.floating) and not math.isfinite(float(x)):
-        return None
-    return x
-
-
-def _jsonable(x):
-    import numpy as np
-
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    raise TypeError(f"not JSON serialisable: {type(x).__name__}")
 
 
 class FiniteFloat(click.ParamType):
@@ -116,7 +91,7 @@ def robot_show(name: str, as_json: bool) -> None:
 
     summary = robot_summary(load_robot(name))
     if as_json:
-        click.echo(_dump(summary), nl=False)
+        click.echo(json_text(summary), nl=False)
         return
     out = Console()
     out.print(f"[bold]{summary['name']}[/]  {summary['urdf']}")
@@ -139,49 +114,10 @@ def robot_show(name: str, as_json: bool) -> None:
     out.print(f)
 
 
-class SelfCheckFailed(Exception):
-    """The planner's own output failed the independent re-check: a bug (exit 1)."""
-
-
-def _self_check(csv_text: str, result, summary: dict, strict_torque: bool) -> None:
-    """Run ``verify`` on the trajectory before anything is written (a failure is a bug)."""
-    from jethr1_plan.io.trajectory_csv import read_trajectory_csv
-    from jethr1_plan.verify import verify_rows
-
-    _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path), summary=summary,
-                              scenario=result.scenario, torque_limits=strict_torque, max_failures=5)
-    if failures:
-        raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
-
-
 LAYOUT = Path(__file__).resolve().parent / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
-PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "simulation.json", "simulation.mcap"})
-
-
 def _report_kept(folder: Path, kept: list[str]) -> None:
     if kept:
         err_console.print(f"kept {', '.join(kept)} in {folder}/ (files jethr1 did not write)", markup=False)
-
-
-def write_plan_outputs(result, outdir: Path, summary: dict, trajectory: bool, strict_torque: bool = False) -> Path:
-    """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ atomically; return that folder."""
-    from jethr1_plan.io.atomic import staged_directory
-    from jethr1_plan.io.mcap import trajectory_mcap
-    from jethr1_plan.io.trajectory_csv import trajectory_csv
-
-    final = outdir / Path(result.scenario.source).stem
-    with staged_directory(final, PLAN_FILES) as staging:
-        tmp = staging.path
-        if trajectory and result.rows is not None:
-            text = trajectory_csv(result.rows)
-            if result.feasible:
-                _self_check(text, result, summary, strict_torque)
-            (tmp / "trajectory.csv").write_text(text)
-            (tmp / "trajectory.mcap").write_bytes(trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
-                                                                  [st.path_m for st in result.steps]))
-        (tmp / "summary.json").write_text(_dump(summary))
-    _report_kept(final, staging.kept)
-    return final
 
 
 @main.command()
@@ -208,8 +144,9 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     from dataclasses import replace
 
     from jethr1_plan.io.atomic import check_writable
-    from jethr1_plan.planning.plan import plan as run_plan
-    from jethr1_plan.planning.plan import plan_summary
+    from jethr1_plan.io.plan_files import write_plan_outputs, write_summary_only
+    from jethr1_plan.planning import plan as run_plan
+    from jethr1_plan.planning import plan_summary
     from jethr1_plan.scenario import load_scenario
 
     scenario = load_scenario(scenario_path)
@@ -221,28 +158,18 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
                               jobs=jobs, kinematics=kinematics, strict_torque=strict_torque)
     except InfeasiblePlan as exc:
-        write_plan_outputs_summary_only(scenario, outdir, exc.summary)
+        _report_kept(*write_summary_only(scenario, outdir, exc.summary))
         raise
     summary = plan_summary(result)
-    folder = write_plan_outputs(result, outdir, summary, trajectory=True, strict_torque=strict_torque)
+    folder, kept = write_plan_outputs(result, outdir, summary, trajectory=True, strict_torque=strict_torque)
+    _report_kept(folder, kept)
     if as_json:
-        click.echo(_dump(summary), nl=False)
+        click.echo(json_text(summary), nl=False)
     if not result.feasible:
         raise InfeasiblePlan(f"infeasible: {result.first_infeasible['reason']} "
                              f"(step {result.first_infeasible['step']} {result.first_infeasible['phase']} sample "
                              f"{result.first_infeasible['sample']}); trajectory written with infeasible rows marked")
     _report_plan(summary, folder)
-
-
-def write_plan_outputs_summary_only(scenario, outdir: Path, summary: dict | None) -> None:
-    from jethr1_plan.io.atomic import staged_directory
-
-    if summary is None:
-        return
-    final = outdir / Path(scenario.source).stem
-    with staged_directory(final, PLAN_FILES) as staging:
-        (staging.path / "summary.json").write_text(_dump(summary))
-    _report_kept(final, staging.kept)
 
 
 def _report_plan(summary: dict, folder: Path) -> None:
@@ -348,9 +275,9 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
         (tmp / "balance_space.csv").write_text(balance_space_csv(result))
         (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
         (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
-        (tmp / "summary.json").write_text(_dump(doc))
+        (tmp / "summary.json").write_text(json_text(doc))
     if as_json:
-        click.echo(_dump(doc), nl=False)
+        click.echo(json_text(doc), nl=False)
     w, wo = doc["with_thrust"], doc["without_thrust"]
 
     def metres(v: float | None) -> str:
@@ -397,9 +324,9 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
         "mean_thrust_n": (r.get("summary") or {}).get("mean_thrust_n"),
         "feasible": (r.get("summary") or {}).get("feasible"),
         "wall_s": (r.get("summary") or {}).get("wall_s")} for r in records]}
-    write_text_atomic(outdir / "summary.json", _dump(doc))
+    write_text_atomic(outdir / "summary.json", json_text(doc))
     if as_json:
-        click.echo(_dump(doc), nl=False)
+        click.echo(json_text(doc), nl=False)
     t = Table(title=f"batch: {len(records)} scenarios -> {outdir}")
     for col in ("scenario", "status", "max thrust [N]", "mean [N]", "wall [s]", "expectations"):
         t.add_column(col)
@@ -431,7 +358,7 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
 
     n, failures, what = verify_path(path, scenario)
     if as_json:
-        click.echo(_dump({"file": what, "rows": n, "ok": not failures,
+        click.echo(json_text({"file": what, "rows": n, "ok": not failures,
                           "failures": [f.__dict__ for f in failures]}), nl=False)
     by_row: dict[int, list] = {}
     for f in failures:
@@ -481,11 +408,11 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
     with staged_directory(outdir, frozenset({"compare.json", "compare_trajectories.png", "compare_time.png"})
                           ) as staging:
         tmp = staging.path
-        (tmp / "compare.json").write_text(_dump(doc))
+        (tmp / "compare.json").write_text(json_text(doc))
         for name, data in comparison_pngs(doc).items():
             (tmp / name).write_bytes(data)
     if as_json:
-        click.echo(_dump(doc), nl=False)
+        click.echo(json_text(doc), nl=False)
     def fmt(v, digits):
         return "" if v is None else f"{v:.{digits}f}"
 
@@ -540,7 +467,7 @@ def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as
     if numeric is not None:
         out["numerical"] = numeric
     if as_json:
-        click.echo(_dump(out), nl=False)
+        click.echo(json_text(out), nl=False)
         return
     c = Console()
     c.print(f"(B-1) standing, pelvis fixed:    {out['standing_fixed_m']:.4f} m")
@@ -584,8 +511,6 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     """The widest ditch crossable at each tolerance, and the thrust it needs (Paper A's forward step)."""
     from dataclasses import replace
 
-    import numpy as np
-
     from jethr1_plan.ditch_curve import curve, curve_png, default_base
     from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.robot.model import load_robot
@@ -609,10 +534,10 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
         doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
     with staged_directory(outdir, frozenset({"ditch_curve.json", "ditch_curve.png"})) as staging:
         tmp = staging.path
-        (tmp / "ditch_curve.json").write_text(_dump(doc))
+        (tmp / "ditch_curve.json").write_text(json_text(doc))
         (tmp / "ditch_curve.png").write_bytes(curve_png(doc))
     if as_json:
-        click.echo(_dump(doc), nl=False)
+        click.echo(json_text(doc), nl=False)
     t = Table(title=f"widest ditch per tolerance ({doc['optimiser']}, F_max {doc['thrust_max_n']:g} N)")
     for col in ("thrust error", "mass error", "CoM error [m]", "widest gap [m]", "max thrust there [N]"):
         t.add_column(col, justify="right")
@@ -652,7 +577,6 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     Writes PLAN_DIR/simulation.json and simulation.mcap. Exit 0 when every run succeeds (no fall,
     both soles on carton tops at the end), 6 when any fails, 2 on bad input.
     """
-    import numpy as np
 
     from jethr1_plan.io.atomic import check_writable, write_bytes_atomic, write_text_atomic
     from jethr1_plan.io.mcap import simulation_mcap
@@ -675,11 +599,11 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
-    write_text_atomic(plan_dir / "simulation.json", _dump(doc))
+    write_text_atomic(plan_dir / "simulation.json", json_text(doc))
     if runs[0].record is not None:
         write_bytes_atomic(plan_dir / "simulation.mcap", simulation_mcap(track.robot, runs[0].record, track.cartons))
     if as_json:
-        click.echo(_dump(doc), nl=False)
+        click.echo(json_text(doc), nl=False)
     t = Table(title=f"{plan_dir}: {controller} in the twin")
     for col in ("run", "mass ×", "thrust ×", "lag [s]", "result", "max tilt [deg]", "landing [m]", "slip [m]",
                 "CoP margin [m]", "max thrust [N]"):

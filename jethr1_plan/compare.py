@@ -15,10 +15,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from jethr1_plan.balance_space import SweepSpec, _Cells, _Evaluator, _exhaustive_cell
-from jethr1_plan.planning.plan import feet_before_each_step, plan, plan_summary, smoothness
+from jethr1_plan.planning import feet_before_each_step, plan, plan_summary, smoothness
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import Scenario
+from jethr1_plan.search import Cells, Evaluator, SupportStance, exhaustive_cell
+
+__all__ = ["compare", "comparison_pngs", "reference_thrust", "run_method", "step_evaluator"]
 
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
@@ -50,17 +53,15 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
     }
 
 
-def step_evaluator(scenario: Scenario, si: int, pbody_resolution_m: float = 0.01) -> tuple[_Evaluator, _Cells]:
-    """The balance-space evaluator of step ``si`` (its support sole, balance settings and body yaw
-    (A-4)) and its swing samples as cells: what the exhaustive search runs on."""
+def step_evaluator(scenario: Scenario, si: int) -> tuple[Evaluator, Cells]:
+    """The search objective of step ``si`` (its support sole, balance settings and body yaw (A-4))
+    and its swing samples as cells: what the exhaustive search runs on."""
     st = scenario.steps[si]
     feet = feet_before_each_step(scenario)[si]
-    spec = SweepSpec(robot=scenario.robot, support_side=st.support, support_xyz=tuple(feet[st.support]),
-                     thrust_max_n=scenario.balance.thrust_max_n, rho_rad=scenario.balance.rho_rad,
-                     sole_margin_m=scenario.balance.sole_margin_m, tolerance=scenario.balance.tolerance,
-                     method="exhaustive",
-                     pbody_resolution_m=pbody_resolution_m)
-    ev = _Evaluator(load_robot(scenario.robot), spec)
+    b = scenario.balance
+    stance = SupportStance(st.support, tuple(feet[st.support]), b.rho_rad, b.thrust_max_n, b.sole_margin_m,
+                           b.tolerance)
+    ev = Evaluator(load_robot(scenario.robot), stance)
     return ev, ev.cells(st.path_m)
 
 
@@ -68,11 +69,11 @@ def reference_thrust(scenario: Scenario, pbody_resolution_m: float = 0.01) -> li
     """Per step and sample, the least thrust [N] found by the dense exhaustive search (None: none)."""
     out = []
     for si, st in enumerate(scenario.steps):
-        ev, cells = step_evaluator(scenario, si, pbody_resolution_m)
+        ev, cells = step_evaluator(scenario, si)
         row = []
         for i in range(len(st.path_m)):
-            _, f, reason = _exhaustive_cell(ev, cells, i)
-            row.append(float(f) if reason == 0 else None)
+            _, f, reason = exhaustive_cell(ev, cells, i, pbody_resolution_m)
+            row.append(float(f) if reason == Reason.OK else None)
         out.append(row)
     return out
 

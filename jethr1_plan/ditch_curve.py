@@ -52,7 +52,7 @@ def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_leng
 
 def _feasible_thrust(scenario: Scenario) -> tuple[float | None, str | None]:
     """(max thrust [N], None) of a feasible plan; (None, the reason) of an infeasible one."""
-    from jethr1_plan.planning.plan import plan
+    from jethr1_plan.planning import plan
 
     try:
         result = plan(scenario)
@@ -139,7 +139,7 @@ def curve_png(doc: dict) -> bytes:
 
 def default_base() -> Scenario:
     """A scenario with every default (robot jethr1, Paper A's timing), as the curve's base."""
-    from jethr1_plan.optimisers.gas import OptimiserConfig
+    from jethr1_plan.optimisers import OptimiserConfig
 
     return Scenario(source="ditch-curve", name="ditch", robot="jethr1", seed=1, start={}, cartons=(), steps=(),
                     optimiser=OptimiserConfig(), balance=BalanceConfig(), yaw_mode="eq4", yaw_fixed_rad=0.0,

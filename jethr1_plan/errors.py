@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+__all__ = ["ExpectationFailed", "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed"]
+
 
 class Jethr1Error(Exception):
     """Base of every expected failure. ``exit_code`` is what the CLI returns."""
@@ -41,3 +43,9 @@ class ExpectationFailed(Jethr1Error):
     """A batch scenario's ``expect:`` block did not hold (exit 4)."""
 
     exit_code = 4
+
+
+class SelfCheckFailed(Exception):
+    """The planner's own output failed the independent re-check before it was written: a bug (exit 1).
+
+    Deliberately not a :class:`Jethr1Error`: nothing a user did causes it."""

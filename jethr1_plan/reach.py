@@ -21,6 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = [
+    "DYROS_JET",
+    "PAPER_B_STATED_ROTATING_M",
+    "ReachFigures",
+    "discrepancy_note",
+    "numerical_reach",
+    "step_lengths",
+]
+
 PAPER_B_STATED_ROTATING_M = 0.42
 DYROS_JET = {"l_leg": 0.75, "z0": 0.68, "l_pel": 0.21, "w_step": 0.243, "theta_pel_deg": 45.0}
 
@@ -74,8 +83,10 @@ def numerical_reach(robot_name: str, z0: float, w_step: float, trunk_yaw_rad: fl
     Searched with the closed-form kinematics on a grid of pelvis positions (``resolution_m``), then the
     winning posture is solved again by PlaCo's IK from a bent-knee seed (``placo_converged``).
     """
+    from jethr1_plan.kinematics import Stance
     from jethr1_plan.kinematics.closed_form import solve_postures
-    from jethr1_plan.kinematics.placo import OK, PostureSolver, Stance
+    from jethr1_plan.kinematics.placo import PlacoPostureSolver
+    from jethr1_plan.reasons import Reason
     from jethr1_plan.robot.model import load_robot
 
     robot = load_robot(robot_name)
@@ -90,7 +101,7 @@ def numerical_reach(robot_name: str, z0: float, w_step: float, trunk_yaw_rad: fl
         P = np.column_stack([P, np.full(len(P), z0)])
         feet = {"right": (support, 0.0), "left": (swing, 0.0)}
         _, _, status = solve_postures(robot, P, trunk_yaw_rad, feet)
-        ok = np.flatnonzero(status == OK)
+        ok = np.flatnonzero(status == Reason.OK)
         return (P[ok[len(ok) // 2]], swing) if len(ok) else None
 
     lo, hi = 0.0, 2.5 * L
@@ -100,7 +111,7 @@ def numerical_reach(robot_name: str, z0: float, w_step: float, trunk_yaw_rad: fl
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if best_for(mid) is not None else (lo, mid)
     p, swing = best_for(lo)
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     batch = solver.solve_batch(Stance("right", support, 0.0, swing, 0.0, trunk_yaw_rad), p[None])
     return {"step_m": float(lo), "pelvis_m": p.tolist(), "trunk_yaw_rad": float(trunk_yaw_rad),
-            "placo_converged": bool(batch.status[0] == OK)}
+            "placo_converged": bool(batch.status[0] == Reason.OK)}

@@ -17,11 +17,30 @@ import numpy as np
 import yaml
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.optimisers.gas import METHODS, GAPhase, OptimiserConfig
+from jethr1_plan.optimisers import METHODS, GAPhase, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.robot.model import GRAVITY
 from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_carton
+
+__all__ = [
+    "DEFAULT_CARTON_M",
+    "F3_UNITS",
+    "MAX_FILE_BYTES",
+    "MAX_ROWS",
+    "MAX_SAMPLES",
+    "MAX_VALUES",
+    "POLICIES",
+    "ROBUST_DEFAULT",
+    "SCHEMA",
+    "YAW_MODES",
+    "BalanceConfig",
+    "Scenario",
+    "Step",
+    "Timing",
+    "load_scenario",
+    "load_scenario_text",
+]
 
 DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
 F3_UNITS = {"mm": 0.001, "m": 1.0}

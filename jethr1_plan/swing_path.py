@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["Carton", "arc_path", "first_collision", "interpolate_path", "path_length", "sole_on_carton"]
+
 
 @dataclass(frozen=True)
 class Carton:

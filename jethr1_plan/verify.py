@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.kinematics.placo import pose_from_quaternion
+from jethr1_plan.kinematics import pose_from_quaternion
 from jethr1_plan.physics.balance import inside_polygon, sole_polygon
 from jethr1_plan.planning.sequence import convex_hull
 from jethr1_plan.robot.model import GRAVITY, JOINT_NAMES, SIDES, load_robot
@@ -297,7 +297,7 @@ def _expected_sequence(sc, rate_hz: float) -> list[tuple[str, int, int, str]]:
 def _scenario_feet(sc, row_step: np.ndarray, phase: np.ndarray) -> dict[str, np.ndarray]:
     """Per row, where the scenario puts each sole on the ground: before step k (transfers leading into
     step k, and the support sole of swing k); NaN for the swing sole of a swing row."""
-    from jethr1_plan.planning.plan import feet_before_each_step
+    from jethr1_plan.planning.problems import feet_before_each_step
 
     before = feet_before_each_step(sc)
     final = {k: v.copy() for k, v in before[-1].items()}

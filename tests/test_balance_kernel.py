@@ -12,29 +12,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space import (
-    ABOVE_MAX,
-    EDGE,
-    EDGE_PENALTY_N_PER_DEG,
-    LIMITS,
-    MEMBER,
-    NO_BALANCE,
-    OUT_OF_REACH,
-    SweepSpec,
-    _Evaluator,
-)
+from jethr1_plan.balance_space import SweepSpec
 from jethr1_plan.kinematics.closed_form import check_structure
-from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.physics.compiled import into_reach
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot, reach_centre
+from jethr1_plan.search import EDGE_PENALTY_N_PER_DEG, Evaluator
 
 from .leg_oracle import fast_com, leg_ik
 from .oracle import edge_angle_error, window_bounds
 
 
-def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
-    spec, robot = ev.spec, ev.robot
+def numpy_objective(ev: Evaluator, cells, idx: np.ndarray, P: np.ndarray):
+    spec, robot = ev.stance, ev.robot
     swing, yaw, fan = cells.swing[idx], cells.yaw[idx], cells.fan[idx]
     feet = {spec.support_side: (ev.support, 0.0), spec.swing_side: (swing, 0.0)}
     geom = check_structure(robot)
@@ -46,7 +37,7 @@ def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
         reach &= ok
     q = np.concatenate(qs, axis=1)
     within = np.all((q >= robot.lower_rad) & (q <= robot.upper_rad), axis=1)
-    status = np.where(~reach, UNREACHABLE, np.where(within, OK, JOINT_LIMIT))
+    status = np.where(~reach, Reason.UNREACHABLE, np.where(within, Reason.OK, Reason.JOINT_LIMIT))
     com = fast_com(robot, P, yaw, q)
     lo, hi, blocked = window_bounds(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
     thrust = np.where((lo <= hi) & ~blocked, lo, np.inf)
@@ -58,12 +49,15 @@ def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     reach_excess = np.maximum(np.maximum(d_s, d_w) - (g.thigh_m + g.shank_m), 0.0)
     dist = np.linalg.norm(com[:, :2] - ev.support[:2], axis=1)
     balanced = np.isfinite(thrust)
-    obj = np.select([status == UNREACHABLE, status == JOINT_LIMIT, ~balanced],
+    obj = np.select([status == Reason.UNREACHABLE, status == Reason.JOINT_LIMIT, ~balanced],
                     [4000 + 1e4 * reach_excess, 3000 + 1e3 * limit_excess, 2000 + 1e3 * dist],
                     thrust + EDGE_PENALTY_N_PER_DEG * np.degrees(edge))
-    reason = np.select([status == UNREACHABLE, status == JOINT_LIMIT, ~balanced, edge > 0,
-                        thrust > spec.thrust_max_n], [OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX], MEMBER)
-    return obj, np.where((reason == MEMBER) | (reason == ABOVE_MAX), thrust, np.inf), reason
+    reason = np.select([status == Reason.UNREACHABLE, status == Reason.JOINT_LIMIT, ~balanced, edge > 0,
+                        thrust > spec.thrust_max_n],
+                       [Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.NO_BALANCE, Reason.EDGE_ANGLE,
+                        Reason.THRUST_MAX],
+                       Reason.OK)
+    return obj, np.where((reason == Reason.OK) | (reason == Reason.THRUST_MAX), thrust, np.inf), reason
 
 
 @pytest.mark.parametrize("side, support, tol", [("right", (0.0, -0.1125, 0.0), NOMINAL),
@@ -71,7 +65,7 @@ def numpy_objective(ev: _Evaluator, cells, idx: np.ndarray, P: np.ndarray):
                                                ("right", (0.0, -0.1125, 0.0), Tolerance(0.1, 0.05, 0.01))])
 def test_compiled_objective_equals_the_numpy_functions(side, support, tol):
     spec = SweepSpec(support_side=side, support_xyz=support, thrust_max_n=18.0, tolerance=tol)
-    ev = _Evaluator(load_robot(spec.robot), spec)
+    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
     rng = np.random.default_rng(3)
     n_cells, m = 400, 40_000
     swing = np.column_stack([rng.uniform(-0.6, 0.7, n_cells), rng.uniform(-0.7, 0.7, n_cells),
@@ -83,7 +77,8 @@ def test_compiled_objective_equals_the_numpy_functions(side, support, tol):
     obj, thrust, reason = ev(cells, idx, P)
     obj_ref, thrust_ref, reason_ref = numpy_objective(ev, cells, idx, P)
     # every reason occurs, so every branch is compared
-    assert set(np.unique(reason_ref)) == {MEMBER, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX}
+    assert set(np.unique(reason_ref)) == {Reason.OK, Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.NO_BALANCE,
+                                          Reason.EDGE_ANGLE, Reason.THRUST_MAX}
     np.testing.assert_array_equal(reason, reason_ref)
     np.testing.assert_allclose(obj, obj_ref, rtol=0, atol=1e-8)
     finite = np.isfinite(thrust_ref)

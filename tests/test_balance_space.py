@@ -9,11 +9,14 @@ import jsonschema
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space import MEMBER, OVERLAP, SweepSpec, _Evaluator, _exhaustive_cell, sweep_layers
+from jethr1_plan.balance_space import SweepSpec, sweep_layers
 from jethr1_plan.cli import run
 from jethr1_plan.io.mcap import mcap_schemas, read_mcap
-from jethr1_plan.kinematics.placo import OK, PostureSolver, Stance
+from jethr1_plan.kinematics import Stance
+from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.physics.balance import edge_angle_error, inside_polygon, minimal_thrust, sole_polygon
+from jethr1_plan.reasons import Reason
+from jethr1_plan.search import Evaluator, exhaustive_cell
 
 ARGS = ["balance-space", "--resolution", "0.1", "--no-progress"]
 
@@ -64,7 +67,7 @@ def test_summary_and_csv(swept):
 def test_members_rebalance_with_placo(swept, robot):
     """Re-solve every member's written pelvis pose with PlaCo and recompute its thrust independently."""
     _, rows = _read(swept / "j1" / "balance_space.csv")
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     support = np.array([0.0, -0.1125, 0.0])
     sole = sole_polygon(support[:2], 0.0, robot.sole_length_m, robot.sole_width_m)
     fan_off = np.array(robot.fan_for("left").offset_in_foot_m[:2])
@@ -74,7 +77,7 @@ def test_members_rebalance_with_placo(swept, robot):
         p = np.array([float(r["pelvis_x_m"]), float(r["pelvis_y_m"]), float(r["pelvis_z_m"])])
         stance = Stance("right", support, 0.0, swing, 0.0, float(r["pelvis_yaw_rad"]))
         b = solver.solve_batch(stance, p[None])
-        assert b.status[0] == OK
+        assert b.status[0] == Reason.OK
         f, zmp = minimal_thrust(b.com[0, :2], swing[:2] + fan_off, sole, robot.mass_kg)
         assert abs(float(f) - float(r["min_thrust_n"])) < 2e-3  # PlaCo stops within 1e-6 m of the soles
         assert inside_polygon(zmp, sole, tol_m=1e-9)
@@ -114,16 +117,16 @@ def test_continuation_against_exhaustive_on_sampled_cells(robot, z):
     """
     spec = SweepSpec(x_range=(0.25, 0.75), y_range=(-0.35, 0.35))
     layer = sweep_layers(spec, (z,))
-    ev = _Evaluator(robot, spec)
+    ev = Evaluator(robot, spec.support_stance())
     cells = ev.cells(layer.swing)
     rng = np.random.default_rng(4)
-    reachable = np.flatnonzero((layer.reason != OVERLAP) & ev.reach_possible(cells))
+    reachable = np.flatnonzero((layer.reason != Reason.OVERLAP) & ev.reach_possible(cells))
     picks = rng.choice(reachable, 24, replace=False)
     members = 0
     for i in picks:
-        _, f_ex, r_ex = _exhaustive_cell(ev, cells, i)
-        assert (layer.reason[i] == MEMBER) == (r_ex == MEMBER), (layer.swing[i], layer.thrust[i], f_ex)
-        if r_ex == MEMBER:
+        _, f_ex, r_ex = exhaustive_cell(ev, cells, i, spec.pbody_resolution_m)
+        assert (layer.reason[i] == Reason.OK) == (r_ex == Reason.OK), (layer.swing[i], layer.thrust[i], f_ex)
+        if r_ex == Reason.OK:
             members += 1
             assert abs(layer.thrust[i] - f_ex) <= 0.1, (layer.swing[i], layer.thrust[i], f_ex)
     assert 6 <= members <= 18  # the window straddles the space's edge: both kinds are sampled

@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.kinematics.closed_form import AnalyticPostureSolver, check_structure, solve_postures
-from jethr1_plan.kinematics.placo import OK, UNREACHABLE, PostureSolver, Stance
+from jethr1_plan.kinematics import Stance
+from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, check_structure, solve_postures
+from jethr1_plan.kinematics.placo import PlacoPostureSolver
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import JOINT_NAMES
 
 from .leg_oracle import com_batch, fast_com, leg_ik, link_poses
@@ -24,7 +26,7 @@ def _random_stances(rng, n):
 
 def test_closed_form_agrees_with_placo_on_thousands_of_candidates(robot):
     rng = np.random.default_rng(11)
-    placo_solver, analytic = PostureSolver(robot), AnalyticPostureSolver(robot)
+    placo_solver, analytic = PlacoPostureSolver(robot), ClosedFormPostureSolver(robot)
     wrapper = robot.wrapper()
     compared = 0
     for stance in _random_stances(rng, 60):
@@ -32,15 +34,15 @@ def test_closed_form_agrees_with_placo_on_thousands_of_candidates(robot):
         p = mid + np.array([0, 0, 0.3]) + rng.uniform(-0.12, 0.12, (100, 3))
         a = analytic.solve_batch(stance, p)
         b = placo_solver.solve_batch(stance, p)
-        both = (a.status == OK) & (b.status == OK)
+        both = (a.status == Reason.OK) & (b.status == Reason.OK)
         # PlaCo converges where the closed form says the posture exists and is within limits
-        assert np.all(b.status[a.status == OK] == OK)
-        assert np.all(a.status[b.status == UNREACHABLE] == UNREACHABLE)
+        assert np.all(b.status[a.status == Reason.OK] == Reason.OK)
+        assert np.all(a.status[b.status == Reason.UNREACHABLE] == Reason.UNREACHABLE)
         # PlaCo stops within its 1e-6 tolerance; the closed form is exact
         np.testing.assert_allclose(a.q[both], b.q[both], atol=1e-6)
         np.testing.assert_allclose(a.com[both], b.com[both], atol=1e-6)
         # the closed-form joints put PlaCo's soles on their targets to 1e-9 m, and PlaCo's CoM is ours
-        for i in np.flatnonzero(a.status == OK):
+        for i in np.flatnonzero(a.status == Reason.OK):
             T = np.eye(4)
             c, s = np.cos(stance.body_yaw), np.sin(stance.body_yaw)
             T[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
@@ -52,7 +54,7 @@ def test_closed_form_agrees_with_placo_on_thousands_of_candidates(robot):
                 np.testing.assert_allclose(wrapper.get_T_world_frame(f"{side}_foot"), stance.foot_pose(side),
                                            atol=1e-9)
             np.testing.assert_allclose(wrapper.com_world(), a.com[i], atol=1e-12)
-        compared += int((a.status == OK).sum())
+        compared += int((a.status == Reason.OK).sum())
     assert compared > 2000
 
 
@@ -82,7 +84,7 @@ def test_limits_and_reach_are_reported(robot):
     feet = {"left": (np.array([0.0, 0.1125, 0.0]), 0.0), "right": (np.array([0.0, -0.1125, 0.0]), 0.0)}
     q, _, status = solve_postures(robot, np.array([[0.0, 0.0, 0.40], [0.0, 0.0, 0.60], [0.0, 0.0, 0.38]]),
                                     np.array([0.0, 0.0, 2.2]), feet)
-    assert status.tolist() == [OK, UNREACHABLE, 2]  # 2.2 rad of trunk yaw is beyond the hip-yaw limits
+    assert status.tolist() == [Reason.OK, Reason.UNREACHABLE, 2]  # 2.2 rad of trunk yaw is beyond the hip-yaw limits
     assert q[0, JOINT_NAMES.index("left_knee")] > 0
 
 
@@ -93,7 +95,7 @@ def test_straight_leg_is_the_reach_boundary(robot, side):
     feet = {side: (foot, 0.0), ("right" if side == "left" else "left"): (-foot, 0.0)}
     z = np.array([robot.leg_length_m - 1e-9, robot.leg_length_m + 1e-6])
     _, _, status = solve_postures(robot, np.stack([np.zeros(2), np.zeros(2), z], axis=1), 0.0, feet)
-    assert status[1] == UNREACHABLE and status[0] != UNREACHABLE
+    assert status[1] == Reason.UNREACHABLE and status[0] != Reason.UNREACHABLE
 
 
 def test_the_compiled_closed_form_is_the_numpy_one(robot):
@@ -115,6 +117,6 @@ def test_the_compiled_closed_form_is_the_numpy_one(robot):
         q_ref.append(qs)
         reach &= ok
     q_ref = np.concatenate(q_ref, axis=1)
-    assert np.array_equal(status == UNREACHABLE, ~reach) and reach.sum() > 2000
+    assert np.array_equal(status == Reason.UNREACHABLE, ~reach) and reach.sum() > 2000
     np.testing.assert_allclose(q[reach], q_ref[reach], rtol=0, atol=1e-9)
     np.testing.assert_allclose(com[reach], fast_com(robot, P, yaw, q_ref)[reach], rtol=0, atol=1e-12)

@@ -4,6 +4,7 @@ directory and plans a copied config."""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -13,12 +14,17 @@ from .conftest import ROOT
 
 def test_a_wheel_plans_from_another_directory(tmp_path):
     wheels = tmp_path / "wheels"
+    source = tmp_path / "source"  # a copy: setuptools builds in the source tree (build/), never in the checkout
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".venv", ".git", "out", "build", "__pycache__",
+                                                                "*.egg-info"))
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w",
-                    str(wheels), str(ROOT)], check=True, capture_output=True, cwd=tmp_path)
+                    str(wheels), str(source)], check=True, capture_output=True, cwd=tmp_path)
     wheel = next(wheels.glob("jethr1_plan-*.whl"))
-    names = zipfile.ZipFile(wheel).namelist()
+    names = set(zipfile.ZipFile(wheel).namelist())
     assert {"jethr1_plan/robots/jethr1/jethr1.urdf", "jethr1_plan/robots/jethr1/jethr1.yaml",
-            "jethr1_plan/sim/twin.py"} <= set(names)
+            "jethr1_plan/sim/twin.py"} <= names
+    packages = {str(p.relative_to(ROOT)) for p in (ROOT / "jethr1_plan").rglob("__init__.py")}
+    assert packages <= names, sorted(packages - names)  # every subpackage ships
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), str(wheel)],
                    check=True, capture_output=True)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE, PostureSolver, Stance
+from jethr1_plan.kinematics import Stance
+from jethr1_plan.kinematics.placo import PlacoPostureSolver
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import JOINT_NAMES
 
 
@@ -14,12 +16,12 @@ def _stance(swing, yaw):
 
 
 def test_ik_converges_and_forward_kinematics_agrees(robot, reference):
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     rng = np.random.default_rng(0)
     stance = _stance([0.25, 0.05, 0.04], -0.6)
     p = np.array([0.1, -0.05, 0.36]) + rng.uniform(-0.03, 0.03, (40, 3))
     batch = solver.solve_batch(stance, p)
-    assert np.all(batch.status == OK)
+    assert np.all(batch.status == Reason.OK)
     for pb, q, com in zip(p, batch.q, batch.com, strict=True):
         poses = reference.link_poses(pb, stance.body_yaw, dict(zip(JOINT_NAMES, q, strict=True)))
         for side in ("left", "right"):
@@ -32,7 +34,7 @@ def test_ik_converges_and_forward_kinematics_agrees(robot, reference):
 
 
 def test_result_does_not_depend_on_batch_neighbours(robot):
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     stance = _stance([0.2, 0.1, 0.03], -0.3)
     p = np.array([[0.05, 0.0, 0.37], [0.12, -0.06, 0.33], [0.0, 0.02, 0.4]])
     together = solver.solve_batch(stance, p)
@@ -42,18 +44,18 @@ def test_result_does_not_depend_on_batch_neighbours(robot):
 
 
 def test_out_of_reach_is_reported_without_ik(robot):
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     batch = solver.solve_batch(_stance([0.9, 0.0, 0.0], 0.0), np.array([[0.0, 0.0, 0.4]]))
-    assert batch.status[0] == UNREACHABLE
+    assert batch.status[0] == Reason.UNREACHABLE
     assert np.isnan(batch.com[0]).all()
 
 
 def test_joint_limit_is_reported(robot):
     # trunk yawed beyond the hip-yaw range: the legs cannot keep the feet facing forward
-    solver = PostureSolver(robot)
+    solver = PlacoPostureSolver(robot)
     yaw = robot.upper_rad[JOINT_NAMES.index("left_hip_yaw")] + 0.3
     batch = solver.solve_batch(_stance([0.0, 0.1125, 0.0], yaw), np.array([[0.0, 0.0, 0.38]]))
-    assert batch.status[0] == JOINT_LIMIT
+    assert batch.status[0] == Reason.JOINT_LIMIT
 
 
 def test_leg_geometry_read_from_the_model(robot):

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 import yaml
 
-from jethr1_plan.optimisers import sqp
-from jethr1_plan.balance_space import _exhaustive_cell
 from jethr1_plan.cli import run
 from jethr1_plan.compare import step_evaluator
-from jethr1_plan.planning.plan import feet_before_each_step, path_problems, plan
+from jethr1_plan.optimisers import sqp
+from jethr1_plan.planning import feet_before_each_step, path_problems, plan
 from jethr1_plan.robot.model import GRAVITY
 from jethr1_plan.scenario import load_scenario
+from jethr1_plan.search import exhaustive_cell
 
 from .conftest import ROOT
 
@@ -105,7 +105,7 @@ def test_sqp_is_within_half_a_percent_of_the_exhaustive_minimum(ditch_plans, rob
     ev, cells = step_evaluator(sc, 0)
     thrust = plans["sqp"].steps[0].thrust_n
     for i in (41, 47, 53, 59):
-        _, ref, reason = _exhaustive_cell(ev, cells, i)
+        _, ref, reason = exhaustive_cell(ev, cells, i, 0.01)
         assert reason == 0
         assert thrust[i] <= ref + 0.005 * sc.balance.thrust_max_n, (i, thrust[i], ref)
 

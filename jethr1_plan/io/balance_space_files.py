@@ -8,9 +8,19 @@ import json
 
 import numpy as np
 
-from jethr1_plan.balance_space import REASONS, SweepResult
-from jethr1_plan.io.mcap import SCHEMAS, _entity, _pose, _vec, stamp
-from jethr1_plan.io.trajectory_csv import _num
+from jethr1_plan.balance_space import SweepResult
+from jethr1_plan.io.mcap import SCHEMAS, pose_message, scene_entity, stamp, vector3
+from jethr1_plan.io.trajectory_csv import number_text as num
+from jethr1_plan.reasons import message
+
+__all__ = [
+    "FLOAT32",
+    "POINT_CLOUD_SCHEMA",
+    "balance_space_csv",
+    "balance_space_mcap",
+    "balance_space_png",
+    "point_cloud",
+]
 
 POINT_CLOUD_SCHEMA = {
     "title": "foxglove.PointCloud", "type": "object",
@@ -40,21 +50,21 @@ def balance_space_csv(r: SweepResult) -> str:
         x, y, z = r.swing[i]
         if member[i]:
             p = r.p_body[i]
-            vals = [_num(r.thrust[i]), _num(p[0]), _num(p[1]), _num(p[2]), _num(r.yaw[i])]
+            vals = [num(r.thrust[i]), num(p[0]), num(p[1]), num(p[2]), num(r.yaw[i])]
             reason = ""
         else:
             vals = ["", "", "", "", ""]
-            reason = REASONS[int(r.reason[i])]
+            reason = message(r.reason[i])
             if np.isfinite(r.thrust[i]):
                 reason += f" ({r.thrust[i]:.2f} N needed)"
-        out.write(f"{_num(x)},{_num(y)},{_num(z)},{','.join(vals)},{reason}\n")
+        out.write(f"{num(x)},{num(y)},{num(z)},{','.join(vals)},{reason}\n")
     return out.getvalue()
 
 
 def point_cloud(points: np.ndarray, thrust: np.ndarray) -> dict:
     """A foxglove.PointCloud of float32 x, y, z, min_thrust_n."""
     data = np.concatenate([points, thrust[:, None]], axis=1).astype("<f4").tobytes()
-    return {"timestamp": stamp(0.0), "frame_id": "world", "pose": _pose((0, 0, 0)), "point_stride": 16,
+    return {"timestamp": stamp(0.0), "frame_id": "world", "pose": pose_message((0, 0, 0)), "point_stride": 16,
             "fields": [{"name": n, "offset": 4 * k, "type": FLOAT32}
                        for k, n in enumerate(("x", "y", "z", "min_thrust_n"))],
             "data": base64.b64encode(data).decode()}
@@ -80,10 +90,11 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
         w.add_message(channel_id=chans[topic], log_time=0, publish_time=0, sequence=seq,
                       data=json.dumps(msg, separators=(",", ":")).encode())
     x, y, z = r.spec.support_xyz
-    cube = {"pose": _pose((x, y, z - 0.005)), "size": _vec((sole_length_m, sole_width_m, 0.01)),
+    cube = {"pose": pose_message((x, y, z - 0.005)), "size": vector3((sole_length_m, sole_width_m, 0.01)),
             "color": {"r": 0.2, "g": 0.2, "b": 0.9, "a": 1.0}}
     w.add_message(channel_id=sole, log_time=0, publish_time=0, sequence=2,
-                  data=json.dumps({"deletions": [], "entities": [_entity(0.0, "support_sole", cubes=[cube])]}).encode())
+                  data=json.dumps({"deletions": [],
+                                   "entities": [scene_entity(0.0, "support_sole", cubes=[cube])]}).encode())
     w.finish()
     return buf.getvalue()
 

@@ -23,6 +23,41 @@ import numpy as np
 from jethr1_plan.robot.model import RobotModel, urdf_joints
 from jethr1_plan.swing_path import Carton
 
+__all__ = [
+    "COLOR",
+    "CUBE",
+    "DURATION",
+    "ENTITY",
+    "EPOCH_NS",
+    "LINE",
+    "NUMBER",
+    "POSE",
+    "QUATERNION",
+    "ROBOT_DESCRIPTION_SCHEMA",
+    "SCHEMAS",
+    "SPHERE",
+    "TIME",
+    "TOPICS",
+    "VECTOR3",
+    "frame_transforms",
+    "joint_rotations",
+    "log_time",
+    "mcap_schemas",
+    "pose_message",
+    "quat_axis_angle",
+    "quat_mul",
+    "quat_rpy",
+    "quaternion_message",
+    "read_mcap",
+    "scene_entity",
+    "simulation_mcap",
+    "stamp",
+    "swing_path_update",
+    "terrain_update",
+    "trajectory_mcap",
+    "vector3",
+]
+
 EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
 ROBOT_DESCRIPTION_SCHEMA = "std_msgs/String"  # a name Foxglove's URDF layer accepts for a topic source
 
@@ -121,19 +156,19 @@ def quat_rpy(rpy) -> np.ndarray:
                                                             quat_axis_angle((1, 0, 0), r)))
 
 
-def _vec(v) -> dict:
+def vector3(v) -> dict:
     return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
 
 
-def _quat(q) -> dict:
+def quaternion_message(q) -> dict:
     return {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "w": float(q[3])}
 
 
-def _pose(pos, quat=(0.0, 0.0, 0.0, 1.0)) -> dict:
-    return {"position": _vec(pos), "orientation": _quat(quat)}
+def pose_message(pos, quat=(0.0, 0.0, 0.0, 1.0)) -> dict:
+    return {"position": vector3(pos), "orientation": quaternion_message(quat)}
 
 
-def _entity(t: float, ident: str, cubes=(), lines=(), spheres=()) -> dict:
+def scene_entity(t: float, ident: str, cubes=(), lines=(), spheres=()) -> dict:
     return {"timestamp": stamp(t), "frame_id": "world", "id": ident, "lifetime": {"sec": 0, "nsec": 0},
             "frame_locked": False, "metadata": [], "arrows": [], "cubes": list(cubes), "spheres": list(spheres),
             "cylinders": [], "lines": list(lines), "triangles": [], "texts": [], "models": []}
@@ -144,17 +179,17 @@ def terrain_update(cartons: Iterable[Carton], t: float = 0.0) -> dict:
     cubes = []
     for c in cartons:
         x, y, ztop = c.top_centre_m
-        cubes.append({"pose": _pose((x, y, ztop - c.size_m[2] / 2)), "size": _vec(c.size_m),
+        cubes.append({"pose": pose_message((x, y, ztop - c.size_m[2] / 2)), "size": vector3(c.size_m),
                       "color": {"r": 0.72, "g": 0.53, "b": 0.32, "a": 0.9}})
-    return {"deletions": [], "entities": [_entity(t, "cartons", cubes=cubes)]}
+    return {"deletions": [], "entities": [scene_entity(t, "cartons", cubes=cubes)]}
 
 
 def swing_path_update(paths: Iterable[np.ndarray], t: float = 0.0) -> dict:
     """/swing_path: one line strip per step through its swing samples."""
-    lines = [{"type": 0, "pose": _pose((0, 0, 0)), "thickness": 0.005, "scale_invariant": False,
-              "points": [_vec(p) for p in path], "color": {"r": 0.1, "g": 0.6, "b": 1.0, "a": 1.0}, "colors": [],
+    lines = [{"type": 0, "pose": pose_message((0, 0, 0)), "thickness": 0.005, "scale_invariant": False,
+              "points": [vector3(p) for p in path], "color": {"r": 0.1, "g": 0.6, "b": 1.0, "a": 1.0}, "colors": [],
               "indices": []} for path in paths]
-    return {"deletions": [], "entities": [_entity(t, "swing_paths", lines=lines)]}
+    return {"deletions": [], "entities": [scene_entity(t, "swing_paths", lines=lines)]}
 
 
 def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
@@ -186,12 +221,12 @@ def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np
     """
     ts = stamp(t)
     tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + "trunk",
-            "translation": _vec(p_body), "rotation": _quat(trunk_quat_xyzw)}]
+            "translation": vector3(p_body), "rotation": quaternion_message(trunk_quat_xyzw)}]
     if rotations is None:
         rotations = [r[0] for r in joint_rotations(robot, q)]
     for j, rot in zip(urdf_joints(robot.urdf_path), rotations, strict=True):
         tfs.append({"timestamp": ts, "parent_frame_id": prefix + j.parent, "child_frame_id": prefix + j.child,
-                    "translation": _vec(j.xyz), "rotation": _quat(rot)})
+                    "translation": vector3(j.xyz), "rotation": quaternion_message(rot)})
     return {"transforms": tfs}
 
 
@@ -239,10 +274,11 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
                            "window_lo_n": _or_none(c["window"][i][0]), "window_hi_n": _or_none(c["window"][i][1]),
                            "zmp_margin_m": float(c["zmp_margin"][i])})
         put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",
-                           "pose": _pose(p, quat_axis_angle((0, 0, 1), yaw))})
-        put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(c["com"][i])})
+                           "pose": pose_message(p, quat_axis_angle((0, 0, 1), yaw))})
+        put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(c["com"][i])})
         zmp = c["zmp"][i]
-        put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose((zmp[0], zmp[1], _ground(c, i)))})
+        put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world",
+                        "pose": pose_message((zmp[0], zmp[1], _ground(c, i)))})
     w.finish()
     return buf.getvalue()
 
@@ -290,10 +326,10 @@ def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
         put("/tf", t, frame_transforms(robot, t, qpos[i, :3], (x, y, z, w_), qpos[i, 7:], [r[i] for r in rotations],
                                        prefix="sim/"))
         put("/sim/thrust", t, {"timestamp": stamp(t), "frame": frames, "thrust_n": record["thrust"][i]})
-        put("/sim/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(record["com"][i])})
+        put("/sim/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(record["com"][i])})
         cop = record["cop"][i]
         if cop is not None:
-            put("/sim/cop", t, {"timestamp": stamp(t), "frame_id": "world", "pose": _pose(cop)})
+            put("/sim/cop", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(cop)})
     w.finish()
     return buf.getvalue()
 

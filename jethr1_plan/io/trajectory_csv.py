@@ -10,6 +10,17 @@ import numpy as np
 from jethr1_plan.planning.sequence import Rows
 from jethr1_plan.robot.model import JOINT_NAMES
 
+__all__ = [
+    "CSV_FORMAT_VERSION",
+    "MAX_CSV_BYTES",
+    "TEXT_COLUMNS",
+    "columns",
+    "number_text",
+    "read_trajectory_csv",
+    "trajectory_csv",
+    "yaw_quaternion",
+]
+
 CSV_FORMAT_VERSION = 1
 
 
@@ -30,7 +41,7 @@ def columns() -> list[str]:
             *(f"{j}_cmd_rad" for j in JOINT_NAMES), "thrust_cmd_left_n", "thrust_cmd_right_n", "reason"]
 
 
-def _num(x: float) -> str:
+def number_text(x: float) -> str:
     """Shortest round-tripping text of a float; empty for NaN (no value, e.g. no swing foot)."""
     x = float(x)
     if math.isnan(x):
@@ -43,15 +54,16 @@ def trajectory_csv(rows: Rows) -> str:
     out = io.StringIO()
     out.write(",".join(columns()) + "\n")
     c = rows.columns
+    num = number_text
     for i in range(len(rows)):
         qx, qy, qz, qw = yaw_quaternion(c["yaw"][i])
-        vals = [_num(round(c["time_s"][i], 9)), str(c["step"][i]), c["phase"][i], str(c["sample"][i]), c["support"][i],
-                "true" if c["feasible"][i] else "false", *map(_num, c["p_body"][i]), *map(_num, (qx, qy, qz, qw)),
-                *map(_num, np.asarray(c["q"][i])), *map(_num, c["swing"][i]), _num(c["thrust_left"][i]),
-                _num(c["thrust_right"][i]), *map(_num, c["com"][i]), *map(_num, c["zmp"][i]),
-                *map(_num, c["window"][i]), _num(c["zmp_margin"][i]),
-                *map(_num, c["tau"][i]), _num(c["kappa"][i][0]), _num(c["kappa"][i][1]), _num(c["yaw_momentum"][i]),
-                *map(_num, c["q_cmd"][i]), _num(c["thrust_cmd_left"][i]), _num(c["thrust_cmd_right"][i]),
+        vals = [num(round(c["time_s"][i], 9)), str(c["step"][i]), c["phase"][i], str(c["sample"][i]), c["support"][i],
+                "true" if c["feasible"][i] else "false", *map(num, c["p_body"][i]), *map(num, (qx, qy, qz, qw)),
+                *map(num, np.asarray(c["q"][i])), *map(num, c["swing"][i]), num(c["thrust_left"][i]),
+                num(c["thrust_right"][i]), *map(num, c["com"][i]), *map(num, c["zmp"][i]),
+                *map(num, c["window"][i]), num(c["zmp_margin"][i]),
+                *map(num, c["tau"][i]), num(c["kappa"][i][0]), num(c["kappa"][i][1]), num(c["yaw_momentum"][i]),
+                *map(num, c["q_cmd"][i]), num(c["thrust_cmd_left"][i]), num(c["thrust_cmd_right"][i]),
                 c["reason"][i]]
         out.write(",".join(vals) + "\n")
     return out.getvalue()

@@ -21,9 +21,25 @@ from typing import NamedTuple
 import numpy as np
 
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.kinematics.placo import OK, UNREACHABLE
+from jethr1_plan.kinematics.base import PostureBatch, Stance
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, halfplanes
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import SIDES, RobotModel, urdf_joints
+
+__all__ = [
+    "AXES",
+    "ClosedFormPostureSolver",
+    "KernelParams",
+    "LegGeometry",
+    "check_structure",
+    "closed_form_arrays",
+    "kernel_params",
+    "leg_mass_model",
+    "mass_model",
+    "mm_batch",
+    "rot_axis",
+    "solve_postures",
+]
 
 AXES = {"hip_yaw": (0, 0, 1), "hip_roll": (1, 0, 0), "hip_pitch": (0, 1, 0), "knee": (0, 1, 0),
         "ankle_pitch": (0, 1, 0), "ankle_roll": (1, 0, 0)}
@@ -183,10 +199,10 @@ def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarr
     return postures(P, yaw, foot_xyz, foot_yaw, *closed_form_arrays(robot))
 
 
-class AnalyticPostureSolver:
-    """Drop-in for :class:`~jethr1_plan.kinematics.placo.PostureSolver` using the closed form (no PlaCo).
+class ClosedFormPostureSolver:
+    """The :class:`~jethr1_plan.kinematics.base.PostureSolver` of the closed form (no PlaCo).
 
-    ``solve_batch`` returns the same :class:`~jethr1_plan.kinematics.placo.PostureBatch`; the residual is 0
+    ``solve_batch`` returns the same :class:`~jethr1_plan.kinematics.base.PostureBatch` as PlaCo's; the residual is 0
     (the closed form is exact to rounding) and no IK iterations are spent.
     """
 
@@ -196,30 +212,17 @@ class AnalyticPostureSolver:
         self.evaluations = 0
         self.replay_log = None
 
-    def solve_batch(self, stance, p_body: np.ndarray, warm: np.ndarray | None = None):
-        from jethr1_plan.kinematics.placo import PostureBatch
-
+    def solve_batch(self, stance: Stance, p_body: np.ndarray, warm: np.ndarray | None = None) -> PostureBatch:
         p_body = np.atleast_2d(np.asarray(p_body, dtype=float))
         feet = {}
         for side in SIDES:
             T = stance.foot_pose(side)
             feet[side] = (T[:3, 3], np.arctan2(T[1, 0], T[0, 0]))
         q, com, status = solve_postures(self.model, p_body, stance.body_yaw, feet)
-        com[status == UNREACHABLE] = np.nan
+        com[status == Reason.UNREACHABLE] = np.nan
         self.evaluations += len(p_body)
-        return PostureBatch(q=q, com=com, status=status, residual_m=np.where(status == OK, 0.0, np.inf),
+        return PostureBatch(q=q, com=com, status=status, residual_m=np.where(status == Reason.OK, 0.0, np.inf),
                             iterations=np.zeros(len(p_body), dtype=np.int32))
-
-
-def make_posture_solver(model: RobotModel, kinematics: str = "placo"):
-    """A posture solver: ``placo`` (PlaCo's KinematicsSolver) or ``analytic`` (closed form)."""
-    if kinematics == "analytic":
-        return AnalyticPostureSolver(model)
-    if kinematics == "placo":
-        from jethr1_plan.kinematics.placo import PostureSolver
-
-        return PostureSolver(model)
-    raise ValueError(f"unknown kinematics {kinematics!r}")
 
 
 class KernelParams(NamedTuple):

@@ -1,85 +1,27 @@
-"""Posture kinematics (Paper A, III-B): from P_body and the body yaw to the 12 joint angles.
+"""Posture kinematics through PlaCo (Paper A, III-B): from P_body and the body yaw to the leg joints.
 
-Preconditions 1 and 2 fix the trunk level (roll = pitch = 0, yaw given) and both soles flat, so a
-posture is determined by P_body ∈ R³. PlaCo's KinematicsSolver solves the leg IK with the trunk
-pose imposed (``mask_fbase``) and two soft sole tasks; the residual is checked against the
-tolerance on both feet, so a candidate is either converged or carries the reason it is not.
+PlaCo's KinematicsSolver solves the leg IK with the trunk pose imposed (``mask_fbase``) and two
+soft sole tasks; the residual is checked against the tolerance on both feet, so a candidate is
+either converged or carries the reason it is not (:class:`~jethr1_plan.reasons.Reason`).
 
-A :class:`PostureSolver` owns one PlaCo robot and solver; it cannot be pickled: each worker process
-builds its own.
+A :class:`PlacoPostureSolver` owns one PlaCo robot and solver; it cannot be pickled: each worker
+process builds its own.
 """
 
 from __future__ import annotations
 
-import functools
-from dataclasses import dataclass
-
 import numpy as np
 
+from jethr1_plan.kinematics.base import PostureBatch, Stance, pose_matrix
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import SIDES, RobotModel, reach_centre
 
-OK, UNREACHABLE, JOINT_LIMIT, NOT_CONVERGED = 0, 1, 2, 3
-REASONS = {OK: "ok", UNREACHABLE: "unreachable", JOINT_LIMIT: "joint limit", NOT_CONVERGED: "ik not converged"}
+__all__ = ["BENT_SEED", "PlacoPostureSolver", "leg_reach_ok"]
+
+OK, UNREACHABLE, JOINT_LIMIT, NOT_CONVERGED = Reason.OK, Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.NOT_CONVERGED
 
 #: bent-knee seed per leg (hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll) [rad]
 BENT_SEED = np.array([0.0, 0.0, -0.5, 1.0, -0.5, 0.0])
-
-
-def pose_matrix(xyz: np.ndarray, yaw_rad: float) -> np.ndarray:
-    """4×4 homogeneous transform of a level frame at ``xyz`` [m] turned by ``yaw_rad`` about z."""
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    T = np.eye(4)
-    T[0, 0], T[0, 1], T[1, 0], T[1, 1] = c, -s, s, c
-    T[:3, 3] = xyz
-    return T
-
-
-def pose_from_quaternion(xyz, quat_xyzw) -> np.ndarray:
-    """4×4 homogeneous transform from a position [m] and a unit quaternion (x, y, z, w)."""
-    qx, qy, qz, qw = quat_xyzw
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                 [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                 [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
-    T[:3, 3] = xyz
-    return T
-
-
-@dataclass(frozen=True)
-class Stance:
-    """What a swing sample fixes: both sole poses and the body yaw (SI units)."""
-
-    support_side: str  # 'left' or 'right'
-    support_xyz: np.ndarray  # (3,) support sole centre [m]
-    support_yaw: float  # [rad]
-    swing_xyz: np.ndarray  # (3,) swing sole centre [m]
-    swing_yaw: float  # [rad] (Precondition 2: 0, "forward")
-    body_yaw: float  # trunk yaw [rad]
-
-    @property
-    def swing_side(self) -> str:
-        return "left" if self.support_side == "right" else "right"
-
-    @functools.cached_property
-    def _foot_poses(self) -> dict[str, np.ndarray]:
-        swing = "left" if self.support_side == "right" else "right"
-        return {self.support_side: pose_matrix(self.support_xyz, self.support_yaw),
-                swing: pose_matrix(self.swing_xyz, self.swing_yaw)}
-
-    def foot_pose(self, side: str) -> np.ndarray:
-        """4×4 pose of the ``side`` sole (computed once per stance; do not modify)."""
-        return self._foot_poses[side]
-
-
-@dataclass
-class PostureBatch:
-    """Postures for N candidate P_body: joints (N, 12) [rad], CoM (N, 3) [m], status (N,), residual [m]."""
-
-    q: np.ndarray
-    com: np.ndarray
-    status: np.ndarray
-    residual_m: np.ndarray
-    iterations: np.ndarray | None = None  # (N,) IK iterations spent on each candidate (0: not run)
 
 
 def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.ndarray:
@@ -94,7 +36,7 @@ def leg_reach_ok(model: RobotModel, stance: Stance, p_body: np.ndarray) -> np.nd
     return ok
 
 
-class PostureSolver:
+class PlacoPostureSolver:
     """Leg IK through PlaCo for batches of P_body candidates.
 
     Args:

@@ -18,59 +18,32 @@ phase is run again at that sample before the sample is declared infeasible.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from jethr1_plan.kinematics.placo import PostureSolver
+from jethr1_plan.kinematics import PostureSolver
+from jethr1_plan.optimisers.base import GAPhase, OptimiserConfig, PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.problem import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
+from jethr1_plan.reasons import has_posture
 
-METHODS = ("gas", "ga", "gaex", "sqp")  # sqp: sqp_optimiser.optimise_path_sqp (whole paths)
+__all__ = [
+    "GA_METHODS",
+    "GAPhase",
+    "OptimiserConfig",
+    "SampleResult",
+    "decode",
+    "exhaustive_cube",
+    "genome_keys",
+    "initial_phase",
+    "mutate",
+    "optimise_path",
+    "optimise_sample",
+    "run_ga",
+    "single_point_crossover",
+    "tournament_select",
+]
 
-
-@dataclass(frozen=True)
-class GAPhase:
-    """One phase of the binary GA (Tables 2 and 3)."""
-
-    population: int
-    generations: int
-    half_range_m: float  # search box half-width around the phase's centre [m]
-    crossover: float = 0.5  # probability that a pair of parents is crossed
-    mutation: float = 0.01  # probability that a bit flips
-
-
-@dataclass(frozen=True)
-class OptimiserConfig:
-    """Optimiser parameters; defaults are Paper A's."""
-
-    method: str = "gas"
-    initial: GAPhase = GAPhase(200, 50, 0.150)
-    intermediate: GAPhase = GAPhase(150, 8, 0.025)
-    bits: int = 10
-    constants: FitnessConstants = field(default_factory=FitnessConstants)
-    gaex_half_m: float = 0.006
-    gaex_step_m: float = 0.001
-    tournament_size: int = 2
-    elites: int = 1
-    sqp_smoothness_n_per_m2: float = 10.0  # sqp: ε of the tie-break ε·‖ΔP_body‖² [N/m²]
-
-
-@dataclass
-class SampleResult:
-    """The chosen P_body at one sample and how it was found."""
-
-    best: Candidates  # a single evaluated candidate (arrays of length 1)
-    fitness: float
-    evaluations: int
-    phase: str  # 'initial', 'intermediate', 'exhaustive' or 'restart'
-
-    @property
-    def p_body(self) -> np.ndarray:
-        return self.best.p_body[0]
-
-    @property
-    def feasible(self) -> bool:
-        return bool(self.best.feasible[0])
+GA_METHODS = ("gas", "ga", "gaex")
 
 
 # --- binary GA operators (A-14), pure functions -------------------------------------------
@@ -160,8 +133,9 @@ def _objective(solver: PostureSolver, problem: SampleProblem, k: FitnessConstant
     return lambda p: fitness(evaluate_candidates(solver, problem, p), k, problem.thrust_max_n, previous)
 
 
-def _initial_phase(solver, problem, cfg, rng, nominal):
-    """Table 2's phase: no f3, ±half_range around ``nominal``."""
+def initial_phase(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
+                  nominal: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """Table 2's phase: no f3, ±half_range around ``nominal``: (P_body [m], fitness, evaluations)."""
     half = cfg.initial.half_range_m
     p, f, n = run_ga(_objective(solver, problem, cfg.constants, None), nominal - half, nominal + half,
                      cfg.initial, cfg.bits, rng, cfg.tournament_size, cfg.elites)
@@ -185,7 +159,7 @@ def exhaustive_cube(solver: PostureSolver, problem: SampleProblem, centre: np.nd
         hits = np.flatnonzero(c.feasible)
         if len(hits):
             return c.take(int(hits[0])), count
-        key = np.where(c.violation >= 10, c.thrust_n, np.inf)
+        key = np.where(has_posture(c.violation), c.thrust_n, np.inf)
         i = int(np.argmin(key)) if np.isfinite(key).any() else 0
         if best is None or key[i] < best_thrust:
             best, best_thrust = c.take(i), key[i]
@@ -200,11 +174,11 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
         previous: P_body at the previous sample of the same step, or None at the step's first sample.
         nominal: centre of the initial phase's search box [m].
     """
-    if cfg.method not in METHODS or cfg.method == "sqp":
-        raise ValueError(f"method {cfg.method!r} is not a per-sample optimiser")
+    if cfg.method not in GA_METHODS:
+        raise ValueError(f"method {cfg.method!r} is not one of the GA family {GA_METHODS}")
     evals = 0
     if previous is None:
-        p, f, n = _initial_phase(solver, problem, cfg, rng, nominal)
+        p, f, n = initial_phase(solver, problem, cfg, rng, nominal)
         phase = "initial"
         evals += n
     elif cfg.method == "gaex":
@@ -213,7 +187,7 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
         if best.feasible[0]:
             return SampleResult(best, float(fitness(best, cfg.constants, problem.thrust_max_n)[0]), evals,
                                 "exhaustive")
-        p, f, n = _initial_phase(solver, problem, cfg, rng, previous)
+        p, f, n = initial_phase(solver, problem, cfg, rng, previous)
         phase, evals = "restart", evals + n
     else:
         prev_f3 = previous if cfg.method == "gas" else None
@@ -224,7 +198,23 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
         phase = "intermediate"
         best = evaluate_candidates(solver, problem, p[None])
         if not best.feasible[0]:
-            p, f, n = _initial_phase(solver, problem, cfg, rng, previous)
+            p, f, n = initial_phase(solver, problem, cfg, rng, previous)
             phase, evals = "restart", evals + n
     best = evaluate_candidates(solver, problem, p[None])
     return SampleResult(best, float(f), evals, phase)
+
+
+def optimise_path(request: PathRequest) -> PathResult:
+    """GAS, GA or GAEx (``request.config.method``) along a swing path, one sample after the other,
+    each from the previous sample's P_body; stops at the first infeasible sample when asked to."""
+    out = PathResult()
+    previous = None
+    for i, problem in enumerate(request.problems):
+        res = optimise_sample(request.solver, problem, request.config, request.rngs[i], previous, request.nominals[i])
+        out.samples.append(res)
+        previous = res.p_body
+        if request.progress:
+            request.progress(i + 1)
+        if not res.feasible and request.stop_at_infeasible:
+            break
+    return out

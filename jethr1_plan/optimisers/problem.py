@@ -11,19 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.kinematics.placo import OK, REASONS, PostureSolver, Stance
+from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, edge_angle_excess, window_bounds, zmp_with_thrust
+from jethr1_plan.reasons import Reason, ik_failed
 from jethr1_plan.robot.model import GRAVITY
 
-# violation codes, in the order a reason is reported: IK status 1..3, then these
-FEASIBLE, NO_BALANCE, THRUST_MAX, EDGE_ANGLE = 0, 10, 11, 12
-VIOLATIONS = {
-    FEASIBLE: "feasible",
-    NO_BALANCE: "no thrust can balance (within the tolerance)",
-    THRUST_MAX: "thrust above its maximum",
-    EDGE_ANGLE: "edge angle (A-10) above rho",
-    **{k: v for k, v in REASONS.items() if k != OK},
-}
+__all__ = ["Candidates", "FitnessConstants", "SampleProblem", "evaluate_candidates", "fitness"]
 
 
 @dataclass(frozen=True)
@@ -51,12 +44,12 @@ class Candidates:
     thrust_n: np.ndarray  # (N,) least thrust balancing within the tolerance; inf where none does or IK failed [N]
     zmp_xy: np.ndarray  # (N, 2) [m]
     edge_excess_rad: np.ndarray  # (N,) max(|θ_ZC − θ_CA| − ρ, 0) [rad]
-    violation: np.ndarray  # (N,) first violated constraint: 0 feasible, IK status 1..3, or 10..12
+    violation: np.ndarray  # (N,) the first violated constraint (a Reason): the IK's, then balance, F_max, (A-10)
     window_gap_n: np.ndarray  # (N,) where no thrust balances: how far the window is from opening [N] (inf: never)
 
     @property
     def feasible(self) -> np.ndarray:
-        return self.violation == FEASIBLE
+        return self.violation == Reason.OK
 
     def take(self, i: int) -> Candidates:
         """The single candidate ``i`` (arrays of length 1)."""
@@ -66,7 +59,7 @@ class Candidates:
 def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: np.ndarray) -> Candidates:
     """Postures, thrust, ZMP and constraint status for candidates ``p_body`` (N, 3) [m]."""
     batch = solver.solve_batch(problem.stance, p_body)
-    ik_ok = batch.status == OK
+    ik_ok = batch.status == Reason.OK
     lo, hi, blocked = window_bounds(batch.com[:, :2], problem.fan_xy, problem.support_polygon, problem.mass_kg,
                                     problem.tolerance)
     empty = (lo > hi) | blocked
@@ -77,10 +70,10 @@ def evaluate_candidates(solver: PostureSolver, problem: SampleProblem, p_body: n
                               problem.mass_kg)
     excess = edge_angle_excess(problem.edge_origin_xy, batch.com[:, :2], problem.ankle_xy, problem.rho_rad)
     excess = np.where(ik_ok, excess, np.inf)
-    violation = np.where(ik_ok, FEASIBLE, batch.status.astype(np.int64))
-    violation = np.where(ik_ok & ~np.isfinite(thrust), NO_BALANCE, violation)
-    violation = np.where((violation == FEASIBLE) & (thrust > problem.thrust_max_n), THRUST_MAX, violation)
-    violation = np.where((violation == FEASIBLE) & (excess > 0), EDGE_ANGLE, violation)
+    violation = np.where(ik_ok, Reason.OK, batch.status.astype(np.int64))
+    violation = np.where(ik_ok & ~np.isfinite(thrust), Reason.NO_BALANCE, violation)
+    violation = np.where((violation == Reason.OK) & (thrust > problem.thrust_max_n), Reason.THRUST_MAX, violation)
+    violation = np.where((violation == Reason.OK) & (excess > 0), Reason.EDGE_ANGLE, violation)
     return Candidates(np.asarray(p_body, dtype=float), batch.q, batch.com, thrust, zmp, excess, violation, gap)
 
 
@@ -114,18 +107,18 @@ def fitness(c: Candidates, k: FitnessConstants, thrust_max_n: float,
     so the GA climbs towards feasibility instead of searching blindly where the feasible set is
     small.
     """
-    ik_failed = (c.violation >= 1) & (c.violation <= 3)
+    failed = ik_failed(c.violation)
     finite = np.isfinite(c.thrust_n)
     thrust = np.where(finite, c.thrust_n, 0.0)
     thrust_ok = finite & (thrust <= thrust_max_n)
     edge_ok = c.edge_excess_rad <= 0
-    f1 = np.where(ik_failed, k.c1, 0.0)
+    f1 = np.where(failed, k.c1, 0.0)
     f2 = np.where(edge_ok, 0.0, k.c2)
     f4 = np.where(thrust_ok, k.c4_2 * thrust, k.c4_1)
     if k.graded:
-        f2 = f2 + np.where(~ik_failed & ~edge_ok, k.c4_2 * np.degrees(np.where(ik_failed, 0, c.edge_excess_rad)), 0.0)
-        f4 = f4 + np.where(~ik_failed & finite & ~thrust_ok, k.c4_2 * thrust, 0.0)
-        f4 = f4 + np.where(~ik_failed & ~finite, k.c4_2 * np.minimum(c.window_gap_n, k.weight_n), 0.0)
+        f2 = f2 + np.where(~failed & ~edge_ok, k.c4_2 * np.degrees(np.where(failed, 0, c.edge_excess_rad)), 0.0)
+        f4 = f4 + np.where(~failed & finite & ~thrust_ok, k.c4_2 * thrust, 0.0)
+        f4 = f4 + np.where(~failed & ~finite, k.c4_2 * np.minimum(c.window_gap_n, k.weight_n), 0.0)
     f = f1 + f2 + f4
     if previous_p_body is not None:
         d = (c.p_body - previous_p_body) / k.f3_unit_m

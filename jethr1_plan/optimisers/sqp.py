@@ -49,13 +49,28 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize
 
-from jethr1_plan.balance_space import DIRECTIONS
 from jethr1_plan.kinematics.closed_form import check_structure, solve_postures
-from jethr1_plan.kinematics.placo import UNREACHABLE, PostureSolver
-from jethr1_plan.optimisers.gas import OptimiserConfig, SampleResult, _initial_phase
+from jethr1_plan.optimisers.base import PathRequest, PathResult, SampleResult
+from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
 from jethr1_plan.physics.balance import edge_angle_error, halfplanes, thrust_window
+from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import GRAVITY, SIDES, RobotModel
+from jethr1_plan.search import DIRECTIONS
+
+__all__ = [
+    "AnalyticSample",
+    "Found",
+    "compass",
+    "grid_starts",
+    "infeasible_between",
+    "largest_tolerance",
+    "limit_mask",
+    "optimise_path",
+    "smooth_path",
+    "solve_from_grid",
+    "solve_from_neighbour",
+]
 
 TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
@@ -138,7 +153,8 @@ class AnalyticSample:
         lo, hi = self.robot.lower_rad, self.robot.upper_rad
         # out of reach the closed form returns a stretched leg whose knee sits on its limit with no
         # gradient; there the reach constraints alone (which have one) lead back
-        limits = np.where((status == UNREACHABLE)[:, None], 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
+        unreachable = (status == Reason.UNREACHABLE)[:, None]
+        limits = np.where(unreachable, 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
         cons = np.column_stack([pr.rho_rad - edge - self.margins[0], *reach, limits[:, self._limit_mask]])
         thrust, _ = thrust_window(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg, pr.tolerance)
         return com, cons, thrust
@@ -380,22 +396,16 @@ def infeasible_between(robot: RobotModel, found: list[Found | None], between: Ca
     return bad
 
 
-def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[SampleProblem],
-                      nominals: list[np.ndarray], cfg: OptimiserConfig, rngs: list[np.random.Generator],
-                      between: Callable[[int, float], SampleProblem] | None = None,
-                      row_positions: np.ndarray | None = None) -> list[SampleResult]:
+def optimise_path(request: PathRequest) -> PathResult:
     """P_body at every sample of one swing path (see the module docstring).
 
-    Args:
-        problems: the samples in path order.
-        nominals: per sample, the centre of the search box where no neighbour helps [m].
-        rngs: per sample, the random stream of the GA fallback.
-        between: ``between(i, λ)``, the problem at the fraction λ of the way from sample i to i + 1
-            (the swing sole interpolated as the sequence does); with it, segments whose interpolated
-            postures break a constraint get their two samples re-solved with wider margins.
-        row_positions: the fractional sample indices at which the output rows fall
-            (``sequence.swing_row_positions``): the segments are checked exactly there.
+    The whole path is solved at once (``request.stop_at_infeasible`` is not used). Segments whose
+    postures at ``request.row_positions`` (through ``request.between``) break a constraint get their
+    two samples re-solved with wider margins. Where the chosen posture fails the planner's solver,
+    the sample falls back on GAS's initial phase with its random stream ``request.rngs[i]``.
     """
+    robot, solver, problems, nominals = request.robot, request.solver, request.problems, request.nominals
+    cfg, rngs, between, row_positions = request.config, request.rngs, request.between, request.row_positions
     n = len(problems)
     half = cfg.initial.half_range_m
     eps = cfg.sqp_smoothness_n_per_m2
@@ -474,10 +484,12 @@ def optimise_path_sqp(solver: PostureSolver, robot: RobotModel, problems: list[S
         cand = evaluate_candidates(solver, pr, p[None])
         evals[i] += 1
         if not cand.feasible[0]:
-            p, _, m = _initial_phase(solver, pr, cfg, rngs[i], p)
+            p, _, m = initial_phase(solver, pr, cfg, rngs[i], p)
             cand = evaluate_candidates(solver, pr, p[None])
             evals[i] += m + 1
             phase[i] = "restart"
         f = float(fitness(cand, cfg.constants, pr.thrust_max_n)[0])
         out.append(SampleResult(cand, f, int(evals[i]), phase[i]))
-    return out
+        if request.progress:
+            request.progress(i + 1)
+    return PathResult(out)

@@ -22,6 +22,25 @@ import numpy as np
 
 from jethr1_plan.robot.model import GRAVITY
 
+__all__ = [
+    "NOMINAL",
+    "Tolerance",
+    "balance_slack",
+    "body_yaw_eq4",
+    "body_yaw_forward_axis",
+    "edge_angle_error",
+    "edge_angle_excess",
+    "halfplanes",
+    "inside_polygon",
+    "minimal_thrust",
+    "polygon_margin",
+    "sole_polygon",
+    "thrust_window",
+    "window_bounds",
+    "wrap_angle",
+    "zmp_with_thrust",
+]
+
 
 def zmp_with_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, mass_kg: float,
                     g: float = GRAVITY) -> np.ndarray:

@@ -22,10 +22,13 @@ import math
 import numba
 import numpy as np
 
-from jethr1_plan.kinematics.placo import JOINT_LIMIT, OK, UNREACHABLE
+from jethr1_plan.reasons import Reason
 
-# reason codes, as balance_space
-MEMBER, OVERLAP, OUT_OF_REACH, LIMITS, NO_BALANCE, EDGE, ABOVE_MAX = range(7)
+__all__ = ["balance_objective", "edge_errors", "into_reach", "postures", "windows"]
+
+# the reason codes as plain integers (compile-time constants in the kernels)
+OK, UNREACHABLE, JOINT_LIMIT = int(Reason.OK), int(Reason.UNREACHABLE), int(Reason.JOINT_LIMIT)
+NO_BALANCE, THRUST_MAX, EDGE_ANGLE = int(Reason.NO_BALANCE), int(Reason.THRUST_MAX), int(Reason.EDGE_ANGLE)
 
 
 @numba.njit(cache=True, inline="always")
@@ -281,17 +284,17 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
                            + (pz - (support[2] + ah)) ** 2)
             ds_w = math.sqrt((px - (sx - ox)) ** 2 + (py - (sy - oy)) ** 2 + (pz - (sz + ah)) ** 2)
             obj[j] = 4000 + 1e4 * max(max(ds, ds_w) - L, 0.0)
-            reason[j] = OUT_OF_REACH
+            reason[j] = UNREACHABLE
         elif status == JOINT_LIMIT:
             obj[j] = 3000 + 1e3 * limit_excess
-            reason[j] = LIMITS
+            reason[j] = JOINT_LIMIT
         elif not math.isfinite(f):
             obj[j] = 2000 + 1e3 * math.sqrt((cx - support[0]) ** 2 + (cy - support[1]) ** 2)
             reason[j] = NO_BALANCE
         else:
             obj[j] = f + edge_pen * math.degrees(edge)
-            reason[j] = EDGE if edge > 0 else (ABOVE_MAX if f > thrust_max else MEMBER)
-        thrust_out[j] = f if (reason[j] == MEMBER or reason[j] == ABOVE_MAX) else np.inf
+            reason[j] = EDGE_ANGLE if edge > 0 else (THRUST_MAX if f > thrust_max else OK)
+        thrust_out[j] = f if (reason[j] == OK or reason[j] == THRUST_MAX) else np.inf
     return obj, thrust_out, reason
 
 

@@ -19,6 +19,16 @@ import numpy as np
 
 from jethr1_plan.robot.model import SIDES
 
+__all__ = [
+    "FORCE_DIRECTION",
+    "KAPPA_WARNING",
+    "analyse_rows",
+    "energy_consumption",
+    "generalized_velocities",
+    "leg_condition_numbers",
+    "static_torques",
+]
+
 KAPPA_WARNING = 100.0  # leg Jacobian condition number above which a row is flagged
 FORCE_DIRECTION = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # a vertical force, world-aligned
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jethr1_plan.kinematics.placo import OK, REASONS, PostureSolver, Stance
+from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
     Tolerance,
@@ -36,7 +36,10 @@ from jethr1_plan.physics.balance import (
     wrap_angle,
     zmp_with_thrust,
 )
+from jethr1_plan.reasons import Reason, message
 from jethr1_plan.robot.model import GRAVITY, RobotModel
+
+__all__ = ["Rows", "SequenceBuilder", "convex_hull", "min_jerk", "swing_row_positions"]
 
 
 def min_jerk(t: np.ndarray) -> np.ndarray:
@@ -129,7 +132,7 @@ class SequenceBuilder:
 
     def _solve(self, stance: Stance, p_body: np.ndarray):
         batch = self.solver.solve_batch(stance, p_body[None], warm=self.q_prev)
-        if batch.status[0] == OK:
+        if batch.status[0] == Reason.OK:
             self.q_prev = batch.q[0]
         return batch.q[0], batch.com[0], int(batch.status[0])
 
@@ -180,8 +183,8 @@ class SequenceBuilder:
                                         np.array([thrust["left"], thrust["right"]]), hull, self.robot.mass_kg,
                                         self.tolerance))
             reason = None
-            if status != OK:
-                reason = REASONS[status]
+            if status != Reason.OK:
+                reason = message(status)
             elif max(thrust.values()) > self.thrust_max_n:
                 reason = f"thrust {max(thrust.values()):.3f} N above its maximum {self.thrust_max_n} N"
             elif slack < -1e-9:
@@ -214,8 +217,8 @@ class SequenceBuilder:
             thrust = float(thrust_window(com[:2], fan, poly, self.robot.mass_kg, self.tolerance)[0])
             edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
-            if status != OK:
-                reason = REASONS[status]
+            if status != Reason.OK:
+                reason = message(status)
             elif not np.isfinite(thrust):
                 reason = "no thrust can balance" + self._describe_tolerance()
             elif thrust > self.thrust_max_n:

@@ -18,6 +18,8 @@ import numpy as np
 
 from jethr1_plan.planning.sequence import min_jerk, swing_row_positions
 
+__all__ = ["YawSchedule", "build_schedule", "inverse_min_jerk", "mpc_smooth"]
+
 
 def mpc_smooth(ref: np.ndarray, dt: float, horizon_s: float = 1.6, alpha: float = 1.0, beta: float = 1e-10,
                lo: float = -np.inf, hi: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

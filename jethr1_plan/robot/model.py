@@ -17,6 +17,21 @@ import yaml
 
 from jethr1_plan.errors import RobotModelError
 
+__all__ = [
+    "GRAVITY",
+    "JOINT_NAMES",
+    "JOINT_TYPES",
+    "ROBOTS_DIR",
+    "SIDES",
+    "Fan",
+    "RobotModel",
+    "UrdfJoint",
+    "load_robot",
+    "reach_centre",
+    "robot_summary",
+    "urdf_joints",
+]
+
 SIDES = ("left", "right")
 
 

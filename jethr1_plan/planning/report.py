@@ -1,0 +1,151 @@
+"""What a plan reports: summary.json (CONTRACT.md), its robustness and smoothness figures, the infeasible message."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from jethr1_plan import __version__
+from jethr1_plan.physics.statics import KAPPA_WARNING
+from jethr1_plan.planning.results import PlanResult
+from jethr1_plan.planning.sequence import Rows
+
+__all__ = ["describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "smoothness"]
+
+
+def smoothness(p_body: np.ndarray, thrust_n: np.ndarray) -> dict:
+    """Σ‖ΔP_body‖² [m²], the largest ‖ΔP_body‖ [m] and the largest thrust jump [N] over consecutive samples
+    (pairs of samples that both balance)."""
+    d = np.diff(p_body, axis=0)
+    step = np.linalg.norm(d, axis=1) if len(d) else np.zeros(1)
+    thrust = np.asarray(thrust_n, dtype=float)
+    pairs = np.isfinite(thrust[1:]) & np.isfinite(thrust[:-1])  # infeasible samples have no thrust
+    jumps = np.abs(thrust[1:][pairs] - thrust[:-1][pairs])
+    return {"smoothness_m2": float(np.sum(d * d)), "max_step_m": float(step.max()),
+            "max_thrust_jump_n": float(jumps.max()) if len(jumps) else 0.0}
+
+
+def finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def describe_infeasible(bad: dict) -> str:
+    where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
+    pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
+    thrust = f", minimal thrust {bad['thrust_n']:.2f} N" if bad.get("thrust_n") is not None else ""
+    reach = bad.get("reachable_tolerance")
+    if reach is not None:
+        thrust += (f"; the most found to hold there: ±{100 * reach['thrust_error']:.1f} % thrust, "
+                   f"±{100 * reach['mass_error']:.1f} % mass, {1000 * reach['com_error_m']:.1f} mm of CoM error "
+                   f"({100 * reach['scale']:.0f} % of the tolerance)" if reach["scale"] > 0 else
+                   "; no posture balances this sample even without tolerance")
+    return f"infeasible at {where}{pos}: {bad['reason']}{thrust}"
+
+
+def _where(rows: Rows, i: int) -> dict:
+    c = rows.columns
+    return {"row": int(i), "time_s": round(float(c["time_s"][i]), 9), "step": int(c["step"][i]),
+            "phase": c["phase"][i], "sample": int(c["sample"][i])}
+
+
+def robustness_summary(rows: Rows) -> dict:
+    """The least ZMP margin [m] and the narrowest thrust window [N] over the rows, and where they occur.
+
+    The narrowest window is taken over the rows whose fan carries thrust (elsewhere the window is
+    that of a fan not in use)."""
+    margin = rows.array("zmp_margin").astype(float)
+    window = np.array(rows.columns["window"], dtype=float)
+    loaded = (rows.array("thrust_left") + rows.array("thrust_right")) > 0
+    if not np.isfinite(margin).any():  # no row has a posture (an unreachable step written anyway)
+        return {"least_zmp_margin_m": None}
+    i = int(np.nanargmin(margin))
+    out = {"least_zmp_margin_m": float(margin[i]), "least_zmp_margin_at": _where(rows, i)}
+    width = np.where(loaded & np.isfinite(window[:, 0]), window[:, 1] - window[:, 0], np.inf)
+    if np.isfinite(width).any():
+        j = int(np.argmin(width))
+        out |= {"narrowest_window_n": [float(window[j, 0]), float(window[j, 1])],
+                "narrowest_window_width_n": float(width[j]), "narrowest_window_at": _where(rows, j)}
+    return out
+
+
+def plan_summary(result: PlanResult) -> dict:
+    """summary.json (CONTRACT.md): figures over the optimised swing samples, per step and in total."""
+    sc = result.scenario
+    per_step = []
+    all_thrust, all_p = [], []
+    for st in result.steps:
+        thrust = st.thrust_n
+        fin = thrust[np.isfinite(thrust)]
+        per_step.append({
+            "index": st.index, "swing": st.swing, "support": st.support, "samples": len(st.samples),
+            "max_thrust_n": float(fin.max()) if len(fin) else None,
+            "mean_thrust_n": float(fin.mean()) if len(fin) else None,
+            **smoothness(st.p_body, thrust),
+            "evaluations": int(sum(s.evaluations for s in st.samples)),
+            "restarts": sum(s.phase == "restart" for s in st.samples),
+            "feasible": all(s.feasible for s in st.samples),
+        })
+        all_thrust.append(fin)
+        all_p.append(st.p_body)
+    thr = np.concatenate(all_thrust) if all_thrust else np.zeros(0)
+    out = {
+        "scenario": sc.name,
+        "scenario_file": str(Path(sc.source).resolve()) if sc.text else sc.source,
+        "scenario_yaml": sc.text,  # the scenario as read: verify finds it even where the file has moved
+        "robot": result.robot.name,
+        "robot_yaml": str(result.robot.yaml_path),
+        "optimiser": result.method,
+        "seed": result.seed,
+        "version": __version__,
+        "feasible": result.feasible,
+        "first_infeasible": result.first_infeasible,
+        "sample_count": int(sum(len(st.samples) for st in result.steps)),
+        "row_count": len(result.rows) if result.rows is not None else 0,
+        "max_thrust_n": float(thr.max()) if len(thr) else None,
+        "mean_thrust_n": float(thr.mean()) if len(thr) else None,
+        "thrust_max_n": sc.balance.thrust_max_n,
+        "balance": {"policy": sc.balance.policy, "sole_margin_m": sc.balance.sole_margin_m,
+                    "tolerance": {"thrust_error": sc.balance.tolerance.thrust, "mass_error": sc.balance.tolerance.mass,
+                                  "com_error_m": sc.balance.tolerance.com_m}},
+        "smoothness_m2": float(sum(s["smoothness_m2"] for s in per_step)),
+        "max_step_m": max((s["max_step_m"] for s in per_step), default=0.0),
+        "max_thrust_jump_n": max((s["max_thrust_jump_n"] for s in per_step), default=0.0),
+        "evaluations": int(result.evaluations),
+        "wall_s": float(result.wall_s),
+        "steps": per_step,
+        "terrain": {"cartons": [{"top_centre_m": list(c.top_centre_m), "size_m": list(c.size_m)}
+                                for c in sc.cartons]},
+    }
+    if result.rows is not None and len(result.rows):
+        rows = result.rows
+        tl, tr = rows.array("thrust_left"), rows.array("thrust_right")
+        out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
+                             "duration_s": len(rows) / sc.timing.rate_hz,
+                             "max_thrust_n": float(max(tl.max(), tr.max()))}
+        out["robustness"] = robustness_summary(rows)
+        from jethr1_plan.sim.controller import Gains, law
+
+        tol = sc.balance.tolerance
+        out["controller"] = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)
+        if "tau" in rows.columns:
+            tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
+            ratio = rows.analysis["ratio"]
+            out["torques"] = {
+                "max_abs_nm": dict(zip(result.robot.joint_names, tau.max(axis=0).tolist(), strict=True)),
+                "max_ratio_to_servo_limit": float(ratio.max()),
+                "rows_over_servo_limit": int(np.sum(ratio.max(axis=1) > 1.0)),
+            }
+            out["energy_j"] = float(rows.analysis["energy_j"])
+            kappa = np.where(np.isfinite(kappa), kappa, np.nan)  # rows without a posture have none
+            out["kappa"] = {"max_left": finite_or_none(np.nanmax(kappa[:, 0], initial=0.0)),
+                            "max_right": finite_or_none(np.nanmax(kappa[:, 1], initial=0.0)),
+                            "warning_threshold": KAPPA_WARNING,
+                            "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
+            out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
+        dt = 1.0 / sc.timing.rate_hz
+        yaw = np.unwrap(rows.array("yaw").astype(float))
+        rate = np.gradient(yaw, dt)
+        out["yaw"] = {"mode": sc.yaw_mode, "peak_rate_rad_s": float(np.abs(rate).max()),
+                      "peak_accel_rad_s2": float(np.abs(np.gradient(rate, dt)).max())}
+    return out

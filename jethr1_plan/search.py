@@ -1,0 +1,295 @@
+"""Searches over P_body for one support sole: the compiled objective, seeds, compass and exhaustive search.
+
+The balance-space sweep (:mod:`~jethr1_plan.balance_space`), ``compare``'s reference thrust and the
+sqp optimiser's last resort all search the same objective: the least thrust over P_body under all of
+Paper A's constraints, for a swing sole at a given cell, with the body yaw of (A-4).
+
+* :class:`Evaluator` — the objective of candidates of many cells at once (``physics.compiled.
+  balance_objective``: closed-form IK, CoM, thrust window, edge angle, reach), with the legs' reach
+  balls (:meth:`Evaluator.into_reach`).
+* :func:`compass_search` — a vectorised pattern search, one cell per row.
+* :func:`exhaustive_cell` — Paper A's grid over every pelvis position, refined at 1 mm.
+* :func:`generic_seeds`, :func:`lens_seeds` — starting points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from jethr1_plan.kinematics.closed_form import check_structure, kernel_params
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4, sole_polygon
+from jethr1_plan.physics.compiled import balance_objective, into_reach
+from jethr1_plan.reasons import Reason, balances
+from jethr1_plan.robot.model import GRAVITY, RobotModel, reach_centre
+
+__all__ = [
+    "AXIS_DIRECTIONS",
+    "DIRECTIONS",
+    "EDGE_PENALTY_N_PER_DEG",
+    "FINE_DIRECTIONS",
+    "REACH_MARGIN_M",
+    "REFINE_BASINS",
+    "Cells",
+    "Evaluator",
+    "SupportStance",
+    "compass_search",
+    "exhaustive_cell",
+    "generic_seeds",
+    "lens_seeds",
+    "pelvis_box",
+]
+
+EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the penalty is exact
+REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
+REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (sqp_optimiser keeps ~0.13 mm)
+
+AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
+DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0  # 26 neighbours
+# the compass's fine polls: the 6 axes and the 8 cube corners (the 12 edge directions as well cost 1.5x
+# the evaluations for no measured gain in agreement with the exhaustive search)
+FINE_DIRECTIONS = DIRECTIONS[np.abs(DIRECTIONS).sum(axis=1) != 2]
+
+
+@dataclass(frozen=True)
+class SupportStance:
+    """What a search holds fixed: the support sole and the balance settings (SI units)."""
+
+    support_side: str = "right"
+    support_xyz: tuple[float, float, float] = (0.0, -0.1125, 0.0)
+    rho_rad: float = math.radians(5.0)
+    thrust_max_n: float = 23.0
+    sole_margin_m: float = 0.0
+    tolerance: Tolerance = NOMINAL
+
+    @property
+    def swing_side(self) -> str:
+        return "left" if self.support_side == "right" else "right"
+
+
+@dataclass
+class Cells:
+    """Per-candidate data of the cells being searched."""
+
+    swing: np.ndarray  # (C, 3) swing sole centres [m]
+    yaw: np.ndarray  # (C,) body yaw (A-4) [rad]
+    fan: np.ndarray  # (C, 2) thrust point [m]
+    centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot_model.reach_centre) [m]
+    centre_w: np.ndarray  # (C, 3) centre of the swing leg's reach ball [m]
+
+
+class Evaluator:
+    """Vectorised objective over candidates of many cells at once."""
+
+    def __init__(self, robot: RobotModel, stance: SupportStance):
+        self.robot, self.stance = robot, stance
+        self.geom = check_structure(robot)
+        self.support = np.asarray(stance.support_xyz, dtype=float)
+        self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, stance.sole_margin_m)
+        self.fan_offset = np.asarray(robot.fan_for(stance.swing_side).offset_in_foot_m[:2])
+        self.evaluations = 0
+        self.params = kernel_params(robot, stance.support_side, self.support, self.poly, stance.rho_rad,
+                                    stance.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG,
+                                    stance.tolerance)
+
+    def cells(self, swing: np.ndarray) -> Cells:
+        swing = np.ascontiguousarray(swing, dtype=float)
+        fan = np.ascontiguousarray(swing[:, :2] + self.fan_offset)
+        yaw = body_yaw_eq4(self.support[:2], fan, self.stance.support_side)
+        centre_s = reach_centre(self.geom, self.stance.support_side, np.broadcast_to(self.support, swing.shape), yaw)
+        centre_w = reach_centre(self.geom, self.stance.swing_side, swing, yaw)
+        return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w))
+
+    def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray) -> np.ndarray:
+        """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them.
+
+        The optimum of most cells has a leg at full stretch, where the CoM moves like the square root
+        of the distance to the ball's surface: a pattern search stalls against it. Searching over the
+        projection instead lets it slide along the surface (and along the circle where both legs
+        are straight). See ``physics.compiled.into_reach``. The balls' radius is REACH_MARGIN_M short
+        of thigh + shank: a leg exactly straight is singular (PlaCo's IK cannot place its CoM to
+        better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
+        """
+        radius = self.geom.thigh_m + self.geom.shank_m - REACH_MARGIN_M
+        return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
+                          c.centre_w, c.centre_s, radius)
+
+    def reach_possible(self, c: Cells) -> np.ndarray:
+        """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
+        around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
+        g = self.geom
+        return np.linalg.norm(c.centre_w - c.centre_s, axis=1) <= 2 * (g.thigh_m + g.shank_m)
+
+    def __call__(self, c: Cells, idx: np.ndarray, P: np.ndarray):
+        """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
+
+        The objective is F* plus an exact penalty for (A-10) (continuous, so the search can slide
+        along the cone's edge), and graded penalties above 2000 for postures that do not reach, leave
+        the joint limits or cannot be balanced (see ``physics.compiled.balance_objective``).
+        """
+        self.evaluations += len(P)
+        P = np.ascontiguousarray(P, dtype=float)
+        idx = np.ascontiguousarray(idx, dtype=np.int64)
+        return balance_objective(P, idx, c.swing, c.yaw, c.fan, *self.params)
+
+
+def generic_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
+    """Pelvis positions per cell: over the support foot, a quarter and half way to the swing foot,
+    each from a deep crouch to nearly straight legs: (len(idx), 12, 3)."""
+    g = ev.geom
+    sup = ev.support
+    sw = c.swing[idx]
+    leg = g.thigh_m + g.shank_m + g.ankle_height_m
+    seeds = []
+    for t in (0.0, 0.25, 0.5):
+        base = sup + t * (sw - sup)
+        for hz in (0.42, 0.57, 0.72, 0.87):
+            p = base.copy()
+            p[:, 2] = np.minimum(sup[2], sw[:, 2]) + hz * leg
+            seeds.append(p)
+    return np.stack(seeds, axis=1)
+
+
+def lens_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
+    """Pelvis positions spread over the lens where both legs reach (the two reach balls of radius
+    thigh + shank): three cuts across the line of centres, two radii, five directions from straight
+    up to level on either side: (len(idx), 30, 3) [m]."""
+    L = ev.geom.thigh_m + ev.geom.shank_m
+    a, b = c.centre_w[idx], c.centre_s[idx]
+    axis = b - a
+    h = np.linalg.norm(axis, axis=1)
+    e = axis / np.maximum(h, 1e-12)[:, None]
+    up = np.array([0.0, 0.0, 1.0]) - e[:, 2:3] * e
+    up /= np.maximum(np.linalg.norm(up, axis=1), 1e-12)[:, None]
+    side = np.cross(e, up)
+    half = np.maximum(L - h / 2, 0.0)  # the lens's half thickness along the line of centres
+    seeds = []
+    for t in (-0.5, 0.0, 0.5):
+        rt = np.sqrt(np.maximum(L ** 2 - (h / 2 + abs(t) * half) ** 2, 0.0))
+        centre = (a + b) / 2 + (t * half)[:, None] * e
+        for frac in (0.45, 0.9):
+            for phi in (0.0, np.pi / 4, -np.pi / 4, np.pi / 2, -np.pi / 2):
+                seeds.append(centre + (frac * rt)[:, None] * (np.cos(phi) * up + np.sin(phi) * side))
+    return np.stack(seeds, axis=1)
+
+
+def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
+                   min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002):
+    """Vectorised compass search from P (B, 3) with objective f (B,), one cell per row.
+
+    Polls the 6 axis directions while the step is at least ``coarse_until``, then the 6 axes and
+    8 cube corners (so the search can slide along a constraint's edge). Every poll point is moved
+    onto the reach balls first. A cell stops when its step falls below ``min_step``, when it
+    reaches zero thrust, or, after ``give_up_after`` iterations, when it has still found no
+    kinematically valid posture. A cell that ends on an invalid posture (a
+    penalty a hair above zero) gets the best valid posture it met, if any.
+    """
+    P, f, step = P.copy(), f.copy(), step0.copy()
+    P_ok, f_ok = np.full_like(P, np.nan), np.full(len(P), np.inf)
+    for stage, dirs in ((0, AXIS_DIRECTIONS), (1, FINE_DIRECTIONS)):
+        floor = coarse_until if stage == 0 else min_step
+        P, f, step = _poll(ev, c, idx, P, f, step, floor, dirs, max_iter, give_up_after, P_ok, f_ok)
+    # the penalties are exact, but a search that ends a hair outside a constraint falls back on the
+    # best valid posture it met
+    _, _, reason = ev(c, idx, P)
+    back = ~balances(reason) & np.isfinite(f_ok)
+    P[back], f[back] = P_ok[back], f_ok[back]
+    return P, f
+
+
+def _poll(ev, c, idx, P, f, step, min_step, dirs, max_iter, give_up_after, P_ok, f_ok):
+    """Compass polls until every row's step falls below ``min_step``; P_ok, f_ok keep (in place) the
+    best valid posture met per row (a member, or only above the thrust limit)."""
+    active = (step >= min_step) & (f > 0)
+    for it in range(max_iter):
+        if it == give_up_after:
+            active &= f < 2000
+        a = np.flatnonzero(active)
+        if not len(a):
+            break
+        k = len(dirs)
+        rows = np.repeat(idx[a], k)
+        cand = ev.into_reach(c, rows, (P[a, None, :] + step[a, None, None] * dirs[None]).reshape(-1, 3))
+        obj, _, reason = ev(c, rows, cand)
+        obj, cand = obj.reshape(len(a), k), cand.reshape(len(a), k, 3)
+        valid = np.where(balances(reason).reshape(len(a), k), obj, np.inf)
+        jv = np.argmin(valid, axis=1)
+        best_valid = valid[np.arange(len(a)), jv]
+        up = best_valid < f_ok[a]
+        P_ok[a[up]], f_ok[a[up]] = cand[np.flatnonzero(up), jv[up]], best_valid[up]
+        j = np.argmin(obj, axis=1)
+        best = obj[np.arange(len(a)), j]
+        better = best < f[a] - 1e-12
+        moved = a[better]
+        P[moved] = cand[np.flatnonzero(better), j[better]]
+        f[moved] = best[better]
+        step[a[~better]] *= 0.5
+        active = (step >= min_step) & (f > 0)
+    return P, f, step
+
+
+def pelvis_box(ev: Evaluator, c: Cells, i: int, res: float) -> np.ndarray:
+    """Grid points [m] of every P_body from which both ankles may be reached (bounding box of the
+    intersection of the two reach spheres) at spacing ``res``."""
+    g = ev.geom
+    L = g.thigh_m + g.shank_m
+    cs = reach_centre(g, ev.stance.support_side, ev.support, c.yaw[i])
+    cw = reach_centre(g, ev.stance.swing_side, c.swing[i], c.yaw[i])
+    lo = np.maximum(cs - L, cw - L)
+    hi = np.minimum(cs + L, cw + L)
+    lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
+    axes = [np.arange(lo[k], hi[k] + 1e-12, res) for k in range(3)]
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins: int = REFINE_BASINS
+                    ) -> tuple[np.ndarray, float, int]:
+    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid (±2 coarse steps) around
+    each of the ``basins`` best coarse points that lie at least 2.5 coarse steps apart (a thin
+    feasible sliver can hold the optimum in a basin whose best coarse point is not the best).
+
+    Grid points beyond a leg's reach are moved onto its reach ball (:meth:`Evaluator.into_reach`):
+    the optimum usually has a leg at full stretch, on the ball's surface, which a plain grid only
+    approaches to within its spacing while the thrust changes like the square root of the distance
+    there (without it, up to 0.8 N and whole members were missed on 300 sampled cells).
+
+    The answer is the best valid posture met (the penalties are exact, but a grid point a hair
+    outside a constraint can score below every valid one); the best score where none is valid."""
+    grid = pelvis_box(ev, c, i, resolution_m)
+    if not len(grid):
+        return np.full(3, np.nan), np.inf, int(Reason.UNREACHABLE)
+    grid = ev.into_reach(c, np.full(len(grid), i), grid)
+    scored = [ev(c, np.full(len(chunk), i), chunk) for chunk in (grid[s:s + 20000] for s in range(0, len(grid), 20000))]
+    obj = np.concatenate([o for o, _, _ in scored])
+    valid = np.where(balances(np.concatenate([rr for _, _, rr in scored])), obj, np.inf)
+    r = resolution_m
+    order = np.argsort(obj, kind="stable")
+    centres: list[np.ndarray] = []
+    for j in order:
+        if centres and obj[j] >= 2000:  # only kinematically valid, balanced points beyond the first
+            break
+        if all(np.max(np.abs(grid[j] - q)) > 2.5 * r for q in centres):
+            centres.append(grid[j])
+            if len(centres) == basins:
+                break
+    best_p, best_f = centres[0], float(obj[order[0]])
+    j = int(np.argmin(valid))
+    best_valid_p, best_valid_f = grid[j], float(valid[j])
+    fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
+    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
+    for q in centres:
+        local = ev.into_reach(c, np.full(len(offsets), i), q + offsets)
+        o, _, rr = ev(c, np.full(len(local), i), local)
+        j = int(np.argmin(o))
+        if o[j] < best_f:
+            best_f, best_p = float(o[j]), local[j]
+        v = np.where(balances(rr), o, np.inf)
+        j = int(np.argmin(v))
+        if v[j] < best_valid_f:
+            best_valid_f, best_valid_p = float(v[j]), local[j]
+    if np.isfinite(best_valid_f):
+        best_p = best_valid_p
+    _, t, rr = ev(c, np.array([i]), best_p[None])
+    return best_p, float(t[0]), int(rr[0])
