@@ -33,13 +33,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from dataclasses import fields as dataclass_fields
 
 import numpy as np
 
 from jethr1_plan.kinematics.closed_form import solve_postures
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.reasons import Reason, balances, has_posture
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.search import (
     Cells,
     Evaluator,
@@ -72,22 +73,40 @@ LAYERS_PER_TASK = 2  # the fixed partition of the work: output never depends on 
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """What to sweep (SI units). Bounds are absolute world coordinates of the swing sole centre."""
+    """What to sweep (SI units). Bounds are absolute world coordinates of the swing sole centre.
 
-    robot: str = "jethr1"
+    ``robot`` may be given by name or path (it is loaded); ``support_xyz`` defaults to where the
+    robot stands (its stance width), ``thrust_max_n`` to its fans' maximum.
+    """
+
+    robot: RobotModel | str = "jethr1"
     support_side: str = "right"
-    support_xyz: tuple[float, float, float] = (0.0, -0.1125, 0.0)
+    support_xyz: tuple[float, float, float] | None = None
     x_range: tuple[float, float] = (-0.8, 0.9)
     y_range: tuple[float, float] = (-0.9, 0.8)
     z_range: tuple[float, float] = (0.0, 0.3)
     resolution_m: float = 0.01
-    thrust_max_n: float = 23.0
+    thrust_max_n: float | None = None
     rho_rad: float = math.radians(5.0)
     sole_margin_m: float = 0.0
     tolerance: Tolerance = NOMINAL  # the robust policy's model errors (balance.thrust_window); zero: Paper A's
     method: str = "continuation"
     pbody_resolution_m: float = 0.01  # exhaustive only
     min_step_m: float = 0.0005  # continuation: final compass step
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.robot, RobotModel):
+            object.__setattr__(self, "robot", load_robot(self.robot))
+        if self.support_xyz is None:
+            object.__setattr__(self, "support_xyz", tuple(float(v) for v in self.model.start_feet()[self.support_side]))
+        if self.thrust_max_n is None:
+            object.__setattr__(self, "thrust_max_n", max(f.max_thrust_n for f in self.model.fans))
+
+    @property
+    def model(self) -> RobotModel:
+        """The robot (loaded)."""
+        assert isinstance(self.robot, RobotModel)
+        return self.robot
 
     @property
     def swing_side(self) -> str:
@@ -159,7 +178,7 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
 
     Layers are independent; sweeping a few together only makes the numpy batches larger.
     """
-    robot = load_robot(spec.robot)
+    robot = spec.model
     ev = Evaluator(robot, spec.support_stance())
     xs, ys, _ = spec.axes()
     X, Y, Z = np.meshgrid(xs, ys, np.asarray(zs, dtype=float), indexing="ij")
@@ -300,7 +319,7 @@ def verify_members(result: SweepResult) -> int:
     Raises:
         AssertionError: a posture whose soles are not where the sweep says (a bug).
     """
-    robot = load_robot(result.spec.robot)
+    robot = result.spec.model
     spec = result.spec
     wrapper = robot.wrapper()
     support = np.asarray(spec.support_xyz)
@@ -316,8 +335,8 @@ def verify_members(result: SweepResult) -> int:
         wrapper.set_T_world_fbase(T)
         wrapper.state.q[7:] = q[0]
         wrapper.update_kinematics()
-        err_s = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.support_side}_foot")[:3, 3] - support)
-        err_w = np.linalg.norm(wrapper.get_T_world_frame(f"{spec.swing_side}_foot")[:3, 3] - result.swing[i])
+        err_s = np.linalg.norm(wrapper.get_T_world_frame(robot.legs[spec.support_side].sole)[:3, 3] - support)
+        err_w = np.linalg.norm(wrapper.get_T_world_frame(robot.legs[spec.swing_side].sole)[:3, 3] - result.swing[i])
         if status[0] != Reason.OK or max(err_s, err_w) > 1e-9 or np.linalg.norm(wrapper.com_world() - com[0]) > 1e-9:
             raise AssertionError(f"balance-space cell {result.swing[i]} fails its PlaCo re-check")
     return len(idx)
@@ -331,8 +350,8 @@ def summary(result: SweepResult) -> dict:
     out = {
         "support": {"side": spec.support_side, "position_m": list(spec.support_xyz)},
         "swing": spec.swing_side,
-        "robot": spec.robot,
-        "sole": {"length_m": load_robot(spec.robot).sole_length_m, "width_m": load_robot(spec.robot).sole_width_m},
+        "robot": spec.model.name,
+        "sole": {"length_m": spec.model.sole_length_m, "width_m": spec.model.sole_width_m},
         "bounds_m": {"x": list(spec.x_range), "y": list(spec.y_range), "z": list(spec.z_range)},
         "resolution_m": res,
         "method": spec.method,
@@ -352,5 +371,8 @@ def summary(result: SweepResult) -> dict:
             "max_reach_m": float(np.linalg.norm(pts[:, :2] - sup[:2], axis=1).max()) if len(pts) else None,
         }
     out["reasons"] = {k.message or "member": int(np.sum(result.reason == k)) for k in CELL_REASONS}
-    out["spec"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(spec).items()}
+    fields = {f.name: getattr(spec, f.name) for f in dataclass_fields(spec)}
+    fields["robot"] = spec.model.name
+    fields["tolerance"] = asdict(spec.tolerance)
+    out["spec"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in fields.items()}
     return out

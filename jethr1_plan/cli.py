@@ -106,15 +106,17 @@ def robot_show(name: str, as_json: bool) -> None:
                   f"{j['servo_limit_nm']:.3f}")
     out.print(t)
     f = Table(title="fans")
-    for col in ("frame", "on", "max thrust [N]", "offset in foot [m]"):
+    for col in ("fan", "frame", "on", "max thrust [N]", "offset in its mount [m]"):
         f.add_column(col)
     for fan in summary["fans"]:
-        f.add_row(fan["frame"], fan["foot"], f"{fan['max_thrust_n']:.1f}",
-                  ", ".join(f"{v:+.3f}" for v in fan["offset_in_foot_m"]))
+        f.add_row(fan["name"], fan["frame"], fan["mount"], f"{fan['max_thrust_n']:.1f}",
+                  ", ".join(f"{v:+.3f}" for v in fan["offset_m"]))
     out.print(f)
 
 
 LAYOUT = Path(__file__).resolve().parent / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
+
+
 def _report_kept(folder: Path, kept: list[str]) -> None:
     if kept:
         err_console.print(f"kept {', '.join(kept)} in {folder}/ (files jethr1 did not write)", markup=False)
@@ -224,7 +226,7 @@ def _pair(ctx, param, value):
 @click.option("--support", type=click.Choice(["left", "right"]), default="right", show_default=True,
               help="Which sole supports; the other one sweeps.")
 @click.option("--support-position", nargs=3, type=FiniteFloat(-100, 100), default=None, metavar="X Y Z",
-              help="Support sole centre [m] (default (0, -0.1125, 0) for the right sole, mirrored for the left).")
+              help="Support sole centre [m] (default: where the robot stands, its stance width apart).")
 @click.option("--x-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
               help="Swing sole x bounds [m].")
 @click.option("--y-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
@@ -232,7 +234,8 @@ def _pair(ctx, param, value):
 @click.option("--z-range", nargs=2, type=FiniteFloat(-100, 100), callback=_pair, metavar="LOW HIGH",
               help="Swing sole z bounds [m].")
 @click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 1.0), help="Grid step [m].")
-@click.option("--thrust-max", default=23.0, show_default=True, type=FiniteFloat(0.0, 1e4), help="F_max [N].")
+@click.option("--thrust-max", default=None, type=FiniteFloat(0.0, 1e4),
+              help="F_max of every fan [N] (default: each fan's own maximum).")
 @click.option("--method", type=click.Choice(["continuation", "exhaustive"]), default="continuation", show_default=True,
               help="Inner search over P_body.")
 @click.option("--pbody-resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 0.1),
@@ -255,10 +258,13 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     robot = load_robot(robot_name)
     check_writable(outdir.parent)
     if support_position is None:
-        support_position = (0.0, -0.1125 if support == "right" else 0.1125, 0.0)
+        support_position = tuple(float(v) for v in robot.start_feet()[support])
+    fan_max = max(f.max_thrust_n for f in robot.fans)
+    if thrust_max is not None and thrust_max > fan_max:
+        raise InputError("--thrust-max", f"{thrust_max:g}", f"more than the robot's fans give ({fan_max:g} N)")
     sx, sy, sz = support_position
     sgn = 1.0 if support == "right" else -1.0  # the swing foot is on the +y side of a right support
-    spec = SweepSpec(robot=robot_name, support_side=support, support_xyz=tuple(support_position),
+    spec = SweepSpec(robot=robot, support_side=support, support_xyz=tuple(support_position),
                      x_range=x_range or (sx - 0.8, sx + 0.9),
                      y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
                      z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,

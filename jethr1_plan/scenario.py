@@ -355,12 +355,12 @@ def _build(doc: dict, src: str, robot) -> Scenario:
             return abs(p[2]) < 1e-9
         return any(sole_on_carton(p, 0.0, sole_l, sole_w, c) for c in cartons)
 
-    start = {side: np.array(doc["start"][side], dtype=float) for side in ("left", "right")} if "start" in doc else {
-        "left": np.array([0.0, 0.1125, 0.0]), "right": np.array([0.0, -0.1125, 0.0])}
+    start = ({side: np.array(doc["start"][side], dtype=float) for side in ("left", "right")} if "start" in doc
+             else robot.start_feet())
     for side in ("left", "right"):
         if not on_terrain(start[side]):
             raise InputError(src, f"start.{side}", "the sole does not lie fully on a carton top")
-    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < 0.09:
+    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < sole_w:
         raise InputError(src, "start", "the two soles overlap")
 
     feet = dict(start)
@@ -386,7 +386,7 @@ def _build(doc: dict, src: str, robot) -> Scenario:
             raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
                              "not lie fully on a carton top")
         other = feet["left" if swing == "right" else "right"]
-        if np.linalg.norm(landing[:2] - other[:2]) < 0.09:
+        if np.linalg.norm(landing[:2] - other[:2]) < sole_w:
             raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
         hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None
         if hit is not None:
@@ -426,7 +426,7 @@ def _build(doc: dict, src: str, robot) -> Scenario:
                          "per sample)")
     bal = doc.get("balance", {})
     rob = bal.get("robust", {})
-    fan_max = min(f.max_thrust_n for f in robot.fans)
+    fan_max = max(f.max_thrust_n for f in robot.fans)  # the limit caps every fan; by default none is capped
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")

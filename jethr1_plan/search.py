@@ -14,7 +14,6 @@ Paper A's constraints, for a swing sole at a given cell, with the body yaw of (A
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,10 +56,10 @@ FINE_DIRECTIONS = DIRECTIONS[np.abs(DIRECTIONS).sum(axis=1) != 2]
 class SupportStance:
     """What a search holds fixed: the support sole and the balance settings (SI units)."""
 
-    support_side: str = "right"
-    support_xyz: tuple[float, float, float] = (0.0, -0.1125, 0.0)
-    rho_rad: float = math.radians(5.0)
-    thrust_max_n: float = 23.0
+    support_side: str
+    support_xyz: tuple[float, float, float]
+    rho_rad: float
+    thrust_max_n: float  # the limit on every fan [N]
     sole_margin_m: float = 0.0
     tolerance: Tolerance = NOMINAL
 
@@ -88,7 +87,8 @@ class Evaluator:
         self.geom = check_structure(robot)
         self.support = np.asarray(stance.support_xyz, dtype=float)
         self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, stance.sole_margin_m)
-        self.fan_offset = np.asarray(robot.fan_for(stance.swing_side).offset_in_foot_m[:2])
+        fan = robot.fan_for(stance.swing_side)  # (A-4) turns the trunk to it (its sole without one)
+        self.fan_offset = np.asarray(fan.offset_m[:2]) if fan is not None else np.zeros(2)
         self.evaluations = 0
         self.params = kernel_params(robot, stance.support_side, self.support, self.poly, stance.rho_rad,
                                     stance.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG,

@@ -35,7 +35,7 @@ from jethr1_plan.errors import InputError
 from jethr1_plan.kinematics import pose_from_quaternion
 from jethr1_plan.physics.balance import inside_polygon, sole_polygon
 from jethr1_plan.planning.sequence import convex_hull
-from jethr1_plan.robot.model import GRAVITY, JOINT_NAMES, SIDES, load_robot
+from jethr1_plan.robot.model import GRAVITY, SIDES, RobotModel, load_robot
 
 __all__ = ["Failure", "verify_path", "verify_rows"]
 
@@ -65,18 +65,18 @@ class Failure:
 # --- reading ---------------------------------------------------------------------------------
 
 
-def _rows_from_csv(text: str, source: str) -> dict[str, np.ndarray]:
+def _rows_from_csv(text: str, source: str, robot: RobotModel) -> dict[str, np.ndarray]:
     from jethr1_plan.io.trajectory_csv import columns, read_trajectory_csv
 
-    c = read_trajectory_csv(text, source)
-    missing = [k for k in columns() if k not in c]
+    c = read_trajectory_csv(text, source, robot)
+    missing = [k for k in columns(robot) if k not in c]
     if missing:
         raise InputError(source, "header", f"missing column {missing[0]!r}" + (
             f" and {len(missing) - 1} more" if len(missing) > 1 else ""))
     return c
 
 
-def _rows_from_mcap(data: bytes, source: str) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+def _rows_from_mcap(data: bytes, source: str, robot: RobotModel) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
     """Rows from an MCAP (the ``/joint_states``, ``/thrust``, ``/p_body``, ``/com``, ``/zmp`` and
     ``/analysis`` of each instant) and its swing paths."""
     from jethr1_plan.io.mcap import EPOCH_NS, read_mcap
@@ -89,6 +89,7 @@ def _rows_from_mcap(data: bytes, source: str) -> tuple[dict[str, np.ndarray], li
         raise InputError(source, "", f"not a valid MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
     by_time: dict[int, dict] = {}
     paths: list[np.ndarray] = []
+    joints, fans = robot.joint_names, [f.name for f in robot.fans]
     per_row = ("/joint_states", "/thrust", "/p_body", "/com", "/zmp", "/analysis")
     try:
         for topic, _schema, msg, t in messages:
@@ -117,15 +118,15 @@ def _rows_from_mcap(data: bytes, source: str) -> tuple[dict[str, np.ndarray], li
                     "support": th["support"], "feasible": th["feasible"], "reason": th["reason"],
                     "pelvis_x_m": pose["position"]["x"], "pelvis_y_m": pose["position"]["y"],
                     "pelvis_z_m": pose["position"]["z"], **{f"pelvis_q{k}": pose["orientation"][k] for k in "xyzw"},
-                    **{f"{j}_rad": pos[j] for j in JOINT_NAMES}, "thrust_left_n": th["left_n"],
-                    "thrust_right_n": th["right_n"], "com_x_m": com["x"], "com_y_m": com["y"], "com_z_m": com["z"],
+                    **{f"{j}_rad": pos[j] for j in joints}, **{f"thrust_{f}_n": th[f"{f}_n"] for f in fans},
+                    "com_x_m": com["x"], "com_y_m": com["y"], "com_z_m": com["z"],
                     "zmp_x_m": zmp["x"], "zmp_y_m": zmp["y"],
                     "thrust_window_lo_n": np.nan if th["window_lo_n"] is None else th["window_lo_n"],
                     "thrust_window_hi_n": np.nan if th["window_hi_n"] is None else th["window_hi_n"],
-                    "zmp_margin_m": th["zmp_margin_m"], **{f"{j}_tau_nm": tau[j] for j in JOINT_NAMES},
+                    "zmp_margin_m": th["zmp_margin_m"], **{f"{j}_tau_nm": tau[j] for j in joints},
                     "kappa_left": an["kappa_left"], "kappa_right": an["kappa_right"],
-                    "yaw_momentum_nms": an["yaw_momentum_nms"], **{f"{j}_cmd_rad": cmd[j] for j in JOINT_NAMES},
-                    "thrust_cmd_left_n": th["left_cmd_n"], "thrust_cmd_right_n": th["right_cmd_n"]}
+                    "yaw_momentum_nms": an["yaw_momentum_nms"], **{f"{j}_cmd_rad": cmd[j] for j in joints},
+                    **{f"thrust_cmd_{f}_n": th[f"{f}_cmd_n"] for f in fans}}
             for k, v in vals.items():
                 cols.setdefault(k, []).append(v)
     except (KeyError, TypeError, ValueError) as exc:
@@ -193,6 +194,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
     robot_name = (summary or {}).get("robot_yaml") or (summary or {}).get("robot") or (sc.robot if sc else "jethr1")
     if summary and not (isinstance(robot_name, str) and Path(robot_name).is_file()) and sc is not None:
         robot_name = sc.robot  # the plan moved with its summary: the scenario names the robot
+    robot = load_robot(robot_name)
     loaded = {}
     for f in files:
         try:
@@ -204,12 +206,12 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
                 text = data.decode("utf-8")
             except UnicodeDecodeError:
                 raise InputError(str(f), "", "not UTF-8 text") from None
-            loaded[f] = (_rows_from_csv(text, str(f)), None)
+            loaded[f] = (_rows_from_csv(text, str(f), robot), None)
         else:
-            loaded[f] = _rows_from_mcap(data, str(f))
+            loaded[f] = _rows_from_mcap(data, str(f), robot)
     n, failures = 0, []
     for f, (rows, paths) in loaded.items():
-        k, fails = verify_rows(rows, robot_name, swing_paths=paths, summary=summary, scenario=sc)
+        k, fails = verify_rows(rows, robot, swing_paths=paths, summary=summary, scenario=sc)
         n = max(n, k)
         failures += [Failure(x.row, x.time_s, x.check, f"{f.name}: {x.detail}" if len(loaded) > 1 else x.detail)
                      for x in fails]
@@ -247,16 +249,18 @@ def _compare_files(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> list[F
 # --- checks ----------------------------------------------------------------------------------
 
 
-def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray, statics: bool) -> dict:
+def _forward_kinematics(c: dict[str, np.ndarray], robot: RobotModel, q: np.ndarray, thrust: np.ndarray,
+                        statics: bool) -> dict:
     """Per row, from the written pelvis pose and joints (fresh PlaCo robot): both sole poses (n, 4, 4),
-    the CoM (n, 3), both fans' ground points (n, 2); with ``statics`` also the static torques under the
-    written thrust (n, 12) and each leg's κ (n, 2)."""
+    the CoM (n, 3), every fan's ground point (n, F, 2); with ``statics`` also the static torques under
+    the written thrust (n, F) (n, J) and each leg's κ (n, 2)."""
     from jethr1_plan.physics.statics import leg_condition_numbers, static_torques
 
     wrapper = robot.wrapper()
     n = len(q)
-    out = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES}, "fans": {s: np.zeros((n, 2)) for s in SIDES},
-           "com": np.zeros((n, 3)), "tau": np.full((n, 12), np.nan), "kappa": np.full((n, 2), np.nan)}
+    out = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES}, "fans": np.zeros((n, len(robot.fans), 2)),
+           "com": np.zeros((n, 3)), "tau": np.full((n, len(robot.joint_names)), np.nan),
+           "kappa": np.full((n, 2), np.nan)}
     for i in range(n):
         quat = [float(c[f"pelvis_q{k}"][i]) for k in "xyzw"]
         norm = math.sqrt(sum(v * v for v in quat))
@@ -267,15 +271,17 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot, q: np.ndarray, statics:
         wrapper.state.q[7:] = q[i]
         wrapper.update_kinematics()
         for s in SIDES:
-            out["feet"][s][i] = wrapper.get_T_world_frame(f"{s}_foot")
-            out["fans"][s][i] = wrapper.get_T_world_frame(f"{s}_fan")[:2, 3]
+            out["feet"][s][i] = wrapper.get_T_world_frame(robot.legs[s].sole)
+        for k, fan in enumerate(robot.fans):
+            out["fans"][i, k] = wrapper.get_T_world_frame(fan.frame)[:2, 3]
         out["com"][i] = wrapper.com_world()
         if statics:
             sup = c["support"][i]
             supports = SIDES if sup == "both" else ((sup,) if sup in SIDES else ())
             if supports:
-                out["tau"][i], _ = static_torques(wrapper, {s: float(c[f"thrust_{s}_n"][i]) for s in SIDES}, supports)
-            k = leg_condition_numbers(wrapper)
+                out["tau"][i], _ = static_torques(robot, wrapper, np.where(np.isfinite(thrust[i]), thrust[i], 0.0),
+                                                  supports)
+            k = leg_condition_numbers(robot, wrapper)
             out["kappa"][i] = k["left"], k["right"]
     return out
 
@@ -314,7 +320,7 @@ def _scenario_feet(sc, row_step: np.ndarray, phase: np.ndarray) -> dict[str, np.
     return out
 
 
-def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_paths: list[np.ndarray] | None = None,
+def verify_rows(c: dict[str, np.ndarray], robot: RobotModel, swing_paths: list[np.ndarray] | None = None,
                 start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50,
                 balance: dict | None = None, summary: dict | None = None, scenario=None,
                 torque_limits: bool = True) -> tuple[int, list[Failure]]:
@@ -327,13 +333,13 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
         start_feet: where the soles stand at the start (without a scenario).
         torque_limits: rows whose static torque exceeds a servo limit fail.
     """
-    robot = load_robot(robot_name)
     balance = balance if balance is not None else (summary or {}).get("balance")
     w = robot.mass_kg * GRAVITY
-    fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
+    fans = robot.fans
+    fmax = np.array([f.max_thrust_n for f in fans])
     limit = (summary or {}).get("thrust_max_n")
     if isinstance(limit, int | float):
-        fmax = {s: min(v, float(limit)) for s, v in fmax.items()}
+        fmax = np.minimum(fmax, float(limit))
     n = len(c["time_s"])
     found: list[tuple[int, int, str, str]] = []  # (row, order, check, detail)
 
@@ -352,10 +358,12 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
             continue  # empty (NaN) where there is no swing sole, or no window
         finite &= np.isfinite(v.astype(float))
     fail(~finite, 0, "not a number", lambda i: "a value of the row is empty or not finite")
-    q = np.stack([c[f"{j}_rad"] for j in JOINT_NAMES], axis=1).astype(float)
+    joints = robot.joint_names
+    q = np.stack([c[f"{j}_rad"] for j in joints], axis=1).astype(float)
     q = np.where(np.isfinite(q), q, 0.0)
-    statics = "left_hip_yaw_tau_nm" in c
-    fk = _forward_kinematics(c, robot, q, statics)
+    statics = f"{joints[0]}_tau_nm" in c
+    thrust = np.stack([c[f"thrust_{f.name}_n"] for f in fans], axis=1).astype(float).reshape(n, len(fans))
+    fk = _forward_kinematics(c, robot, q, thrust, statics)
     quat = np.stack([c[f"pelvis_q{k}"] for k in "xyzw"], axis=1).astype(float)
     norm = np.linalg.norm(quat, axis=1)
     fail(~(np.abs(norm - 1.0) <= 1e-9), 1, "not a unit quaternion", lambda i: f"|q| = {norm[i]:.6g}")
@@ -368,7 +376,7 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
 
     out = (q < robot.lower_rad - 1e-9) | (q > robot.upper_rad + 1e-9)
     first = np.argmax(out, axis=1)
-    fail(out.any(axis=1), 2, "joint limit", lambda i: f"{JOINT_NAMES[first[i]]} = {q[i, first[i]]:.4f} rad outside "
+    fail(out.any(axis=1), 2, "joint limit", lambda i: f"{joints[first[i]]} = {q[i, first[i]]:.4f} rad outside "
          f"[{robot.lower_rad[first[i]]:.3f}, {robot.upper_rad[first[i]]:.3f}]")
     support = c["support"]
     pos = {s: fk["feet"][s][:, :3, 3] for s in SIDES}
@@ -406,15 +414,18 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
             if d > TOL_M:
                 found.append((int(i), 5, "swing sole off its path", f"{d:.2e} m from the scenario's swing path"
                               if scenario is not None else f"{d:.2e} m from every swing path of the file"))
-    thrust = {"left": c["thrust_left_n"].astype(float), "right": c["thrust_right_n"].astype(float)}
-    for s in SIDES:
-        bad = ~((thrust[s] >= 0.0) & (thrust[s] <= fmax[s] + 1e-9))
-        fail(bad, 6, "thrust out of range", lambda i, s=s: f"{s} fan {thrust[s][i]:.3f} N outside [0, {fmax[s]:g}] N "
-             "(the fan's rating and the scenario's limit)")
+    for k, fan in enumerate(fans):
+        bad = ~((thrust[:, k] >= 0.0) & (thrust[:, k] <= fmax[k] + 1e-9))
+        fail(bad, 6, "thrust out of range", lambda i, k=k, fan=fan: f"{fan.name} fan {thrust[i, k]:.3f} N outside "
+             f"[0, {fmax[k]:g}] N (the fan's rating and the scenario's limit)")
+        if fan.leg is not None:  # a fan on a sole never pushes while its foot alone supports the robot
+            fail((support == fan.leg) & (thrust[:, k] != 0.0), 6, "thrust on the support foot",
+                 lambda i, k=k, fan=fan: f"{fan.name} fan {thrust[i, k]:.3f} N while its foot supports the robot")
     com = fk["com"]
-    total = thrust["left"] + thrust["right"]
+    total = sum(thrust[:, k] for k in range(len(fans)))
     with np.errstate(invalid="ignore", divide="ignore"):
-        zmp = (w * com[:, :2] - sum(thrust[s][:, None] * fk["fans"][s] for s in SIDES)) / (w - total)[:, None]
+        moment = sum(thrust[:, k, None] * fk["fans"][:, k] for k in range(len(fans)))
+        zmp = (w * com[:, :2] - moment) / (w - total)[:, None]
     # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
     # planned one by the IK tolerance, so the edge is given that much
     half = np.array([robot.sole_length_m, robot.sole_width_m]) / 2
@@ -443,7 +454,7 @@ def verify_rows(c: dict[str, np.ndarray], robot_name: str = "jethr1", swing_path
         _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found)
     if statics:
         _check_statics(c, robot, fk, torque_limits, found)
-    if "left_hip_yaw_cmd_rad" in c and statics and n > 1:
+    if f"{joints[0]}_cmd_rad" in c and statics and n > 1:
         _check_commands(c, robot, q, thrust, found)
     return n, _failures(found, c, max_failures)
 
@@ -529,12 +540,12 @@ def _supports(c, robot, pos, single) -> list[np.ndarray]:
 
 def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> None:
     """The written thrust window, ZMP margin and (with the plan's balance settings) the tolerance."""
-    from jethr1_plan.physics.balance import Tolerance, balance_slack, polygon_margin, thrust_window
+    from jethr1_plan.physics.balance import Tolerance, balance_slack, polygon_margin, shared_window, thrust_window
 
     polys = _supports(c, robot, pos, single)
     lo_w, hi_w = c["thrust_window_lo_n"].astype(float), c["thrust_window_hi_n"].astype(float)
     margin_w = c["zmp_margin_m"].astype(float)
-    fmax = {f.foot.split("_")[0]: f.max_thrust_n for f in robot.fans}
+    fmax = np.array([f.max_thrust_n for f in robot.fans])
     tol_doc = (balance or {}).get("tolerance", {})
     tol = Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
     shrink = float((balance or {}).get("sole_margin_m", 0.0))
@@ -545,24 +556,36 @@ def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> No
         margin = float(polygon_margin(zmp[i], poly))
         if not abs(margin - margin_w[i]) <= TOL_M:
             found.append((i, 9, "ZMP margin column wrong", f"written {margin_w[i]:.6f} m, recomputed {margin:.6f} m"))
-        # the window of the fan that carries thrust (in a swing row: the swing foot's fan)
-        loaded = [s for s in SIDES if thrust[s][i] > 0]
-        side = loaded[0] if loaded else (("left" if c["support"][i] == "right" else "right") if single[i] else None)
-        if side is not None and np.isfinite(lo_w[i]):
-            lo, hi = thrust_window(com[i], fk["fans"][side][i], poly, robot.mass_kg)
-            lo, hi = float(lo), float(min(hi, fmax[side]))
+        # the window of the fans that carry thrust, in their shares (in a swing row without thrust: the
+        # first fan the swing may use, its sole's)
+        total = float(np.sum(thrust[i]))
+        share = None
+        if total > 0:
+            share = thrust[i] / total
+        elif single[i] and c["support"][i] in SIDES:
+            usable = robot.swing_fans("left" if c["support"][i] == "right" else "right")
+            if usable:
+                share = np.isin(np.arange(len(fmax)), usable[:1]).astype(float)
+        if share is not None and np.isfinite(lo_w[i]):
+            carry = np.flatnonzero(share > 0)
+            if len(carry) == 1:
+                lo, hi = thrust_window(com[i], fk["fans"][i, carry[0]], poly, robot.mass_kg)
+                lo, hi = float(lo), float(min(hi, fmax[carry[0]]))
+            else:
+                lo, hi = shared_window(com[i], fk["fans"][i, carry], share[carry], poly, robot.mass_kg)
+                lo, hi = float(lo), float(min(hi, np.min(fmax[carry] / share[carry])))
             if not (abs(lo - lo_w[i]) <= WINDOW_TOL_N and abs(hi - hi_w[i]) <= WINDOW_TOL_N):
                 found.append((i, 9, "thrust window column wrong", f"written [{lo_w[i]:.4f}, {hi_w[i]:.4f}] N, "
                               f"recomputed [{lo:.4f}, {hi:.4f}] N"))
-            if not (lo - WINDOW_TOL_N <= thrust[side][i] <= hi + WINDOW_TOL_N):
-                found.append((i, 9, "thrust outside its window", f"{side} fan {thrust[side][i]:.3f} N outside "
+            if not (lo - WINDOW_TOL_N <= total <= hi + WINDOW_TOL_N):
+                names = "+".join(robot.fans[k].name for k in carry)
+                found.append((i, 9, "thrust outside its window", f"{names} fan {total:.3f} N outside "
                               f"[{lo:.3f}, {hi:.3f}] N"))
         if balance is not None:
             soles = [c["support"][i]] if single[i] and c["support"][i] in SIDES else list(SIDES)
             shrunk = [sole_polygon(pos[s][i, :2], 0.0, robot.sole_length_m, robot.sole_width_m, shrink) for s in soles]
             region = shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))
-            slack = float(balance_slack(com[i], np.stack([fk["fans"][s][i] for s in SIDES]),
-                                        np.array([thrust[s][i] for s in SIDES]), region, robot.mass_kg, tol))
+            slack = float(balance_slack(com[i], fk["fans"][i], thrust[i], region, robot.mass_kg, tol))
             if slack < -SLACK_TOL_NM:
                 found.append((i, 9, "below the tolerance", f"the written thrust keeps the ZMP in the support only "
                               f"without ±{100 * tol.thrust:g} % thrust, ±{100 * tol.mass:g} % mass and "
@@ -571,19 +594,19 @@ def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> No
 
 def _check_statics(c, robot, fk, torque_limits: bool, found) -> None:
     """The torque and κ columns against their recomputation; torques within the servo limits."""
-    tau_w = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1).astype(float)
+    tau_w = np.stack([c[f"{j}_tau_nm"] for j in robot.joint_names], axis=1).astype(float)
     tau = fk["tau"]
     ok = np.isfinite(tau).all(axis=1)
     err = np.abs(tau_w - tau)
     for i in np.flatnonzero(ok & ~np.all(err <= TOL_TAU * np.maximum(1.0, np.abs(tau)), axis=1)):
         j = int(np.argmax(err[i]))
-        found.append((int(i), 10, "torque column wrong", f"{JOINT_NAMES[j]}_tau_nm {tau_w[i, j]:.4f}, recomputed "
+        found.append((int(i), 10, "torque column wrong", f"{robot.joint_names[j]}_tau_nm {tau_w[i, j]:.4f}, recomputed "
                       f"{tau[i, j]:.4f} N·m"))
     if torque_limits:
         ratio = np.abs(np.where(ok[:, None], tau, tau_w)) / robot.servo_limit_nm
         for i in np.flatnonzero(ratio.max(axis=1) > 1.0):
             j = int(np.argmax(ratio[i]))
-            found.append((int(i), 10, "torque over its servo limit", f"{JOINT_NAMES[j]} needs "
+            found.append((int(i), 10, "torque over its servo limit", f"{robot.joint_names[j]} needs "
                           f"{abs(tau[i, j] if ok[i] else tau_w[i, j]):.2f} N·m, its servos give "
                           f"{robot.servo_limit_nm[j]:.2f} N·m"))
     kappa_w = np.stack([c["kappa_left"], c["kappa_right"]], axis=1).astype(float)
@@ -602,17 +625,17 @@ def _check_commands(c, robot, q, thrust, found) -> None:
     if not (np.all(dt > 0) and np.all(np.isfinite(dt))):
         return  # the time check has said why
     rate = 1.0 / float(np.median(dt))
-    tau = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1).astype(float)
+    tau = np.stack([c[f"{j}_tau_nm"] for j in robot.joint_names], axis=1).astype(float)
     q_cmd = servo_commands(q, tau, robot.servo_stiffness_nm_per_rad, rate)
-    written = np.stack([c[f"{j}_cmd_rad"] for j in JOINT_NAMES], axis=1).astype(float)
+    written = np.stack([c[f"{j}_cmd_rad"] for j in robot.joint_names], axis=1).astype(float)
     for i in np.flatnonzero(~np.all(np.abs(written - q_cmd) <= 1e-9, axis=1)):
         j = int(np.argmax(np.abs(written[i] - q_cmd[i])))
-        found.append((int(i), 11, "servo command column wrong", f"{JOINT_NAMES[j]}_cmd_rad {written[i, j]:.6f}, "
+        found.append((int(i), 11, "servo command column wrong", f"{robot.joint_names[j]}_cmd_rad {written[i, j]:.6f}, "
                       f"recomputed {q_cmd[i, j]:.6f}"))
-    fans = [robot.fan_for(s) for s in SIDES]
-    f_cmd = fan_commands(np.column_stack([thrust[s] for s in SIDES]), rate, np.array([f.lag_s for f in fans]),
+    fans = robot.fans
+    f_cmd = fan_commands(thrust, rate, np.array([f.lag_s for f in fans]),
                          np.array([f.max_thrust_n for f in fans]))
-    written = np.column_stack([c[f"thrust_cmd_{s}_n"] for s in SIDES]).astype(float)
+    written = np.column_stack([c[f"thrust_cmd_{f.name}_n"] for f in fans]).astype(float)
     for i in np.flatnonzero(~np.all(np.abs(written - f_cmd) <= 1e-9, axis=1)):
         found.append((int(i), 11, "fan command column wrong", f"written {np.round(written[i], 4).tolist()} N, "
                       f"recomputed {np.round(f_cmd[i], 4).tolist()} N"))

@@ -14,10 +14,10 @@ import pytest
 
 from jethr1_plan.balance_space import SweepSpec
 from jethr1_plan.kinematics.closed_form import check_structure
-from jethr1_plan.physics.balance import NOMINAL, Tolerance
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
 from jethr1_plan.physics.compiled import into_reach
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import load_robot, reach_centre
+from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
 from jethr1_plan.search import EDGE_PENALTY_N_PER_DEG, Evaluator
 
 from .leg_oracle import fast_com, leg_ik
@@ -39,8 +39,19 @@ def numpy_objective(ev: Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     within = np.all((q >= robot.lower_rad) & (q <= robot.upper_rad), axis=1)
     status = np.where(~reach, Reason.UNREACHABLE, np.where(within, Reason.OK, Reason.JOINT_LIMIT))
     com = fast_com(robot, P, yaw, q)
-    lo, hi, blocked = window_bounds(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
-    thrust = np.where((lo <= hi) & ~blocked, lo, np.inf)
+    usable = [robot.fans[i] for i in robot.swing_fans(spec.swing_side)]
+    if len(usable) == 1 and not usable[0].on_trunk:
+        lo, hi, blocked = window_bounds(com[:, :2], fan, ev.poly, robot.mass_kg, spec.tolerance)
+        thrust = np.where((lo <= hi) & ~blocked, lo, np.inf)
+        above = thrust > spec.thrust_max_n
+    else:  # several fans: the least total (its own test holds it to HiGHS), within the maxima where it can be
+        soles = {spec.support_side: ev.support, spec.swing_side: swing}
+        fans = np.stack([fan_ground_xy(f, soles, P, yaw) for f in usable], axis=1)
+        caps = np.array([min(f.max_thrust_n, spec.thrust_max_n) for f in usable])
+        bounded, _ = least_thrust(com[:, :2], fans, ev.poly, robot.mass_kg, caps, spec.tolerance)
+        free, _ = least_thrust(com[:, :2], fans, ev.poly, robot.mass_kg, None, spec.tolerance)
+        above = np.isfinite(free) & ~np.isfinite(bounded)
+        thrust = np.where(above, free, bounded)
     edge = np.maximum(edge_angle_error(ev.support[:2], com[:, :2], swing[:, :2]) - spec.rho_rad, 0.0)
     limit_excess = np.sum(np.maximum(robot.lower_rad - q, 0) + np.maximum(q - robot.upper_rad, 0), axis=1)
     g = ev.geom
@@ -52,19 +63,21 @@ def numpy_objective(ev: Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     obj = np.select([status == Reason.UNREACHABLE, status == Reason.JOINT_LIMIT, ~balanced],
                     [4000 + 1e4 * reach_excess, 3000 + 1e3 * limit_excess, 2000 + 1e3 * dist],
                     thrust + EDGE_PENALTY_N_PER_DEG * np.degrees(edge))
-    reason = np.select([status == Reason.UNREACHABLE, status == Reason.JOINT_LIMIT, ~balanced, edge > 0,
-                        thrust > spec.thrust_max_n],
+    reason = np.select([status == Reason.UNREACHABLE, status == Reason.JOINT_LIMIT, ~balanced, edge > 0, above],
                        [Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.NO_BALANCE, Reason.EDGE_ANGLE,
                         Reason.THRUST_MAX],
                        Reason.OK)
     return obj, np.where((reason == Reason.OK) | (reason == Reason.THRUST_MAX), thrust, np.inf), reason
 
 
-@pytest.mark.parametrize("side, support, tol", [("right", (0.0, -0.1125, 0.0), NOMINAL),
-                                               ("left", (0.05, 0.1, 0.04), NOMINAL),
-                                               ("right", (0.0, -0.1125, 0.0), Tolerance(0.1, 0.05, 0.01))])
-def test_compiled_objective_equals_the_numpy_functions(side, support, tol):
-    spec = SweepSpec(support_side=side, support_xyz=support, thrust_max_n=18.0, tolerance=tol)
+@pytest.mark.parametrize("robot_name, side, support, tol", [
+    ("jethr1", "right", (0.0, -0.1125, 0.0), NOMINAL),
+    ("jethr1", "left", (0.05, 0.1, 0.04), NOMINAL),
+    ("jethr1", "right", (0.0, -0.1125, 0.0), Tolerance(0.1, 0.05, 0.01)),
+    ("jethr1_trunk_fan", "right", (0.0, -0.1125, 0.0), Tolerance(0.1, 0.05, 0.01)),  # two fans, one on the trunk
+])
+def test_compiled_objective_equals_the_numpy_functions(robot_name, side, support, tol):
+    spec = SweepSpec(robot=robot_name, support_side=side, support_xyz=support, thrust_max_n=18.0, tolerance=tol)
     ev = Evaluator(load_robot(spec.robot), spec.support_stance())
     rng = np.random.default_rng(3)
     n_cells, m = 400, 40_000

@@ -70,7 +70,7 @@ def test_members_rebalance_with_placo(swept, robot):
     solver = PlacoPostureSolver(robot)
     support = np.array([0.0, -0.1125, 0.0])
     sole = sole_polygon(support[:2], 0.0, robot.sole_length_m, robot.sole_width_m)
-    fan_off = np.array(robot.fan_for("left").offset_in_foot_m[:2])
+    fan_off = np.array(robot.fan_for("left").offset_m[:2])
     members = [r for r in rows if r["min_thrust_n"] != ""]
     for r in members[::3]:
         swing = np.array([float(r["x_m"]), float(r["y_m"]), float(r["z_m"])])

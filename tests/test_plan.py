@@ -16,10 +16,9 @@ from jethr1_plan.io.mcap import mcap_schemas, read_mcap
 from jethr1_plan.io.trajectory_csv import columns, read_trajectory_csv
 from jethr1_plan.physics.balance import inside_polygon, sole_polygon, zmp_with_thrust
 from jethr1_plan.planning.sequence import convex_hull
-from jethr1_plan.robot.model import JOINT_NAMES
 from jethr1_plan.scenario import load_scenario
 
-from .conftest import ROOT
+from .conftest import JOINT_NAMES, ROOT
 
 FORWARD = ROOT / "configs" / "forward_ditch_450.yaml"
 
@@ -41,11 +40,13 @@ def test_outputs_exist_and_summary_reports(planned):
         assert key in s
 
 
-def test_csv_header_is_the_contract(planned):
+def test_csv_header_is_the_contract(planned, robot):
     header = (planned / "trajectory.csv").read_text().split("\n", 1)[0].split(",")
-    assert header == columns()
+    assert header == columns(robot)
     assert header[:6] == ["time_s", "step", "phase", "sample", "support", "feasible"]
     assert header[13:25] == [f"{j}_rad" for j in JOINT_NAMES]
+    assert header[25:35] == ["swing_x_m", "swing_y_m", "swing_z_m", "thrust_left_n", "thrust_right_n",
+                             "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m"]
 
 
 def test_trajectory_rechecked_with_placo(planned, robot):
@@ -252,9 +253,9 @@ def test_torques_kappa_and_energy_are_written(planned, robot):
     wrapper.set_T_world_fbase(T)
     wrapper.state.q[7:] = [c[f"{j}_rad"][i] for j in JOINT_NAMES]
     wrapper.update_kinematics()
-    expect, _ = static_torques(wrapper, {"left": c["thrust_left_n"][i], "right": 0.0}, ("right",))
+    expect, _ = static_torques(robot, wrapper, np.array([c["thrust_left_n"][i], 0.0]), ("right",))
     np.testing.assert_allclose(tau[i], expect, atol=1e-9)
-    k = leg_condition_numbers(wrapper)
+    k = leg_condition_numbers(robot, wrapper)
     assert c["kappa_left"][i] == pytest.approx(k["left"]) and c["kappa_right"][i] == pytest.approx(k["right"])
 
 

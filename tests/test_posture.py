@@ -8,7 +8,8 @@ import pytest
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import JOINT_NAMES
+
+from .conftest import JOINT_NAMES
 
 
 def _stance(swing, yaw):

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.robot.model import JOINT_NAMES, load_robot, robot_summary
+from jethr1_plan.robot.model import load_robot, robot_summary
 
-from .conftest import ROOT
+from .conftest import JOINT_NAMES, ROOT
 
 
 def test_table1_figures_from_the_loaded_model(robot):
@@ -25,7 +25,7 @@ def test_table1_figures_from_the_loaded_model(robot):
 
 
 def test_fans_sit_outboard_of_their_feet(robot):
-    left, right = robot.fan_for("left").offset_in_foot_m, robot.fan_for("right").offset_in_foot_m
+    left, right = robot.fan_for("left").offset_m, robot.fan_for("right").offset_m
     assert left[1] > robot.sole_width_m / 2 and right[1] < -robot.sole_width_m / 2
 
 

@@ -13,9 +13,8 @@ from jethr1_plan.io.trajectory_csv import read_trajectory_csv
 from jethr1_plan.kinematics import pose_from_quaternion
 from jethr1_plan.physics.balance import polygon_margin, sole_polygon, thrust_window, zmp_with_thrust
 from jethr1_plan.planning.commands import low_pass
-from jethr1_plan.robot.model import JOINT_NAMES
 
-from .conftest import ROOT
+from .conftest import JOINT_NAMES, ROOT
 
 SIDE = ROOT / "configs" / "side_step.yaml"
 

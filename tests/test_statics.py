@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from jethr1_plan.physics.statics import energy_consumption, leg_condition_numbers, static_torques
-from jethr1_plan.robot.model import GRAVITY, JOINT_NAMES
+from jethr1_plan.robot.model import GRAVITY
 
+from .conftest import JOINT_NAMES
 from .leg_oracle import link_poses
 
 
@@ -54,7 +55,7 @@ def test_single_support_torques_equal_the_virtual_work(robot, reference):
         wrapper.update_kinematics()
         support = "right"
         thrust = rng.uniform(0, 20)
-        tau, _ = static_torques(wrapper, {"left": thrust, "right": 0.0}, (support,))
+        tau, _ = static_torques(robot, wrapper, np.array([thrust, 0.0]), (support,))
         pose = wrapper.get_T_world_frame(f"{support}_foot")
         h = 1e-6
         for j in range(12):
@@ -68,7 +69,7 @@ def test_single_support_torques_equal_the_virtual_work(robot, reference):
 def test_support_wrench_balances_weight_and_thrust(robot):
     wrapper = _robot_at(robot, _posture(robot, np.random.default_rng(3)))
     for supports in (("right",), ("left", "right")):
-        _, w = static_torques(wrapper, {"left": 12.0, "right": 0.0}, supports)
+        _, w = static_torques(robot, wrapper, np.array([12.0, 0.0]), supports)
         fz = w.reshape(-1, 6)[:, 2].sum()
         assert fz == pytest.approx(robot.mass_kg * GRAVITY - 12.0, abs=1e-9)
 
@@ -77,7 +78,7 @@ def test_kappa_from_an_independent_jacobian(robot):
     """κ of each leg from a finite-difference Jacobian of the numpy FK (relative sole twist)."""
     q = _posture(robot, np.random.default_rng(4))
     wrapper = _robot_at(robot, q)
-    kappa = leg_condition_numbers(wrapper)
+    kappa = leg_condition_numbers(robot, wrapper)
     h = 1e-7
     for k, side in enumerate(("left", "right")):
         def sole(qq, side=side):

@@ -9,6 +9,7 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.io.trajectory_csv import columns
+from jethr1_plan.robot.model import load_robot
 
 from .conftest import ROOT
 
@@ -94,5 +95,5 @@ def test_missing_file_is_exit_2(tmp_path):
 
 def test_header_is_checked(tmp_path):
     p = tmp_path / "trajectory.csv"
-    p.write_text(",".join(columns()[:10]) + "\n")
+    p.write_text(",".join(columns(load_robot("jethr1"))[:10]) + "\n")
     assert run(["verify", str(p)]) == 2

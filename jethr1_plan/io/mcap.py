@@ -54,6 +54,7 @@ __all__ = [
     "stamp",
     "swing_path_update",
     "terrain_update",
+    "thrust_schema",
     "trajectory_mcap",
     "vector3",
 ]
@@ -107,13 +108,22 @@ SCHEMAS: dict[str, dict] = {
     ROBOT_DESCRIPTION_SCHEMA: _object({"data": {"type": "string"}}),
     "jethr1.LegAnalysis": _object({"timestamp": TIME, "kappa_left": NUMBER, "kappa_right": NUMBER,
                                    "yaw_momentum_nms": NUMBER}),
-    "jethr1.Thrust": _object({"timestamp": TIME, "left_n": NUMBER, "right_n": NUMBER, "phase": {"type": "string"},
-                              "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
-                              "sample": {"type": "integer"}, "feasible": {"type": "boolean"},
-                              "reason": {"type": "string"}, "left_cmd_n": NUMBER, "right_cmd_n": NUMBER,
-                              "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
-                              "zmp_margin_m": NUMBER}),
 }
+
+
+def thrust_schema(fans: list[str]) -> dict:
+    """``jethr1.Thrust`` for a robot whose fans are named ``fans``: ``<fan>_n`` and ``<fan>_cmd_n`` per fan [N]."""
+    schema = _object({"timestamp": TIME, **{f"{f}_n": NUMBER for f in fans}, "phase": {"type": "string"},
+                      "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
+                      "sample": {"type": "integer"}, "feasible": {"type": "boolean"},
+                      "reason": {"type": "string"}, **{f"{f}_cmd_n": NUMBER for f in fans},
+                      "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
+                      "zmp_margin_m": NUMBER})
+    schema["title"] = "jethr1.Thrust"
+    return schema
+
+
+SCHEMAS["jethr1.Thrust"] = thrust_schema(["left", "right"])  # Jet-HR1's; a plan's MCAP holds its robot's
 for _name, _schema in SCHEMAS.items():
     _schema.setdefault("title", _name)
 
@@ -220,7 +230,7 @@ def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np
     play in one scene; Foxglove's URDF layer takes the same prefix.
     """
     ts = stamp(t)
-    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + "trunk",
+    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + robot.trunk,
             "translation": vector3(p_body), "rotation": quaternion_message(trunk_quat_xyzw)}]
     if rotations is None:
         rotations = [r[0] for r in joint_rotations(robot, q)]
@@ -237,8 +247,10 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
     buf = io.BytesIO()
     w = Writer(buf, compression=CompressionType.ZSTD)
     w.start(profile="", library="jethr1-plan")
+    fans = [f.name for f in robot.fans]
+    schemas = {**SCHEMAS, "jethr1.Thrust": thrust_schema(fans)}
     schema_ids = {name: w.register_schema(name=name, encoding="jsonschema",
-                                          data=json.dumps(s, sort_keys=True).encode()) for name, s in SCHEMAS.items()}
+                                          data=json.dumps(s, sort_keys=True).encode()) for name, s in schemas.items()}
     channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=schema_ids[name])
                 for topic, name in TOPICS.items()}
     seq = 0
@@ -266,11 +278,11 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         put("/analysis", t, {"timestamp": stamp(t), "kappa_left": float(c["kappa"][i][0]),
                              "kappa_right": float(c["kappa"][i][1]),
                              "yaw_momentum_nms": float(c["yaw_momentum"][i])})
-        put("/thrust", t, {"timestamp": stamp(t), "left_n": float(c["thrust_left"][i]),
-                           "right_n": float(c["thrust_right"][i]), "phase": c["phase"][i],
+        put("/thrust", t, {"timestamp": stamp(t), **{f"{f}_n": float(c[f"thrust_{f}"][i]) for f in fans},
+                           "phase": c["phase"][i],
                            "support": c["support"][i], "step": int(c["step"][i]), "sample": int(c["sample"][i]),
                            "feasible": bool(c["feasible"][i]), "reason": c["reason"][i],
-                           "left_cmd_n": float(c["thrust_cmd_left"][i]), "right_cmd_n": float(c["thrust_cmd_right"][i]),
+                           **{f"{f}_cmd_n": float(c[f"thrust_cmd_{f}"][i]) for f in fans},
                            "window_lo_n": _or_none(c["window"][i][0]), "window_hi_n": _or_none(c["window"][i][1]),
                            "zmp_margin_m": float(c["zmp_margin"][i])})
         put("/p_body", t, {"timestamp": stamp(t), "frame_id": "world",

@@ -29,7 +29,7 @@ def self_check(csv_text: str, result: PlanResult, summary: dict, strict_torque: 
     from jethr1_plan.io.trajectory_csv import read_trajectory_csv
     from jethr1_plan.verify import verify_rows
 
-    _, failures = verify_rows(read_trajectory_csv(csv_text), str(result.robot.yaml_path), summary=summary,
+    _, failures = verify_rows(read_trajectory_csv(csv_text, robot=result.robot), result.robot, summary=summary,
                               scenario=result.scenario, torque_limits=strict_torque, max_failures=5)
     if failures:
         raise SelfCheckFailed("the planned trajectory fails its own re-check: " + "; ".join(map(str, failures)))
@@ -53,7 +53,7 @@ def write_plan_outputs(result: PlanResult, outdir: Path, summary: dict, trajecto
     with staged_directory(final, PLAN_FILES) as staging:
         tmp = staging.path
         if trajectory and result.rows is not None:
-            text = trajectory_csv(result.rows)
+            text = trajectory_csv(result.robot, result.rows)
             if result.feasible:
                 self_check(text, result, summary, strict_torque)
             (tmp / "trajectory.csv").write_text(text)

@@ -8,10 +8,11 @@ import math
 import numpy as np
 
 from jethr1_plan.planning.sequence import Rows
-from jethr1_plan.robot.model import JOINT_NAMES
+from jethr1_plan.robot.model import RobotModel
 
 __all__ = [
     "CSV_FORMAT_VERSION",
+    "FIXED_COLUMNS",
     "MAX_CSV_BYTES",
     "TEXT_COLUMNS",
     "columns",
@@ -29,16 +30,32 @@ def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, math.sin(yaw_rad / 2), math.cos(yaw_rad / 2)
 
 
-def columns() -> list[str]:
-    """The CSV header, in order."""
+def columns(robot: RobotModel) -> list[str]:
+    """The CSV header of a plan of ``robot``, in order: joints by their URDF names, fans by their names."""
+    joints = robot.joint_names
+    fans = [f.name for f in robot.fans]
     return ["time_s", "step", "phase", "sample", "support", "feasible",
             "pelvis_x_m", "pelvis_y_m", "pelvis_z_m", "pelvis_qx", "pelvis_qy", "pelvis_qz", "pelvis_qw",
-            *(f"{j}_rad" for j in JOINT_NAMES),
-            "swing_x_m", "swing_y_m", "swing_z_m", "thrust_left_n", "thrust_right_n",
+            *(f"{j}_rad" for j in joints),
+            "swing_x_m", "swing_y_m", "swing_z_m", *(f"thrust_{f}_n" for f in fans),
             "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m",
             "thrust_window_lo_n", "thrust_window_hi_n", "zmp_margin_m",
-            *(f"{j}_tau_nm" for j in JOINT_NAMES), "kappa_left", "kappa_right", "yaw_momentum_nms",
-            *(f"{j}_cmd_rad" for j in JOINT_NAMES), "thrust_cmd_left_n", "thrust_cmd_right_n", "reason"]
+            *(f"{j}_tau_nm" for j in joints), "kappa_left", "kappa_right", "yaw_momentum_nms",
+            *(f"{j}_cmd_rad" for j in joints), *(f"thrust_cmd_{f}_n" for f in fans), "reason"]
+
+
+#: the columns every plan has, whatever its robot
+FIXED_COLUMNS = frozenset(("time_s", "step", "phase", "sample", "support", "feasible", "pelvis_x_m", "pelvis_y_m",
+                           "pelvis_z_m", "pelvis_qx", "pelvis_qy", "pelvis_qz", "pelvis_qw", "swing_x_m", "swing_y_m",
+                           "swing_z_m", "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m", "thrust_window_lo_n",
+                           "thrust_window_hi_n", "zmp_margin_m", "kappa_left", "kappa_right", "yaw_momentum_nms",
+                           "reason"))
+
+
+def _known(name: str) -> bool:
+    """A column some robot's plan has (joints and fans by name)."""
+    return name in FIXED_COLUMNS or (name.endswith(("_rad", "_tau_nm")) and len(name) > 7) or (
+        name.startswith("thrust_") and name.endswith("_n") and len(name) > 9)
 
 
 def number_text(x: float) -> str:
@@ -49,21 +66,22 @@ def number_text(x: float) -> str:
     return repr(x) if x != 0 else "0.0"
 
 
-def trajectory_csv(rows: Rows) -> str:
-    """The CSV text of ``rows``."""
+def trajectory_csv(robot: RobotModel, rows: Rows) -> str:
+    """The CSV text of ``rows`` (a plan of ``robot``)."""
     out = io.StringIO()
-    out.write(",".join(columns()) + "\n")
+    out.write(",".join(columns(robot)) + "\n")
     c = rows.columns
     num = number_text
+    fans = [f.name for f in robot.fans]
     for i in range(len(rows)):
         qx, qy, qz, qw = yaw_quaternion(c["yaw"][i])
         vals = [num(round(c["time_s"][i], 9)), str(c["step"][i]), c["phase"][i], str(c["sample"][i]), c["support"][i],
                 "true" if c["feasible"][i] else "false", *map(num, c["p_body"][i]), *map(num, (qx, qy, qz, qw)),
-                *map(num, np.asarray(c["q"][i])), *map(num, c["swing"][i]), num(c["thrust_left"][i]),
-                num(c["thrust_right"][i]), *map(num, c["com"][i]), *map(num, c["zmp"][i]),
+                *map(num, np.asarray(c["q"][i])), *map(num, c["swing"][i]), *(num(c[f"thrust_{f}"][i]) for f in fans),
+                *map(num, c["com"][i]), *map(num, c["zmp"][i]),
                 *map(num, c["window"][i]), num(c["zmp_margin"][i]),
                 *map(num, c["tau"][i]), num(c["kappa"][i][0]), num(c["kappa"][i][1]), num(c["yaw_momentum"][i]),
-                *map(num, c["q_cmd"][i]), num(c["thrust_cmd_left"][i]), num(c["thrust_cmd_right"][i]),
+                *map(num, c["q_cmd"][i]), *(num(c[f"thrust_cmd_{f}"][i]) for f in fans),
                 c["reason"][i]]
         out.write(",".join(vals) + "\n")
     return out.getvalue()
@@ -73,8 +91,11 @@ TEXT_COLUMNS = ("phase", "support", "reason")
 MAX_CSV_BYTES = 200_000_000  # a trajectory is ~1 MB per 1,000 rows; anything larger is not one
 
 
-def read_trajectory_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.ndarray]:
+def read_trajectory_csv(text: str, source: str = "trajectory.csv", robot: RobotModel | None = None
+                        ) -> dict[str, np.ndarray]:
     """Parse a trajectory CSV into columns (numbers as float arrays, NaN where empty).
+
+    With ``robot``, every column must be one of that robot's plans; without, of any robot's.
 
     Raises:
         InputError: a header that is not this format's, a row with the wrong number of cells (a file
@@ -90,8 +111,8 @@ def read_trajectory_csv(text: str, source: str = "trajectory.csv") -> dict[str, 
     if not lines:
         raise InputError(source, "header", "empty file")
     header = lines[0].split(",")
-    known = set(columns())
-    unknown = [h for h in header if h not in known]
+    known = set(columns(robot)) if robot is not None else None
+    unknown = [h for h in header if (h not in known if known is not None else not _known(h))]
     if unknown:
         raise InputError(source, "header", f"unknown column {_short(unknown[0])!r}")
     if len(set(header)) != len(header):

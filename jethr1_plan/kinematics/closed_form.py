@@ -93,11 +93,23 @@ def check_structure(robot: RobotModel) -> LegGeometry:
     """
     joints = {j.name: j for j in urdf_joints(robot.urdf_path)}
     src = str(robot.urdf_path)
+    wrapper = robot.wrapper()
+    wrapper.state.q[7:] = 0.0
+    wrapper.update_kinematics()
     for side, sgn in (("left", 1.0), ("right", -1.0)):
-        chain = [joints[f"{side}_{t}"] for t in AXES]
-        for j, axis in zip(chain, AXES.values(), strict=True):
+        leg = robot.legs[side]
+        chain = [joints[n] for n in leg.joints]
+        parents = [robot.trunk] + [j.child for j in chain[:-1]]
+        for j, axis, parent in zip(chain, AXES.values(), parents, strict=True):
             if j.kind != "revolute" or not np.allclose(j.axis, axis) or not np.allclose(j.rpy, 0):
                 raise RobotModelError(src, j.name, f"analytic IK needs a revolute joint about {axis} with rpy 0")
+            if j.parent != parent:
+                raise RobotModelError(src, j.name, f"analytic IK needs the leg as one chain from {robot.trunk} "
+                                      f"(parent {parent!r}, got {j.parent!r})")
+        sole, ankle = wrapper.get_T_world_frame(leg.sole), wrapper.get_T_world_frame(leg.joints[4])
+        if not (np.allclose(sole[:3, :3], np.eye(3)) and np.allclose(sole[:2, 3], ankle[:2, 3])):
+            raise RobotModelError(src, leg.sole, "analytic IK needs the sole frame level and straight below the "
+                                  "ankle at the zero posture")
         x = [np.asarray(j.xyz) for j in chain]
         ok = (np.allclose(x[0][[0, 2]], 0) and np.isclose(x[0][1], sgn * robot.hip_offset_m)
               and all(np.allclose(v, 0) for v in (x[1], x[2], x[5]))
@@ -145,17 +157,19 @@ def _merged(robot: RobotModel, link: str, fixed_children: dict) -> tuple[float, 
 @functools.lru_cache(maxsize=8)
 def leg_mass_model(robot: RobotModel):
     """Masses and CoMs of the rigid groups the closed-form CoM needs: the trunk with everything
-    fixed to it, and per leg the six moving links with everything fixed to each."""
+    fixed to it, and per leg the six moving links with everything fixed to each. Joints outside the
+    legs (a waist, arms) are held at 0 by the planner, so they count as fixed."""
     _, chain = mass_model(robot)
     fixed_children: dict[str, list] = {}
+    moving = {n for leg in robot.legs.values() for n in leg.joints}
     for j, _k, R0, _xyz in chain:
-        if j.kind == "fixed":
+        if j.kind == "fixed" or j.name not in moving:  # any joint but the legs' is held at 0: rigid
             fixed_children.setdefault(j.parent, []).append((j, None if R0 is None else R0[:, :, 0]))
     joints = {j.name: j for j, *_ in chain}
-    trunk = _merged(robot, "trunk", fixed_children)
+    trunk = _merged(robot, robot.trunk, fixed_children)
     legs = {}
     for side in SIDES:
-        names = [f"{side}_{t}" for t in AXES]
+        names = list(robot.legs[side].joints)
         legs[side] = {
             "hip_xyz": np.asarray(joints[names[0]].xyz),
             "knee_xyz": np.asarray(joints[names[3]].xyz),
@@ -170,19 +184,20 @@ def closed_form_arrays(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.nd
     """The robot's constants as ``balance_kernel`` takes them: geom (4,) hip offset, thigh, shank,
     ankle height [m]; trunk (4,) mass [kg] and CoM [m]; joints (2, 3, 3) per leg (left, right) the
     hip, knee and ankle placements [m]; links (2, 6, 4) per leg and moving link mass and CoM; limits
-    (2, 12) [rad]."""
+    (2, 12) [rad], the legs' joints by role (left then right)."""
     g = check_structure(robot)
     (m_t, c_t), legs = leg_mass_model(robot)
     return (np.array([g.hip_offset_m, g.thigh_m, g.shank_m, g.ankle_height_m]), np.array([m_t, *c_t]),
             np.array([[legs[s]["hip_xyz"], legs[s]["knee_xyz"], legs[s]["ankle_xyz"]] for s in SIDES], dtype=float),
             np.array([[[m, *c] for m, c in legs[s]["links"]] for s in SIDES], dtype=float),
-            np.stack([robot.lower_rad, robot.upper_rad]).astype(float))
+            np.stack([robot.lower_rad, robot.upper_rad])[:, robot.leg_index].astype(float))
 
 
 def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, feet: dict[str, tuple]
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Both legs in closed form: joints (N, 12) [rad], CoM (N, 3) [m] and status (N,) as in posture.py,
-    by ``balance_kernel.postures`` (the one implementation).
+    """Both legs in closed form: joints (N, J) [rad] in the robot's order (any joint outside the legs at
+    0), CoM (N, 3) [m] and status (N,) (a Reason), by ``physics.compiled.postures`` (the one
+    implementation).
 
     ``feet[side] = (xyz (N, 3) or (3,), yaw (N,) or scalar)``. Status: OK, UNREACHABLE (the
     hip–ankle distance exceeds the leg) or JOINT_LIMIT (the solution leaves the URDF limits).
@@ -196,7 +211,13 @@ def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarr
                                               for s in SIDES], axis=1))
     foot_yaw = np.ascontiguousarray(np.stack([np.broadcast_to(np.asarray(feet[s][1], dtype=float), (n,))
                                               for s in SIDES], axis=1))
-    return postures(P, yaw, foot_xyz, foot_yaw, *closed_form_arrays(robot))
+    q_legs, com, status = postures(P, yaw, foot_xyz, foot_yaw, *closed_form_arrays(robot))
+    legs = robot.leg_index
+    if len(robot.joint_names) == 12 and np.array_equal(legs, np.arange(12)):
+        return q_legs, com, status
+    q = np.zeros((n, len(robot.joint_names)))
+    q[:, legs] = q_legs
+    return q, com, status
 
 
 class ClosedFormPostureSolver:
@@ -238,13 +259,17 @@ class KernelParams(NamedTuple):
     support: np.ndarray  # (3,) support sole centre [m]
     scalars: np.ndarray  # (8,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty
     # [N/deg], and the tolerance of balance.thrust_window: thrust error, mass error, CoM error [m]
+    fans: np.ndarray  # (F, 4) per fan the swing may use: on the trunk (1) or the swing sole (0), offset x, y [m],
+    # maximum [N]
 
 
 def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray, polygon: np.ndarray,
                   rho_rad: float, thrust_max_n: float, weight_n: float, edge_penalty_n_per_deg: float,
                   tolerance: Tolerance = NOMINAL) -> KernelParams:
-    """Constants of ``balance_kernel.balance_objective`` from the robot model (URDF masses and placements)."""
+    """Constants of ``physics.compiled.balance_objective`` from the robot model (URDF masses and placements)."""
     geom, trunk, joints, links, limits = closed_form_arrays(robot)
+    swing = "left" if support_side == "right" else "right"
+    fans = [robot.fans[i] for i in robot.swing_fans(swing)]
     normals, offsets = halfplanes(polygon)
     return KernelParams(
         geom=geom, trunk=trunk, joints=joints, links=links, limits=limits,
@@ -252,4 +277,6 @@ def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray,
         support=np.asarray(support_xyz, dtype=float),
         scalars=np.array([1.0 if support_side == "left" else -1.0, rho_rad, thrust_max_n, weight_n,
                           edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m]),
+        fans=np.array([[float(f.on_trunk), f.offset_m[0], f.offset_m[1], f.max_thrust_n] for f in fans],
+                      dtype=float).reshape(len(fans), 4),
     )

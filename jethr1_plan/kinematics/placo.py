@@ -55,12 +55,14 @@ class PlacoPostureSolver:
         self.solver = placo.KinematicsSolver(self.robot)
         self.solver.mask_fbase(True)
         self.tasks = {}
-        for side in ("left", "right"):
-            task = self.solver.add_frame_task(f"{side}_foot", np.eye(4))
-            task.configure(f"{side}_foot", "soft", 1.0, 1.0)
+        for side in SIDES:
+            sole = model.legs[side].sole
+            task = self.solver.add_frame_task(sole, np.eye(4))
+            task.configure(sole, "soft", 1.0, 1.0)
             self.tasks[side] = task
         self._task_errors = [sub for t in self.tasks.values() for sub in (t.position(), t.orientation())]
-        self.seed = np.concatenate([BENT_SEED, BENT_SEED])
+        self._legs = model.leg_index
+        self.seed = self._bent_seed()
         self._tol = min(tol_m, tol_rad)
         self._lo = model.lower_rad + 1e-9
         self._hi = model.upper_rad - 1e-9
@@ -69,18 +71,25 @@ class PlacoPostureSolver:
         #: the benchmark replays them in a bare PlaCo loop
         self.replay_log: list | None = None
 
+    def _bent_seed(self) -> np.ndarray:
+        """Every joint at 0 (within its limits), the legs' at :data:`BENT_SEED`."""
+        seed = np.clip(np.zeros(len(self.model.joint_names)), self.model.lower_rad, self.model.upper_rad)
+        seed[self._legs] = np.concatenate([BENT_SEED, BENT_SEED])
+        return seed
+
     def set_stance(self, stance: Stance) -> None:
         """Point the sole tasks at the stance's feet and cache the trunk orientation."""
         if stance is getattr(self, "_stance", None):
             return
-        self._targets = {side: stance.foot_pose(side) for side in ("left", "right")}
+        self._targets = {side: stance.foot_pose(side) for side in SIDES}
         for side, task in self.tasks.items():
             task.T_world_frame = self._targets[side]
         self._T_trunk = pose_matrix(np.zeros(3), stance.body_yaw)
         self._stance = stance
         # bent-knee seed with the hip yaws that keep each foot at its yaw under the turned trunk
-        self.seed = np.concatenate([BENT_SEED, BENT_SEED])
-        for k, side in ((0, "left"), (6, "right")):
+        self.seed = self._bent_seed()
+        for side in SIDES:
+            k = self.model.legs[side].index[0]
             foot_yaw = stance.support_yaw if side == stance.support_side else stance.swing_yaw
             yaw = (foot_yaw - stance.body_yaw + np.pi) % (2 * np.pi) - np.pi
             self.seed[k] = np.clip(yaw, self.model.lower_rad[k], self.model.upper_rad[k])
@@ -134,7 +143,7 @@ class PlacoPostureSolver:
         p_body = np.atleast_2d(np.asarray(p_body, dtype=float))
         n = len(p_body)
         self.set_stance(stance)
-        q = np.zeros((n, 12))
+        q = np.zeros((n, len(self.model.joint_names)))
         com = np.full((n, 3), np.nan)
         status = np.full(n, UNREACHABLE, dtype=np.int8)
         residual = np.full(n, np.inf)
@@ -146,13 +155,14 @@ class PlacoPostureSolver:
         log = self.replay_log
         solve_one = self.solve_one
         results = []
-        lo, hi = self._lo + 1e-6, self._hi - 1e-6
+        legs = self._legs  # the joints the sole tasks move (any other stays at its seed)
+        lo, hi = self._lo[legs] + 1e-6, self._hi[legs] - 1e-6
         for i in order.tolist():
             p = p_body[i]
             qi, ci, ok, ri, it = solve_one(p, start)
             if log is not None:
                 log.append((self._T_trunk, p, start, self._targets["left"], self._targets["right"], it))
-            if not ok and start is not self.seed and not ((qi <= lo).any() or (qi >= hi).any()):
+            if not ok and start is not self.seed and not ((qi[legs] <= lo).any() or (qi[legs] >= hi).any()):
                 # not converged and no joint at a limit: a far neighbour can mislead, retry from the seed
                 qi, ci, ok, ri, it2 = solve_one(p, self.seed)
                 if log is not None:
@@ -164,7 +174,7 @@ class PlacoPostureSolver:
         if results:
             qs, coms, oks, res, its = zip(*results, strict=True)
             qs, oks = np.array(qs), np.array(oks)
-            at_limit = np.any((qs <= lo) | (qs >= hi), axis=1)
+            at_limit = np.any((qs[:, legs] <= lo) | (qs[:, legs] >= hi), axis=1)
             q[order], com[order] = qs, np.array(coms)
             status[order] = np.where(oks, OK, np.where(at_limit, JOINT_LIMIT, NOT_CONVERGED))
             residual[order], iters[order] = np.array(res), np.array(its)

@@ -130,7 +130,7 @@ def run_ga(objective: Callable[[np.ndarray], np.ndarray], lb: np.ndarray, ub: np
 
 
 def _objective(solver: PostureSolver, problem: SampleProblem, k: FitnessConstants, previous: np.ndarray | None):
-    return lambda p: fitness(evaluate_candidates(solver, problem, p), k, problem.thrust_max_n, previous)
+    return lambda p: fitness(evaluate_candidates(solver, problem, p), k, previous)
 
 
 def initial_phase(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
@@ -185,7 +185,7 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
         best, n = exhaustive_cube(solver, problem, previous, cfg.gaex_half_m, cfg.gaex_step_m)
         evals += n
         if best.feasible[0]:
-            return SampleResult(best, float(fitness(best, cfg.constants, problem.thrust_max_n)[0]), evals,
+            return SampleResult(best, float(fitness(best, cfg.constants)[0]), evals,
                                 "exhaustive")
         p, f, n = initial_phase(solver, problem, cfg, rng, previous)
         phase, evals = "restart", evals + n

@@ -53,9 +53,9 @@ from jethr1_plan.kinematics.closed_form import check_structure, solve_postures
 from jethr1_plan.optimisers.base import PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
-from jethr1_plan.physics.balance import edge_angle_error, halfplanes, thrust_window
+from jethr1_plan.physics.balance import edge_angle_error, halfplanes, least_thrust, thrust_window
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import GRAVITY, SIDES, RobotModel
+from jethr1_plan.robot.model import GRAVITY, LEG_ROLES, SIDES, RobotModel
 from jethr1_plan.search import DIRECTIONS
 
 __all__ = [
@@ -92,11 +92,12 @@ BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail
 
 @functools.cache
 def limit_mask(robot: RobotModel) -> np.ndarray:
-    """(24,) which of the rows q − lower, upper − q are joint-limit constraints: all but a knee's
-    straight-leg limit, which is the legs' reach; the reach constraint (with its margin) keeps it,
-    and the two together would be degenerate at full stretch."""
-    knee_straight = np.array([n.endswith("_knee") and lo <= 1e-9 for n, lo in
-                              zip(robot.joint_names, robot.lower_rad, strict=True)])
+    """(24,) which of the rows q − lower, upper − q (the legs' joints by role) are joint-limit
+    constraints: all but a knee's straight-leg limit, which is the legs' reach; the reach constraint
+    (with its margin) keeps it, and the two together would be degenerate at full stretch."""
+    legs = robot.leg_index
+    knee = np.isin(np.arange(12), (LEG_ROLES.index("knee"), 6 + LEG_ROLES.index("knee")))
+    knee_straight = knee & (robot.lower_rad[legs] <= 1e-9)
     return np.concatenate([~knee_straight, np.ones(len(knee_straight), dtype=bool)])
 
 
@@ -129,11 +130,17 @@ class AnalyticSample:
         self.normals, offsets = halfplanes(problem.support_polygon)
         self.offsets = offsets - self.margins[3]
         tol = problem.tolerance
-        a = self.normals @ problem.fan_xy - self.offsets
-        self.coef = a - tol.thrust * np.abs(a)  # dg/du of every balance row
         self.mass_factors = np.array([1.0 + tol.mass, 1.0 - tol.mass]) if tol.mass > 0 else np.ones(1)
-        self.coef_rows = np.tile(self.coef, len(self.mass_factors))
-        self.u_max = problem.thrust_max_n / self.weight
+        self.one = problem.one_fixed_fan  # Paper A's case: one variable u, constant coefficients
+        self.nf = len(problem.fan_xy)
+        if self.one:
+            a = self.normals @ problem.fan_xy[0] - self.offsets
+            self.coef = a - tol.thrust * np.abs(a)  # dg/du of every balance row
+            self.coef_rows = np.tile(self.coef, len(self.mass_factors))
+            self.u_max = problem.thrust_max_n / self.weight
+        else:  # u per fan; a trunk fan's coefficients move with P_body
+            self.coef_rows = self._fan_rows(np.zeros(3)) if not problem.fan_on_trunk.any() else None
+            self.u_maxes = np.minimum(problem.fan_max_n, problem.thrust_max_n) / self.weight
         self.evaluations = 0
         self._cache: dict[bytes, tuple] = {}
         self._limit_mask = limit_mask(robot)
@@ -144,25 +151,41 @@ class AnalyticSample:
         pr = self.problem
         self.evaluations += len(P)
         q, com, status = solve_postures(self.robot, P, pr.stance.body_yaw, self.feet)
+        legs = self.robot.leg_index
+        q = q[:, legs]
         edge = edge_angle_error(pr.edge_origin_xy, com[:, :2], pr.ankle_xy)
         c, s = np.cos(pr.stance.body_yaw), np.sin(pr.stance.body_yaw)
         reach = []
         for side, sgn in (("left", 1.0), ("right", -1.0)):  # hip − ankle, as in leg_kinematics.leg_ik
             d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
             reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - self.margins[1])
-        lo, hi = self.robot.lower_rad, self.robot.upper_rad
+        lo, hi = self.robot.lower_rad[legs], self.robot.upper_rad[legs]
         # out of reach the closed form returns a stretched leg whose knee sits on its limit with no
         # gradient; there the reach constraints alone (which have one) lead back
         unreachable = (status == Reason.UNREACHABLE)[:, None]
         limits = np.where(unreachable, 1.0, np.column_stack([q - lo, hi - q]) - self.margins[2])
         cons = np.column_stack([pr.rho_rad - edge - self.margins[0], *reach, limits[:, self._limit_mask]])
-        thrust, _ = thrust_window(com[:, :2], pr.fan_xy, pr.support_polygon, pr.mass_kg, pr.tolerance)
+        if self.one:
+            thrust, _ = thrust_window(com[:, :2], pr.fan_xy[0], pr.support_polygon, pr.mass_kg, pr.tolerance)
+        else:
+            caps = np.minimum(pr.fan_max_n, pr.thrust_max_n)
+            thrust, _ = least_thrust(com[:, :2], pr.fans_at(P), pr.support_polygon, pr.mass_kg, caps, pr.tolerance)
         return com, cons, thrust
+
+    def _fan_rows(self, P: np.ndarray) -> np.ndarray:
+        """(rows, F): dg/du_i of every balance row (one block per mass factor), the fans at P_body ``P``."""
+        tol = self.problem.tolerance
+        a = self.problem.fans_at(P)[0] @ self.normals.T - self.offsets  # (F, K)
+        return np.tile((a - tol.thrust * np.abs(a)).T, (len(self.mass_factors), 1))
 
     def _constraints(self, x: np.ndarray, com_xy: np.ndarray, cons: np.ndarray) -> np.ndarray:
         """All constraint values (≥ 0 when held) at x, from the CoM and the P-only constraints."""
         d = com_xy @ self.normals.T - self.offsets + self.problem.tolerance.com_m
-        poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
+        if self.one:
+            poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
+        else:
+            rows = self.coef_rows if self.coef_rows is not None else self._fan_rows(x[:3])
+            poly = rows @ x[3:] - np.outer(self.mass_factors, d).ravel()
         return np.concatenate([poly, cons])
 
     def _values(self, x: np.ndarray) -> np.ndarray:
@@ -176,13 +199,22 @@ class AnalyticSample:
         """(C, 4): forward differences in P_body (three postures in one batch), exact in u."""
         g0 = self._values(x)
         com, cons, _ = self.posture_terms(x[:3] + FD_STEP * np.eye(3))
-        g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
-        dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
+        if self.one:
+            g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
+            dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
+            return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
+        moved = x + np.concatenate([FD_STEP * np.eye(3), np.zeros((3, self.nf))], axis=1)
+        g = np.stack([self._constraints(moved[k], com[k, :2], cons[k]) for k in range(3)])
+        rows = self.coef_rows if self.coef_rows is not None else self._fan_rows(x[:3])
+        dg_du = np.vstack([rows, np.zeros((len(g0) - len(rows), self.nf))])
         return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
 
     def _objective(self, x: np.ndarray) -> tuple[float, np.ndarray]:
-        """u plus the tie-break, and its gradient: no posture needed."""
-        obj, grad = float(x[3]), np.array([0.0, 0.0, 0.0, 1.0])
+        """u (the total) plus the tie-break, and its gradient: no posture needed."""
+        if self.one:
+            obj, grad = float(x[3]), np.array([0.0, 0.0, 0.0, 1.0])
+        else:
+            obj, grad = float(np.sum(x[3:])), np.concatenate([np.zeros(3), np.ones(self.nf)])
         if self.anchor is not None:
             d = x[:3] - self.anchor
             k = self.eps / self.weight
@@ -194,7 +226,8 @@ class AnalyticSample:
         """Whether P_body (3,) holds every constraint (within MARGIN), and its exact thrust [N]."""
         _, cons, thrust = self.posture_terms(P[None])
         t = float(thrust[0])
-        ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and t <= self.problem.thrust_max_n
+        within = t <= self.problem.thrust_max_n if self.one else True  # several fans: the LP held each maximum
+        ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and within
         return ok, t
 
     def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6, max_step: float = 0.005
@@ -223,9 +256,18 @@ class AnalyticSample:
         if bounds is not None:
             p0 = np.clip(p0, [b[0] for b in bounds], [b[1] for b in bounds])
         _, _, thrust0 = self.posture_terms(p0[None])
-        u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
-        box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
-        res = minimize(self._objective, np.append(p0, u0), jac=True, method="SLSQP", bounds=box,
+        if self.one:
+            u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
+            box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
+            x0 = np.append(p0, u0)
+        else:
+            caps = np.minimum(self.problem.fan_max_n, self.problem.thrust_max_n)
+            _, split = least_thrust(self.posture_terms(p0[None])[0][:, :2], self.problem.fans_at(p0[None]),
+                                    self.problem.support_polygon, self.problem.mass_kg, caps, self.problem.tolerance)
+            u0 = np.where(np.isfinite(split[0]), split[0] / self.weight, self.u_maxes)
+            box = (bounds or [(None, None)] * 3) + [(0.0, float(u)) for u in self.u_maxes]
+            x0 = np.concatenate([p0, np.minimum(u0, self.u_maxes)])
+        res = minimize(self._objective, x0, jac=True, method="SLSQP", bounds=box,
                        options={"maxiter": MAX_ITER, "ftol": 1e-7},
                        constraints=[{"type": "ineq", "fun": self._values, "jac": self._jacobian}])
         P = np.asarray(res.x[:3], dtype=float)
@@ -488,7 +530,7 @@ def optimise_path(request: PathRequest) -> PathResult:
             cand = evaluate_candidates(solver, pr, p[None])
             evals[i] += m + 1
             phase[i] = "restart"
-        f = float(fitness(cand, cfg.constants, pr.thrust_max_n)[0])
+        f = float(fitness(cand, cfg.constants)[0])
         out.append(SampleResult(cand, f, int(evals[i]), phase[i]))
         if request.progress:
             request.progress(i + 1)

@@ -32,13 +32,16 @@ __all__ = [
     "edge_angle_excess",
     "halfplanes",
     "inside_polygon",
+    "least_thrust",
     "minimal_thrust",
     "polygon_margin",
+    "shared_window",
     "sole_polygon",
     "thrust_window",
     "window_bounds",
     "wrap_angle",
     "zmp_with_thrust",
+    "zmp_with_thrusts",
 ]
 
 
@@ -179,6 +182,82 @@ def thrust_window(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
     lo, hi, blocked = window_bounds(com_xy, fan_xy, polygon, mass_kg, tol, g)
     empty = (lo > hi) | blocked
     return np.where(empty, np.inf, lo), np.where(empty, np.nan, hi)
+
+
+def least_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
+                 fan_max_n: np.ndarray | None = None, tol: Tolerance = NOMINAL, g: float = GRAVITY
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The least total thrust of several fans that keeps the ZMP in ``polygon`` under every error
+    within ``tol``, and its split: the inequalities of :func:`thrust_window` summed over the fans
+    (each fan's error independent),
+
+        Σ_i F_i·(a_ik − X·|a_ik|)  ≥  M·g·((d_k + ε) + Y·|d_k + ε|)   for every edge k,
+        Σ_i F_i·(1 + X) < M·g·(1 − Y),   0 ≤ F_i (≤ fan_max_n[i] where given),
+
+    a small linear programme (``physics.compiled.least_total``). With one fan and no maximum its
+    total is the window's lower end (:func:`thrust_window`).
+
+    Args:
+        com_xy: (..., 2) [m]; fan_xy: (..., F, 2) [m]; fan_max_n: (F,) [N] or None (no maximum).
+    Returns:
+        total (...,) [N], inf where no thrust balances; split (..., F) [N], NaN there.
+    """
+    from jethr1_plan.physics.compiled import least_totals
+
+    fan_xy = np.asarray(fan_xy, dtype=float)
+    nf = fan_xy.shape[-2]
+    shape = np.broadcast_shapes(np.shape(com_xy)[:-1], fan_xy.shape[:-2])
+    n, b = halfplanes(polygon)
+    com = _rows(com_xy, shape)
+    if nf == 0:  # no fan: the CoM itself must be inside, with its errors
+        d = com @ n.T - b + tol.com_m
+        ok = np.all(d + tol.mass * np.abs(d) <= 0.0, axis=1)
+        return np.where(ok, 0.0, np.inf).reshape(shape), np.zeros((*shape, 0))
+    fans = np.ascontiguousarray(np.broadcast_to(fan_xy, (*shape, nf, 2)).reshape(-1, nf, 2))
+    bounded = fan_max_n is not None
+    fmax = np.ascontiguousarray(np.full(nf, np.inf) if fan_max_n is None else np.asarray(fan_max_n, dtype=float))
+    total, split = least_totals(com, fans, fmax, np.ascontiguousarray(n), np.ascontiguousarray(b), mass_kg * g,
+                                tol.thrust, tol.mass, tol.com_m, bounded)
+    return total.reshape(shape), split.reshape(*shape, nf)
+
+
+def shared_window(com_xy: np.ndarray, fan_xy: np.ndarray, share: np.ndarray, polygon: np.ndarray, mass_kg: float,
+                  tol: Tolerance = NOMINAL, g: float = GRAVITY) -> tuple[np.ndarray, np.ndarray]:
+    """The thrust window of several fans that keep fixed shares of their total: the totals T [N] for
+    which the thrusts T·share_i keep the ZMP in ``polygon`` under every error within ``tol`` (the
+    window along the planned split). With one fan (share 1) it is :func:`thrust_window`.
+
+    Args:
+        com_xy: (..., 2) [m]; fan_xy: (..., F, 2) [m]; share: (..., F), summing to 1.
+    Returns:
+        lo, hi (...,) [N]; lo = inf and hi = nan where it is empty.
+    """
+    from jethr1_plan.physics.compiled import mixed_windows
+
+    fan_xy = np.asarray(fan_xy, dtype=float)
+    nf = fan_xy.shape[-2]
+    shape = np.broadcast_shapes(np.shape(com_xy)[:-1], fan_xy.shape[:-2], np.shape(share)[:-1])
+    n, b = halfplanes(polygon)
+    fans = np.ascontiguousarray(np.broadcast_to(fan_xy, (*shape, nf, 2)).reshape(-1, nf, 2))
+    shares = np.ascontiguousarray(np.broadcast_to(np.asarray(share, dtype=float), (*shape, nf)).reshape(-1, nf))
+    lo, hi, blocked = mixed_windows(_rows(com_xy, shape), fans, shares, np.ascontiguousarray(n),
+                                    np.ascontiguousarray(b), mass_kg * g, tol.thrust, tol.mass, tol.com_m)
+    lo, hi, blocked = lo.reshape(shape), hi.reshape(shape), blocked.reshape(shape)
+    empty = (lo > hi) | blocked
+    return np.where(empty, np.inf, lo), np.where(empty, np.nan, hi)
+
+
+def zmp_with_thrusts(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, mass_kg: float,
+                     g: float = GRAVITY) -> np.ndarray:
+    """ZMP [m] of (A-1), (A-2) with several fans: (M·g·CoM − Σ_i F_i·P_Ti) / (M·g − Σ_i F_i).
+
+    Args:
+        com_xy: (..., 2) [m]; fan_xy: (..., F, 2) [m]; thrust_n: (..., F) [N].
+    """
+    w = mass_kg * g
+    f = np.asarray(thrust_n, dtype=float)
+    moment = np.einsum("...f,...fd->...d", f, np.asarray(fan_xy, dtype=float))
+    return (w * np.asarray(com_xy, dtype=float) - moment) / (w - f.sum(axis=-1))[..., None]
 
 
 def balance_slack(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, polygon: np.ndarray,

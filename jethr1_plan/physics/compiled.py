@@ -147,17 +147,36 @@ def _com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
 
 
 @numba.njit(cache=True, inline="always")
+def _edge_need(cx, cy, nx, ny, off, weight, tol_mass, tol_com):
+    """The right-hand side of one edge's row: M·g·((d + ε) + Y·|d + ε|), d the CoM's distance beyond
+    the edge [N·m]."""
+    d = cx * nx + cy * ny - off + tol_com
+    return weight * (d + tol_mass * abs(d))
+
+
+@numba.njit(cache=True, inline="always")
+def _fan_lift(fx, fy, nx, ny, off, tol_thrust):
+    """One fan's coefficient in one edge's row: a − X·|a|, a the fan's distance beyond the edge [m]."""
+    a = fx * nx + fy * ny - off
+    return a - tol_thrust * abs(a)
+
+
+@numba.njit(cache=True, inline="always")
+def _cap(weight, tol_thrust, tol_mass):
+    """The largest total thrust the ZMP formula admits: F(1 + X) < M·g(1 − Y) [N]."""
+    return weight * (1.0 - tol_mass) / (1.0 + tol_thrust) * (1.0 - 1e-9)
+
+
+@numba.njit(cache=True, inline="always")
 def _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
     """(lo, hi, blocked) of balance.thrust_window for one CoM and one fan: per edge k,
     F·(a_k − X|a_k|) ≥ M·g·((d_k + ε) + Y|d_k + ε|), d_k and a_k the CoM's and the fan's distances beyond
     edge k; ``blocked`` where an edge no thrust moves the ZMP across lies on the wrong side."""
-    lo, hi = 0.0, weight * (1.0 - tol_mass) / (1.0 + tol_thrust) * (1.0 - 1e-9)
+    lo, hi = 0.0, _cap(weight, tol_thrust, tol_mass)
     blocked = False
     for k in range(len(offsets)):
-        d = cx * normals[k, 0] + cy * normals[k, 1] - offsets[k] + tol_com
-        a = fx * normals[k, 0] + fy * normals[k, 1] - offsets[k]
-        rhs = weight * (d + tol_mass * abs(d))
-        coef = a - tol_thrust * abs(a)
+        rhs = _edge_need(cx, cy, normals[k, 0], normals[k, 1], offsets[k], weight, tol_mass, tol_com)
+        coef = _fan_lift(fx, fy, normals[k, 0], normals[k, 1], offsets[k], tol_thrust)
         if coef > 0:
             lo = max(lo, rhs / coef)
         elif coef < 0:
@@ -183,6 +202,151 @@ def windows(com, fan, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
     for j in range(n):
         lo[j], hi[j], blocked[j] = _window(com[j, 0], com[j, 1], fan[j, 0], fan[j, 1], normals, offsets, weight,
                                            tol_thrust, tol_mass, tol_com)
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True)
+def _window_mix(cx, cy, fxs, fys, share, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """(lo, hi, blocked) of the total thrust T of several fans carrying the fixed shares ``share``
+    (F,) (summing to 1) of it: per edge k, T·Σ_i share_i·(a_ik − X|a_ik|) ≥ M·g·((d_k + ε) + Y|d_k + ε|).
+    With one fan (share 1) it is :func:`_window`."""
+    lo, hi = 0.0, _cap(weight, tol_thrust, tol_mass)
+    blocked = False
+    for k in range(len(offsets)):
+        rhs = _edge_need(cx, cy, normals[k, 0], normals[k, 1], offsets[k], weight, tol_mass, tol_com)
+        coef = 0.0
+        for i in range(len(fxs)):
+            coef += share[i] * _fan_lift(fxs[i], fys[i], normals[k, 0], normals[k, 1], offsets[k], tol_thrust)
+        if coef > 0:
+            lo = max(lo, rhs / coef)
+        elif coef < 0:
+            hi = min(hi, rhs / coef)
+        elif rhs > 0:
+            blocked = True
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True)
+def _solve_small(A, b, x):
+    """Solve the n × n system A x = b in place by Gaussian elimination with partial pivoting; False
+    where A is singular (a pivot below 1e-12 of the largest entry)."""
+    n = len(b)
+    scale = 0.0
+    for i in range(n):
+        for j in range(n):
+            scale = max(scale, abs(A[i, j]))
+    if scale == 0.0:
+        return False
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if abs(A[p, c]) <= 1e-12 * scale:
+            return False
+        if p != c:
+            for j in range(n):
+                A[c, j], A[p, j] = A[p, j], A[c, j]
+            b[c], b[p] = b[p], b[c]
+        for r in range(c + 1, n):
+            f = A[r, c] / A[c, c]
+            for j in range(c, n):
+                A[r, j] -= f * A[c, j]
+            b[r] -= f * b[c]
+    for c in range(n - 1, -1, -1):
+        acc = b[c]
+        for j in range(c + 1, n):
+            acc -= A[c, j] * x[j]
+        x[c] = acc / A[c, c]
+    return True
+
+
+@numba.njit(cache=True)
+def least_total(cx, cy, fxs, fys, fmax, normals, offsets, weight, tol_thrust, tol_mass, tol_com, bounded, out):
+    """The least total thrust of F fans that balances one CoM: a linear programme,
+
+        min Σ_i F_i  s.t.  Σ_i F_i·(a_ik − X|a_ik|) ≥ M·g·((d_k + ε) + Y|d_k + ε|) for every edge k,
+                           Σ_i F_i·(1 + X) ≤ M·g·(1 − Y),  F_i ≥ 0  (and F_i ≤ fmax_i if ``bounded``),
+
+    solved by enumerating its vertices (F of the constraints active; F is small: the fans of a swing
+    foot and the trunk). Writes the thrusts into ``out`` (F,) [N]; returns the total [N], inf where
+    no thrust balances (``out`` then NaN). The tests hold it to SciPy's HiGHS."""
+    nf, nk = len(fxs), len(offsets)
+    rows = nk + 1 + nf + (nf if bounded else 0)
+    G = np.zeros((rows, nf))
+    h = np.zeros(rows)
+    for k in range(nk):
+        h[k] = _edge_need(cx, cy, normals[k, 0], normals[k, 1], offsets[k], weight, tol_mass, tol_com)
+        for i in range(nf):
+            G[k, i] = _fan_lift(fxs[i], fys[i], normals[k, 0], normals[k, 1], offsets[k], tol_thrust)
+    for i in range(nf):
+        G[nk, i] = -(1.0 + tol_thrust)
+        G[nk + 1 + i, i] = 1.0
+        if bounded:
+            G[nk + 1 + nf + i, i] = -1.0
+            h[nk + 1 + nf + i] = -fmax[i]
+    h[nk] = -weight * (1.0 - tol_mass) * (1.0 - 1e-9)
+    best = np.inf
+    for i in range(nf):
+        out[i] = np.nan
+    idx = np.arange(nf)
+    A = np.empty((nf, nf))
+    b = np.empty(nf)
+    x = np.empty(nf)
+    while True:
+        for r in range(nf):
+            for c in range(nf):
+                A[r, c] = G[idx[r], c]
+            b[r] = h[idx[r]]
+        if _solve_small(A, b, x):
+            total = 0.0
+            ok = True
+            for r in range(rows):
+                lhs = 0.0
+                for c in range(nf):
+                    lhs += G[r, c] * x[c]
+                if lhs < h[r] - 1e-9 * (1.0 + abs(h[r])):
+                    ok = False
+                    break
+            if ok:
+                for c in range(nf):
+                    total += max(x[c], 0.0)
+                if total < best:
+                    best = total
+                    for c in range(nf):
+                        out[c] = max(x[c], 0.0)
+        # the next combination of nf rows out of ``rows``, in lexicographic order
+        r = nf - 1
+        while r >= 0 and idx[r] == rows - nf + r:
+            r -= 1
+        if r < 0:
+            break
+        idx[r] += 1
+        for c in range(r + 1, nf):
+            idx[c] = idx[c - 1] + 1
+    return best
+
+
+@numba.njit(cache=True)
+def least_totals(com, fans, fmax, normals, offsets, weight, tol_thrust, tol_mass, tol_com, bounded):
+    """:func:`least_total` over rows: com (N, 2), fans (N, F, 2) [m] → totals (N,) [N], thrusts (N, F) [N]."""
+    n, nf = fans.shape[0], fans.shape[1]
+    totals = np.empty(n)
+    split = np.empty((n, nf))
+    for j in range(n):
+        totals[j] = least_total(com[j, 0], com[j, 1], fans[j, :, 0].copy(), fans[j, :, 1].copy(), fmax, normals,
+                                offsets, weight, tol_thrust, tol_mass, tol_com, bounded, split[j])
+    return totals, split
+
+
+@numba.njit(cache=True)
+def mixed_windows(com, fans, share, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
+    """:func:`_window_mix` over rows: com (N, 2), fans (N, F, 2) [m], share (N, F) → lo, hi (N,) [N], blocked (N,)."""
+    n = len(com)
+    lo, hi, blocked = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
+    for j in range(n):
+        lo[j], hi[j], blocked[j] = _window_mix(com[j, 0], com[j, 1], fans[j, :, 0].copy(), fans[j, :, 1].copy(),
+                                               share[j], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
     return lo, hi, blocked
 
 
@@ -237,13 +401,17 @@ def postures(P, yaw, feet, feet_yaw, geom, trunk, joints, links, limits):
 
 @numba.njit(cache=True)
 def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support,
-                      scalars):
+                      scalars, fans):
     """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
 
-    As ``balance_space._Evaluator``: an unreachable posture scores 4000 + 1e4·(reach excess [m]), one
+    As ``search.Evaluator``: an unreachable posture scores 4000 + 1e4·(reach excess [m]), one
     beyond the joint limits 3000 + 1e3·(excess [rad]), one no thrust balances 2000 + 1e3·(CoM to the
     support centre [m]); otherwise F* + (edge penalty)·(A-10 excess [deg]). The thrust is inf unless
     the posture is a member or only above the fan's maximum.
+
+    ``fans`` (F, 4): per fan that may thrust, [on the trunk (1) or the swing sole (0), offset x, offset y
+    [m], maximum [N]]. One fan on the swing sole is Paper A's case: its ground point is ``fan[c]`` and
+    its least thrust is the window's lower end; otherwise the least total of :func:`least_total`.
     """
     n = len(idx)
     obj = np.empty(n)
@@ -254,6 +422,11 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
     sup_sgn, rho, thrust_max, weight, edge_pen = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     tol_thrust, tol_mass, tol_com = scalars[5], scalars[6], scalars[7]
     w, L, ah = geom[0], geom[1] + geom[2], geom[3]
+    nf = len(fans)
+    one = nf == 1 and fans[0, 0] == 0.0
+    fxs, fys, fmax, split = np.empty(nf), np.empty(nf), np.empty(nf), np.empty(nf)
+    for i in range(nf):
+        fmax[i] = min(fans[i, 3], thrust_max)
     for j in range(n):
         c = idx[j]
         px, py, pz = P[j, 0], P[j, 1], P[j, 2]
@@ -275,7 +448,23 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
             within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
         status = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
         cx, cy, _ = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
-        f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
+        if one:
+            f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
+            above = f > thrust_max
+        else:
+            for i in range(nf):
+                ox, oy = fans[i, 1], fans[i, 2]
+                if fans[i, 0] == 0.0:
+                    fxs[i], fys[i] = sx + ox, sy + oy
+                else:
+                    fxs[i], fys[i] = px + cty * ox - sty * oy, py + sty * ox + cty * oy
+            f_free = least_total(cx, cy, fxs, fys, fmax, normals, offsets, weight, tol_thrust, tol_mass, tol_com,
+                                 False, split)
+            f = least_total(cx, cy, fxs, fys, fmax, normals, offsets, weight, tol_thrust, tol_mass, tol_com, True,
+                            split)
+            above = math.isfinite(f_free) and not math.isfinite(f)
+            if above:
+                f = f_free
         edge = max(_edge_error(support[0], support[1], cx, cy, sx, sy) - rho, 0.0)
         if status == UNREACHABLE:
             # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank
@@ -293,7 +482,7 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
             reason[j] = NO_BALANCE
         else:
             obj[j] = f + edge_pen * math.degrees(edge)
-            reason[j] = EDGE_ANGLE if edge > 0 else (THRUST_MAX if f > thrust_max else OK)
+            reason[j] = EDGE_ANGLE if edge > 0 else (THRUST_MAX if above else OK)
         thrust_out[j] = f if (reason[j] == OK or reason[j] == THRUST_MAX) else np.inf
     return obj, thrust_out, reason
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.robot.model import SIDES
+from jethr1_plan.robot.model import SIDES, RobotModel
 
 __all__ = [
     "FORCE_DIRECTION",
@@ -33,27 +33,30 @@ KAPPA_WARNING = 100.0  # leg Jacobian condition number above which a row is flag
 FORCE_DIRECTION = np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])  # a vertical force, world-aligned
 
 
-def static_torques(wrapper, thrust_n: dict[str, float], supports: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """Joint torques (12,) [N·m] and the support wrench(es) [N, N·m] holding the current posture.
+def static_torques(robot: RobotModel, wrapper, thrust_n: np.ndarray, supports: tuple[str, ...]
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques (J,) [N·m] and the support wrench(es) [N, N·m] holding the current posture.
 
-    ``wrapper`` must have its kinematics updated at the posture.
+    ``thrust_n`` (F,) [N] per fan of ``robot.fans``; ``supports`` the sides whose soles are on the
+    ground. ``wrapper`` must have its kinematics updated at the posture.
     """
     g = wrapper.generalized_gravity()
     rhs = g.copy()
-    for side, f in thrust_n.items():
+    for fan, f in zip(robot.fans, thrust_n, strict=True):
         if f:
-            rhs -= wrapper.frame_jacobian(f"{side}_fan", "local_world_aligned").T @ (f * FORCE_DIRECTION)
-    Jc = np.vstack([wrapper.frame_jacobian(f"{s}_foot", "local_world_aligned") for s in supports])
+            rhs -= wrapper.frame_jacobian(fan.frame, "local_world_aligned").T @ (f * FORCE_DIRECTION)
+    Jc = np.vstack([wrapper.frame_jacobian(robot.legs[s].sole, "local_world_aligned") for s in supports])
     w, *_ = np.linalg.lstsq(Jc[:, :6].T, rhs[:6], rcond=None)
     tau = rhs[6:] - Jc[:, 6:].T @ w
     return tau, w
 
 
-def leg_condition_numbers(wrapper) -> dict[str, float]:
+def leg_condition_numbers(robot: RobotModel, wrapper) -> dict[str, float]:
     """κ of each leg: σ_max/σ_min of d(sole twist relative to the trunk)/d(leg joints) (6 × 6)."""
     out = {}
-    for k, side in enumerate(SIDES):
-        J = wrapper.frame_jacobian(f"{side}_foot", "local_world_aligned")[:, 6 + 6 * k:12 + 6 * k]
+    for side in SIDES:
+        leg = robot.legs[side]
+        J = wrapper.frame_jacobian(leg.sole, "local_world_aligned")[:, 6 + np.asarray(leg.index)]
         s = np.linalg.svd(J, compute_uv=False)
         out[side] = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
     return out
@@ -76,8 +79,8 @@ def generalized_velocities(p: np.ndarray, yaw: np.ndarray, q: np.ndarray, dt: fl
     return np.column_stack([v_local, np.zeros((len(p), 2)), yawdot, np.gradient(q, dt, axis=0)])
 
 
-def analyse_rows(robot, rows, dt: float) -> dict[str, np.ndarray]:
-    """Torques (N, 12), κ per leg (N, 2) and yaw momentum (N,) for every output row."""
+def analyse_rows(robot: RobotModel, rows, dt: float) -> dict[str, np.ndarray]:
+    """Torques (N, J), κ per leg (N, 2) and yaw momentum (N,) for every output row."""
     wrapper = robot.wrapper()
     c = rows.columns
     n = len(rows)
@@ -85,7 +88,8 @@ def analyse_rows(robot, rows, dt: float) -> dict[str, np.ndarray]:
     yaw = np.asarray(c["yaw"], dtype=float)
     q = np.asarray(c["q"], dtype=float)
     v = generalized_velocities(p, yaw, q, dt)
-    tau = np.zeros((n, 12))
+    tau = np.zeros((n, len(robot.joint_names)))
+    thrust = np.column_stack([np.asarray(c[f"thrust_{f.name}"], dtype=float) for f in robot.fans])
     kappa = np.zeros((n, 2))
     h_yaw = np.zeros(n)
     for i in range(n):
@@ -96,8 +100,8 @@ def analyse_rows(robot, rows, dt: float) -> dict[str, np.ndarray]:
         wrapper.state.q[7:] = q[i]
         wrapper.update_kinematics()
         supports = SIDES if c["support"][i] == "both" else (c["support"][i],)
-        tau[i], _ = static_torques(wrapper, {"left": c["thrust_left"][i], "right": c["thrust_right"][i]}, supports)
-        k = leg_condition_numbers(wrapper)
+        tau[i], _ = static_torques(robot, wrapper, thrust[i], supports)
+        k = leg_condition_numbers(robot, wrapper)
         kappa[i] = k["left"], k["right"]
         h_yaw[i] = float(wrapper.centroidal_map()[5] @ v[i])
     return {"tau": tau, "kappa": kappa, "yaw_momentum": h_yaw, "energy_j": energy_consumption(tau, q, dt)}

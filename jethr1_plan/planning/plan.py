@@ -24,7 +24,7 @@ from jethr1_plan.planning.commands import fan_commands, servo_commands
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.planning.sequence import Rows, SequenceBuilder, swing_row_positions
+from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, swing_row_positions
 from jethr1_plan.reasons import message
 from jethr1_plan.robot.model import SIDES, RobotModel, load_robot, reach_centre
 from jethr1_plan.scenario import Scenario
@@ -86,6 +86,7 @@ def optimise_step(job: StepJob, solver: PostureSolver | None = None, progress: P
         stop_at_infeasible=not job.keep_going,
         progress=(lambda k: progress(f"step {si} sample {k - 1}", done0 + k, total)) if progress else None)
     samples = optimise_path(request).samples
+    fans = tuple(int(k) for k in problems[0].fan_index)
     first_bad = None
     for i, res in enumerate(samples):
         if res.feasible:
@@ -97,9 +98,9 @@ def optimise_step(job: StepJob, solver: PostureSolver | None = None, progress: P
             first_bad["reachable_tolerance"] = reachable_tolerance(robot, problems[i], res.p_body,
                                                                    job.config.initial.half_range_m)
         if not job.keep_going:
-            return StepResult(si, step.swing, support, step.path_m[:i + 1], samples[:i + 1]), first_bad
+            return StepResult(si, step.swing, support, step.path_m[:i + 1], samples[:i + 1], fans), first_bad
         break
-    return StepResult(si, step.swing, support, step.path_m, samples), first_bad
+    return StepResult(si, step.swing, support, step.path_m, samples, fans), first_bad
 
 
 def plan(*args, **kwargs) -> PlanResult:
@@ -204,11 +205,11 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     c["tau"], c["kappa"], c["yaw_momentum"] = list(a["tau"]), list(a["kappa"]), list(a["yaw_momentum"])
     c["q_cmd"] = list(servo_commands(np.asarray(c["q"], dtype=float), a["tau"], robot.servo_stiffness_nm_per_rad,
                                      1.0 / dt))
-    fans = [robot.fan_for(side) for side in SIDES]
-    cmd = fan_commands(np.column_stack([rows.array(f"thrust_{side}") for side in SIDES]), 1.0 / dt,
+    fans = robot.fans
+    cmd = fan_commands(np.column_stack([rows.array(f"thrust_{f.name}") for f in fans]), 1.0 / dt,
                        np.array([f.lag_s for f in fans]), np.array([f.max_thrust_n for f in fans]))
-    for k, side in enumerate(SIDES):
-        c[f"thrust_cmd_{side}"] = list(cmd[:, k])
+    for k, f in enumerate(fans):
+        c[f"thrust_cmd_{f.name}"] = list(cmd[:, k])
     ratio = np.abs(a["tau"]) / robot.servo_limit_nm
     over = np.flatnonzero(ratio.max(axis=1) > 1.0)
     rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio}
@@ -276,15 +277,16 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
     feet = {k: v.copy() for k, v in scenario.start.items()}
     p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
     thrust_out = None
+    nf = len(robot.fans)
     for st in steps:
         yaw_of = yaw_function(scenario, robot, st.support, feet[st.support])
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
         seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
-                     (st.swing, float(st.thrust_n[0])))
+                     FanThrust(st.fan_thrust(0, nf), st.fan_index))
         seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s)
         feet[st.swing] = st.path_m[-1].copy()
         p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
-        thrust_out = (st.swing, float(st.thrust_n[-1]))
+        thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
     seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
                  thrust_out, None, include_end=True)
     return seq.rows, seq.first_infeasible

@@ -9,7 +9,7 @@ import numpy as np
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.optimisers.problem import SampleProblem
 from jethr1_plan.physics.balance import body_yaw_eq4, body_yaw_forward_axis, sole_polygon
-from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.model import RobotModel, fan_ground_xy
 from jethr1_plan.scenario import Scenario
 
 __all__ = [
@@ -27,7 +27,8 @@ NOMINAL_HEIGHT_FRACTION = 0.8  # centre of the initial phase's box: pelvis heigh
 def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray):
     """Body yaw [rad] as a function of the swing sole position, per the scenario's mode."""
     swing = "left" if support == "right" else "right"
-    off = np.asarray(robot.fan_for(swing).offset_in_foot_m[:2])
+    fan = robot.fan_for(swing)  # (A-4) turns the trunk towards the swing foot's fan (its sole without one)
+    off = np.asarray(fan.offset_m[:2]) if fan is not None else np.zeros(2)
     if scenario.yaw_mode in ("eq4", "mpc"):  # mpc smooths this reference (yaw_mpc.build_schedule)
         return lambda sw: float(body_yaw_eq4(support_xyz[:2], sw[:2] + off, support))
     if scenario.yaw_mode == "forward_axis":
@@ -37,14 +38,21 @@ def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xy
 
 def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray,
                    swing_xyz: np.ndarray, yaw: float) -> SampleProblem:
-    """The optimisation problem at one swing sample."""
+    """The optimisation problem at one swing sample: the fans that may thrust are the swing sole's
+    and the trunk's (a trunk fan's row of ``fan_xy`` is its offset from P_body, turned by ``yaw``)."""
     swing = "left" if support == "right" else "right"
-    fan_xy = swing_xyz[:2] + np.asarray(robot.fan_for(swing).offset_in_foot_m[:2])
+    index = robot.swing_fans(swing)
+    fans = [robot.fans[i] for i in index]
+    soles = {support: support_xyz, swing: swing_xyz}
+    fan_xy = np.array([fan_ground_xy(f, soles, np.zeros(3), yaw) for f in fans]).reshape(len(fans), 2)
     stance = Stance(support, support_xyz, 0.0, swing_xyz, 0.0, yaw)
     poly = sole_polygon(support_xyz[:2], 0.0, robot.sole_length_m, robot.sole_width_m, scenario.balance.sole_margin_m)
     return SampleProblem(stance=stance, fan_xy=fan_xy, ankle_xy=swing_xyz[:2].copy(), edge_origin_xy=support_xyz[:2],
                          support_polygon=poly, mass_kg=robot.mass_kg, thrust_max_n=scenario.balance.thrust_max_n,
-                         rho_rad=scenario.balance.rho_rad, tolerance=scenario.balance.tolerance)
+                         rho_rad=scenario.balance.rho_rad, tolerance=scenario.balance.tolerance,
+                         fan_on_trunk=np.array([f.on_trunk for f in fans], dtype=bool),
+                         fan_max_n=np.array([f.max_thrust_n for f in fans], dtype=float),
+                         fan_index=np.array(index, dtype=np.int64))
 
 
 def path_problems(scenario: Scenario, robot: RobotModel, si: int, feet: dict[str, np.ndarray],

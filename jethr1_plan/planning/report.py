@@ -49,14 +49,14 @@ def _where(rows: Rows, i: int) -> dict:
             "phase": c["phase"][i], "sample": int(c["sample"][i])}
 
 
-def robustness_summary(rows: Rows) -> dict:
+def robustness_summary(rows: Rows, fans: list[str]) -> dict:
     """The least ZMP margin [m] and the narrowest thrust window [N] over the rows, and where they occur.
 
     The narrowest window is taken over the rows whose fan carries thrust (elsewhere the window is
     that of a fan not in use)."""
     margin = rows.array("zmp_margin").astype(float)
     window = np.array(rows.columns["window"], dtype=float)
-    loaded = (rows.array("thrust_left") + rows.array("thrust_right")) > 0
+    loaded = sum(rows.array(f"thrust_{f}") for f in fans) > 0
     if not np.isfinite(margin).any():  # no row has a posture (an unreachable step written anyway)
         return {"least_zmp_margin_m": None}
     i = int(np.nanargmin(margin))
@@ -119,11 +119,13 @@ def plan_summary(result: PlanResult) -> dict:
     }
     if result.rows is not None and len(result.rows):
         rows = result.rows
-        tl, tr = rows.array("thrust_left"), rows.array("thrust_right")
+        fans = [f.name for f in result.robot.fans]
+        per_fan = {f: rows.array(f"thrust_{f}") for f in fans}
         out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
                              "duration_s": len(rows) / sc.timing.rate_hz,
-                             "max_thrust_n": float(max(tl.max(), tr.max()))}
-        out["robustness"] = robustness_summary(rows)
+                             "max_thrust_n": float(max(v.max() for v in per_fan.values())),
+                             "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
+        out["robustness"] = robustness_summary(rows, fans)
         from jethr1_plan.sim.controller import Gains, law
 
         tol = sc.balance.tolerance

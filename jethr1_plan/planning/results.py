@@ -23,6 +23,7 @@ class StepResult:
     support: str
     path_m: np.ndarray  # (N, 3) the swing sole's samples [m]
     samples: list[SampleResult]
+    fan_index: tuple[int, ...] = ()  # the robot's fans this swing may use (the samples' split_n columns)
 
     @property
     def p_body(self) -> np.ndarray:
@@ -31,8 +32,14 @@ class StepResult:
 
     @property
     def thrust_n(self) -> np.ndarray:
-        """(N,) the thrust per sample [N] (inf where none balances)."""
+        """(N,) the total thrust per sample [N] (inf where none balances)."""
         return np.array([float(s.best.thrust_n[0]) for s in self.samples])
+
+    def fan_thrust(self, i: int, fans: int) -> np.ndarray:
+        """(fans,) the thrust of each of the robot's ``fans`` fans at sample ``i`` [N] (NaN where none balances)."""
+        out = np.zeros(fans)
+        out[list(self.fan_index)] = self.samples[i].best.split_n[0]
+        return out
 
 
 @dataclass

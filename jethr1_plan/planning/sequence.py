@@ -30,16 +30,19 @@ from jethr1_plan.physics.balance import (
     Tolerance,
     balance_slack,
     edge_angle_excess,
+    least_thrust,
     polygon_margin,
+    shared_window,
     sole_polygon,
     thrust_window,
     wrap_angle,
     zmp_with_thrust,
+    zmp_with_thrusts,
 )
 from jethr1_plan.reasons import Reason, message
-from jethr1_plan.robot.model import GRAVITY, RobotModel
+from jethr1_plan.robot.model import GRAVITY, RobotModel, fan_ground_xy
 
-__all__ = ["Rows", "SequenceBuilder", "convex_hull", "min_jerk", "swing_row_positions"]
+__all__ = ["FanThrust", "Rows", "SequenceBuilder", "convex_hull", "min_jerk", "swing_row_positions"]
 
 
 def min_jerk(t: np.ndarray) -> np.ndarray:
@@ -94,8 +97,21 @@ class Rows:
         return np.asarray(self.columns[key])
 
 
+@dataclass(frozen=True)
+class FanThrust:
+    """Thrust per fan of the robot at one end of a swing [N], and the fans that swing uses
+    (its sole's, then the trunk's: ``RobotModel.swing_fans``)."""
+
+    values: np.ndarray  # (F,) [N], 0 for the fans not in use
+    fans: tuple[int, ...]
+
+
 class SequenceBuilder:
-    """Builds output rows for one plan with one PostureSolver (warm-started row to row)."""
+    """Builds output rows for one plan with one PostureSolver (warm-started row to row).
+
+    Thrust is kept per fan of the robot (columns ``thrust_<fan name>``); fans that may not thrust
+    in a phase carry 0.
+    """
 
     def __init__(self, robot: RobotModel, solver: PostureSolver, rate_hz: float, thrust_max_n: float,
                  rho_rad: float, sole_margin_m: float, tolerance: Tolerance = NOMINAL):
@@ -109,15 +125,26 @@ class SequenceBuilder:
         self.first_infeasible: dict | None = None
         #: when set, the body yaw of row i (a smoothed schedule, e.g. the yaw MPC) instead of the blends
         self.yaw_of_row = None
+        self.names = [f.name for f in robot.fans]
+        self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
     def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
         return sole_polygon(xyz[:2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
 
-    def _window(self, com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, side: str) -> tuple[float, float]:
-        """The nominal balancing interval [N] of the ``side`` fan, capped by the fan's maximum (the
-        scenario's limit is a constraint on the plan, not on the window) (NaN, NaN: none)."""
-        lo, hi = thrust_window(com_xy, fan_xy, polygon, self.robot.mass_kg)
-        lo, hi = float(lo), float(min(hi, self.robot.fan_for(side).max_thrust_n))
+    def _window(self, com_xy: np.ndarray, fans_xy: np.ndarray, share: np.ndarray, polygon: np.ndarray
+                ) -> tuple[float, float]:
+        """The nominal balancing interval [N] of the total thrust split as ``share`` (F,) among the
+        robot's fans at ``fans_xy`` (F, 2), capped where a fan reaches its maximum (the scenario's
+        limit is a constraint on the plan, not on the window) (NaN, NaN: none)."""
+        carry = np.flatnonzero(share > 0)
+        if len(carry) == 1:  # one fan: its own window (Paper A)
+            k = int(carry[0])
+            lo, hi = thrust_window(com_xy, fans_xy[k], polygon, self.robot.mass_kg)
+            lo, hi = float(lo), float(min(hi, self.robot.fans[k].max_thrust_n))
+        else:
+            lo, hi = shared_window(com_xy, fans_xy[carry], share[carry], polygon, self.robot.mass_kg)
+            fmax = np.array([self.robot.fans[k].max_thrust_n for k in carry])
+            lo, hi = float(lo), float(min(hi, np.min(fmax / share[carry])))
         return (lo, hi) if lo <= hi else (np.nan, np.nan)
 
     def _describe_tolerance(self) -> str:
@@ -127,8 +154,9 @@ class SequenceBuilder:
         return (f" within ±{100 * t.thrust:g} % thrust, ±{100 * t.mass:g} % mass and "
                 f"{1000 * t.com_m:g} mm of CoM error")
 
-    def _fan_xy(self, side: str, sole_xyz: np.ndarray) -> np.ndarray:
-        return sole_xyz[:2] + np.asarray(self.robot.fan_for(side).offset_in_foot_m[:2])
+    def _fans_xy(self, soles: dict[str, np.ndarray], p_body: np.ndarray, yaw: float) -> np.ndarray:
+        """(F, 2) every fan's ground point [m] with the soles and the trunk there."""
+        return np.array([fan_ground_xy(f, soles, p_body, yaw) for f in self.robot.fans]).reshape(-1, 2)
 
     def _solve(self, stance: Stance, p_body: np.ndarray):
         batch = self.solver.solve_batch(stance, p_body[None], warm=self.q_prev)
@@ -141,24 +169,35 @@ class SequenceBuilder:
             self.first_infeasible = {"time_s": self.t, "step": step, "phase": phase, "sample": sample,
                                      "reason": reason, **detail}
 
-    def _emit(self, **row) -> None:
-        self.rows.append(time_s=self.t, **row)
+    def _emit(self, thrust: np.ndarray, **row) -> None:
+        self.rows.append(time_s=self.t, **row, **{f"thrust_{n}": float(f) for n, f in zip(self.names, thrust,
+                                                                                            strict=True)})
         self.t += self.dt
 
     def transfer(self, step: int, feet: dict[str, np.ndarray], p0: np.ndarray, yaw0: float, p1: np.ndarray,
-                 yaw1: float, duration_s: float, thrust_out: tuple[str, float] | None,
-                 thrust_in: tuple[str, float] | None, include_end: bool = False) -> None:
+                 yaw1: float, duration_s: float, thrust_out: FanThrust | None,
+                 thrust_in: FanThrust | None, include_end: bool = False) -> None:
         """Double-support rows from (p0, yaw0) to (p1, yaw1), both soles on ``feet``.
 
-        ``thrust_out``/``thrust_in``: (fan side, thrust [N]) ramped down over the first half and up
-        over the second half. The end posture itself is written only with ``include_end``.
+        ``thrust_out``/``thrust_in``: the thrust per fan [N] of the swing before and after, ramped
+        down over the first half and up over the second half. The end posture itself is written
+        only with ``include_end``.
         """
         n = max(1, round(duration_s / self.dt))
         hull = convex_hull(np.vstack([self._sole(feet[s], self.margin) for s in ("left", "right")]))
         real_hull = convex_hull(np.vstack([self._sole(feet[s]) for s in ("left", "right")]))
         dyaw = float(wrap_angle(yaw1 - yaw0))
         w = self.robot.mass_kg * GRAVITY
-        fans = {sd: self._fan_xy(sd, feet[sd]) for sd in ("left", "right")}
+        nf = len(self.names)
+        zero = np.zeros(nf)
+        out = zero if thrust_out is None else np.where(np.isfinite(thrust_out.values), thrust_out.values, 0.0)
+        into = zero if thrust_in is None else np.where(np.isfinite(thrust_in.values), thrust_in.values, 0.0)
+        # the shares of the fans about to carry thrust (or that just did) where none is carried
+        coming = thrust_in if thrust_in is not None else thrust_out
+        idle_share = None
+        if coming is not None:
+            v = into if thrust_in is not None else out
+            idle_share = v / v.sum() if v.sum() > 0 else np.isin(np.arange(nf), coming.fans[:1]).astype(float)
         for k in range(n + 1 if include_end else n):
             u = k / n
             s = float(min_jerk(u))
@@ -166,73 +205,96 @@ class SequenceBuilder:
             yaw = float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
             stance = Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw)
             q, com, status = self._solve(stance, p)
-            thrust = {"left": 0.0, "right": 0.0}
+            thrust = zero.copy()
             if thrust_out is not None:
-                thrust[thrust_out[0]] += thrust_out[1] * max(0.0, 1.0 - 2.0 * u)
+                thrust += out * max(0.0, 1.0 - 2.0 * u)
             if thrust_in is not None:
-                thrust[thrust_in[0]] += thrust_in[1] * max(0.0, 2.0 * u - 1.0)
-            thrust = {sd: (f if np.isfinite(f) else 0.0) for sd, f in thrust.items()}
-            total = thrust["left"] + thrust["right"]
-            moment = sum(thrust[sd] * fans[sd] for sd in ("left", "right"))
+                thrust += into * max(0.0, 2.0 * u - 1.0)
+            fans = self._fans_xy(feet, p, yaw)
+            total = float(np.sum(thrust))
+            moment = sum(thrust[j] * fans[j] for j in range(nf))
             zmp = (w * com[:2] - moment) / (w - total)
-            # the window of the fan that carries (or is about to carry) the thrust
-            active = max(thrust, key=thrust.get) if total > 0 else (
-                thrust_in[0] if thrust_in is not None else (thrust_out[0] if thrust_out is not None else None))
-            window = self._window(com[:2], fans[active], real_hull, active) if active else (np.nan, np.nan)
-            slack = float(balance_slack(com[:2], np.stack([fans["left"], fans["right"]]),
-                                        np.array([thrust["left"], thrust["right"]]), hull, self.robot.mass_kg,
-                                        self.tolerance))
+            # the window of the fans that carry (or are about to carry) the thrust, in their shares
+            share = thrust / total if total > 0 else idle_share
+            window = self._window(com[:2], fans, share, real_hull) if share is not None else (np.nan, np.nan)
+            slack = float(balance_slack(com[:2], fans, thrust, hull, self.robot.mass_kg, self.tolerance))
             reason = None
+            over = thrust > self.caps
             if status != Reason.OK:
                 reason = message(status)
-            elif max(thrust.values()) > self.thrust_max_n:
-                reason = f"thrust {max(thrust.values()):.3f} N above its maximum {self.thrust_max_n} N"
+            elif over.any():
+                j = int(np.argmax(thrust - self.caps))
+                reason = f"thrust {thrust[j]:.3f} N of fan {self.names[j]} above its maximum {self.caps[j]:g} N"
             elif slack < -1e-9:
                 reason = "ZMP outside the hull of both soles" + self._describe_tolerance()
             if reason:
                 self._mark(step, "transfer", k, reason, {"p_body_m": p.tolist()})
-            self._emit(step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
+            self._emit(thrust, step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
                        ground_z=min(feet["left"][2], feet["right"][2]),
-                       p_body=p, yaw=yaw, q=q, swing=np.full(3, np.nan), thrust_left=thrust["left"],
-                       thrust_right=thrust["right"], com=com, zmp=zmp, window=window,
+                       p_body=p, yaw=yaw, q=q, swing=np.full(3, np.nan), com=com, zmp=zmp, window=window,
                        zmp_margin=float(polygon_margin(zmp, real_hull)), reason=reason or "")
 
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
               yaw_fn, duration_s: float) -> None:
         """Single-support rows along ``path`` (N, 3) with optimised P_body ``p_samples`` (N, 3).
 
-        ``yaw_fn(swing_xyz) -> body yaw [rad]`` gives the trunk yaw at any swing position.
+        ``yaw_fn(swing_xyz) -> body yaw [rad]`` gives the trunk yaw at any swing position. The fans of
+        the swing sole and the trunk carry the least thrust that balances the row's posture within
+        the tolerance (``balance.thrust_window``; several fans: ``balance.least_thrust``).
         """
         swing_side = "left" if support == "right" else "right"
+        active = np.array(self.robot.swing_fans(swing_side), dtype=np.int64)
         poly = self._sole(feet[support], self.margin)
         sole = self._sole(feet[support])
+        m = self.robot.mass_kg
         idx = np.arange(len(path))
+        one = len(active) == 1 and not self.robot.fans[active[0]].on_trunk
         for k, u in enumerate(swing_row_positions(len(path), duration_s, 1.0 / self.dt)):
             swing = np.array([np.interp(u, idx, path[:, j]) for j in range(3)])
             p = np.array([np.interp(u, idx, p_samples[:, j]) for j in range(3)])
             yaw = float(yaw_fn(swing)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
             stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
             q, com, status = self._solve(stance, p)
-            fan = self._fan_xy(swing_side, swing)
-            thrust = float(thrust_window(com[:2], fan, poly, self.robot.mass_kg, self.tolerance)[0])
+            fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
+            thrust_all = np.zeros(len(self.names))
+            if one:  # Paper A: one fan, its window in closed form
+                fan = fans[active[0]]
+                total = float(thrust_window(com[:2], fan, poly, m, self.tolerance)[0])
+                over = total > self.thrust_max_n
+                unbalanced = not np.isfinite(total)
+                if not unbalanced:
+                    thrust_all[active[0]] = total
+            else:
+                caps = self.caps[active]
+                total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, self.tolerance)
+                total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, self.tolerance)
+                over = not np.isfinite(total_b) and np.isfinite(total_f)
+                unbalanced = not np.isfinite(total_f)
+                total = float(total_f if over else total_b)
+                if not unbalanced:
+                    thrust_all[active] = split_f if over else split
             edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
             if status != Reason.OK:
                 reason = message(status)
-            elif not np.isfinite(thrust):
+            elif unbalanced:
                 reason = "no thrust can balance" + self._describe_tolerance()
-            elif thrust > self.thrust_max_n:
-                reason = f"thrust {thrust:.3f} N above its maximum {self.thrust_max_n} N" + self._describe_tolerance()
+            elif over:
+                reason = f"thrust {total:.3f} N above its maximum {self.thrust_max_n} N" + self._describe_tolerance()
             elif edge > 0:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
                 self._mark(step, "swing", k, reason, {"p_body_m": p.tolist(), "swing_m": swing.tolist()})
-            f = thrust if np.isfinite(thrust) else 0.0
-            zmp = zmp_with_thrust(com[:2], fan, f, self.robot.mass_kg)
-            self._emit(step=step, phase="swing", sample=k, support=support, feasible=reason is None, p_body=p,
-                       ground_z=feet[support][2],
-                       yaw=yaw, q=q, swing=swing, thrust_left=f if swing_side == "left" else 0.0,
-                       thrust_right=f if swing_side == "right" else 0.0, com=com, zmp=zmp,
-                       window=self._window(com[:2], fan, sole, swing_side),
-                       zmp_margin=float(polygon_margin(zmp, sole)),
+            if one:
+                f = total if np.isfinite(total) else 0.0
+                zmp = zmp_with_thrust(com[:2], fans[active[0]], f, m)
+                share = np.zeros(len(self.names))
+                share[active[0]] = 1.0
+            else:
+                zmp = zmp_with_thrusts(com[:2], fans, thrust_all, m)
+                t = float(np.sum(thrust_all))
+                share = thrust_all / t if t > 0 else np.isin(np.arange(len(self.names)), active[:1]).astype(float)
+            self._emit(thrust_all, step=step, phase="swing", sample=k, support=support, feasible=reason is None,
+                       p_body=p, ground_z=feet[support][2], yaw=yaw, q=q, swing=swing, com=com, zmp=zmp,
+                       window=self._window(com[:2], fans, share, sole), zmp_margin=float(polygon_margin(zmp, sole)),
                        reason=reason or "")

@@ -19,13 +19,14 @@ from jethr1_plan.errors import RobotModelError
 
 __all__ = [
     "GRAVITY",
-    "JOINT_NAMES",
-    "JOINT_TYPES",
+    "LEG_ROLES",
     "ROBOTS_DIR",
     "SIDES",
     "Fan",
+    "Leg",
     "RobotModel",
     "UrdfJoint",
+    "fan_ground_xy",
     "load_robot",
     "reach_centre",
     "robot_summary",
@@ -52,9 +53,26 @@ def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray
     yaw = np.asarray(trunk_yaw, dtype=float)
     offset = np.stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)], axis=-1) * (sgn * legs.hip_offset_m)
     return np.asarray(foot_xyz, dtype=float) + np.array([0.0, 0.0, legs.ankle_height_m]) - offset
-JOINT_TYPES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
-#: the 12 joints in URDF order (left leg then right leg)
-JOINT_NAMES = tuple(f"{side}_{j}" for side in SIDES for j in JOINT_TYPES)
+#: a leg's six joints by role, hip to ankle: the closed-form IK's structure (kinematics.closed_form)
+LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+
+
+def fan_ground_xy(fan: Fan, soles: dict[str, np.ndarray], p_body: np.ndarray, yaw_rad: np.ndarray | float
+                  ) -> np.ndarray:
+    """Where a fan's vertical thrust meets the ground [m] (..., 2): its sole's centre plus its offset
+    (the soles are flat and face +x), or for a trunk fan P_body plus its offset turned by the trunk yaw.
+
+    Args:
+        soles: the sole centres by side [m] ((3,) or (..., 3)); p_body: (..., 3) [m]; yaw_rad: (...,) [rad].
+    """
+    off = np.asarray(fan.offset_m[:2], dtype=float)
+    if fan.leg is not None:
+        return np.asarray(soles[fan.leg], dtype=float)[..., :2] + off
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    turned = np.stack([c * off[0] - s * off[1], s * off[0] + c * off[1]], axis=-1)
+    return np.asarray(p_body, dtype=float)[..., :2] + turned
+
+
 def _robots_dir() -> Path:
     """The shipped robot models: the installed package data ``jethr1_plan.robots`` (a wheel, an
     editable install), else the checkout's ``robots/``."""
@@ -74,51 +92,99 @@ GRAVITY = 9.81  # [m/s^2]
 
 
 @dataclass(frozen=True)
-class Fan:
-    """A ducted fan: ``frame`` is the thrust point, fixed to the sole frame ``foot``."""
+class Leg:
+    """One leg as the robot YAML names it: its sole frame and its six joints by role (:data:`LEG_ROLES`)."""
 
+    side: str  # 'left' or 'right'
+    sole: str  # frame at the sole centre on the ground plane, x forward, z up
+    joints: tuple[str, ...]  # the six joint names, hip yaw to ankle roll
+    index: tuple[int, ...]  # their positions in RobotModel.joint_names (and in every q vector)
+
+
+@dataclass(frozen=True)
+class Fan:
+    """A ducted fan: ``frame`` is the thrust point, fixed to ``mount`` (a sole frame or the trunk).
+
+    A fan on a sole thrusts while that foot swings (and ramps in the double support around the
+    swing), never while its foot alone carries the robot; a fan on the trunk may thrust at any
+    time. Thrust is vertical (Paper A, III-A).
+    """
+
+    name: str  # the fan's name in the CSV columns (thrust_<name>_n) and messages
     frame: str
-    foot: str
-    axis: tuple[float, float, float]
+    mount: str  # the frame it is fixed to: a leg's sole frame or the trunk frame
+    leg: str | None  # the side whose sole carries it, or None on the trunk
     max_thrust_n: float
-    offset_in_foot_m: tuple[float, float, float]  # thrust point in the foot frame [m]
+    offset_m: tuple[float, float, float]  # thrust point in the mount frame [m]
     lag_s: float = 0.05  # time constant of the thrust's first-order response to a command [s]
+
+    @property
+    def on_trunk(self) -> bool:
+        return self.leg is None
 
 
 @dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
 class RobotModel:
-    """A loaded robot: the URDF path and what the YAML adds, with figures read from PlaCo."""
+    """A loaded robot: the URDF path and what the YAML adds, with figures read from PlaCo.
+
+    Arrays over joints follow ``joint_names`` (the URDF's actuated joints in PlaCo's order).
+    """
 
     name: str
     urdf_path: Path
     yaml_path: Path
     mass_kg: float
+    trunk: str  # the root link: its origin is P_body, the midpoint of the hip joint centres
+    legs: dict[str, Leg]  # 'left' and 'right'
     joint_names: tuple[str, ...]
-    lower_rad: np.ndarray  # (12,)
-    upper_rad: np.ndarray  # (12,)
-    effort_nm: np.ndarray  # (12,) URDF effort limits
-    servo_limit_nm: np.ndarray  # (12,) from the YAML's servo table
+    lower_rad: np.ndarray  # (J,)
+    upper_rad: np.ndarray  # (J,)
+    effort_nm: np.ndarray  # (J,) URDF effort limits
+    servo_limit_nm: np.ndarray  # (J,) from the YAML's servo table
     fans: tuple[Fan, ...]
     sole_length_m: float
     sole_width_m: float
+    stance_width_m: float  # between the sole centres when standing (a scenario's default start)
     hip_offset_m: float  # trunk origin -> each hip joint centre, along the trunk y axis
     thigh_m: float  # hip joint centre -> knee axis
     shank_m: float  # knee axis -> ankle joint centre
     ankle_height_m: float  # ankle joint centre -> sole
     leg_length_m: float  # hip joint centre -> sole, legs straight
     height_m: float  # sole -> top of the highest geometry, standing straight
-    servo_stiffness_nm_per_rad: np.ndarray  # (12,) the twin's position servos: servos × stiffness × gear²
-    servo_damping_nms_per_rad: np.ndarray  # (12,) stiffness × derivative time
+    servo_stiffness_nm_per_rad: np.ndarray  # (J,) the twin's position servos: servos × stiffness × gear²
+    servo_damping_nms_per_rad: np.ndarray  # (J,) stiffness × derivative time
     armature_kgm2: float  # rotor inertia reflected through each joint's gearbox
     controller: dict  # the thrust feedback law's settings (sim.controller.Gains); {} for the defaults
     twin: dict  # contact settings of the twin (sim.twin.TwinParams); {} for the defaults
 
-    def fan_for(self, side: str) -> Fan:
-        """The fan on the ``side`` ('left'/'right') foot."""
-        for fan in self.fans:
-            if fan.foot == f"{side}_foot":
-                return fan
-        raise RobotModelError(str(self.yaml_path), "fans", f"no fan on the {side} foot")
+    @property
+    def leg_index(self) -> np.ndarray:
+        """(12,) positions in ``joint_names`` of the left leg's six joints, then the right's, by role."""
+        return np.array([*self.legs["left"].index, *self.legs["right"].index], dtype=np.int64)
+
+    def fans_on(self, side: str) -> tuple[Fan, ...]:
+        """The fans fixed to the ``side`` sole."""
+        return tuple(f for f in self.fans if f.leg == side)
+
+    @property
+    def trunk_fans(self) -> tuple[Fan, ...]:
+        return tuple(f for f in self.fans if f.on_trunk)
+
+    def swing_fans(self, swing: str) -> tuple[int, ...]:
+        """Positions in ``fans`` of the fans that may thrust while the ``swing`` foot swings: those on
+        its sole, then those on the trunk."""
+        return tuple(i for i, f in enumerate(self.fans) if f.leg == swing) + tuple(
+            i for i, f in enumerate(self.fans) if f.on_trunk)
+
+    def fan_for(self, side: str) -> Fan | None:
+        """The (first) fan on the ``side`` sole, or None: the fan Paper A's body yaw (A-4) points at."""
+        fans = self.fans_on(side)
+        return fans[0] if fans else None
+
+    def start_feet(self) -> dict[str, np.ndarray]:
+        """Both sole centres [m] standing at the origin, ``stance_width_m`` apart, facing +x."""
+        half = self.stance_width_m / 2
+        return {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
 
     def wrapper(self):
         """A new PlaCo RobotWrapper for this model (PlaCo objects cannot be shared or pickled)."""
@@ -176,11 +242,11 @@ def _numbers(doc: dict, key: str, src: str) -> dict:
     return {str(k): _optional(doc, f"{key}.{k}", src, 0.0) for k in block}
 
 
-def _geometry_height(urdf: Path, robot) -> float:
+def _geometry_height(urdf: Path, robot, soles: list[str]) -> float:
     """Top of the URDF's visual boxes and cylinders over the lowest sole, at the zero posture [m]."""
     robot.state.q[7:] = 0.0
     robot.update_kinematics()
-    z_sole = min(robot.get_T_world_frame(f"{s}_foot")[2, 3] for s in SIDES)
+    z_sole = min(robot.get_T_world_frame(s)[2, 3] for s in soles)
     top = -math.inf
     for link in ET.parse(urdf).getroot().iter("link"):
         T_link = robot.get_T_world_frame(link.get("name"))
@@ -202,18 +268,26 @@ def _geometry_height(urdf: Path, robot) -> float:
     return top - z_sole
 
 
-@functools.lru_cache(maxsize=16)
-def load_robot(name_or_path: str = "jethr1") -> RobotModel:
-    """Load a robot by name (a folder of ``robots/``), directory or YAML path.
+def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
+    """Load a robot by name (a folder of ``robots/``), directory or YAML path; a model is returned as is.
+
+    Models are cached: loading the same name twice gives the same object.
 
     Raises:
         RobotModelError: missing or inconsistent files (exit 2).
     """
+    if isinstance(name_or_path, RobotModel):
+        return name_or_path
+    return _load(name_or_path)
+
+
+@functools.lru_cache(maxsize=16)
+def _load(name_or_path: str | Path) -> RobotModel:
     yaml_path = _resolve(name_or_path)
     src = str(yaml_path)
     try:
         doc = yaml.safe_load(yaml_path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise RobotModelError(src, "", f"cannot read: {exc}".splitlines()[0]) from None
     if not isinstance(doc, dict):
         raise RobotModelError(src, "", "expected a mapping")
@@ -226,8 +300,16 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
         raise RobotModelError(str(urdf), "", f"PlaCo cannot load it: {exc}") from None
     model = robot.model
     names = tuple(model.names[2:])
-    if names != JOINT_NAMES:
-        raise RobotModelError(str(urdf), "joints", f"expected {list(JOINT_NAMES)}, got {list(names)}")
+    frames = set(_frame_names(robot))
+    trunk = _require(doc, "trunk", src, str)
+    root = ET.parse(urdf).getroot()
+    children = {j.find("child").get("link") for j in root.iter("joint") if j.find("child") is not None}
+    roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
+    if roots != [trunk]:
+        raise RobotModelError(src, "trunk", f"{trunk!r} is not the URDF's root link (the root is {roots})")
+    legs = {side: _leg(doc, side, names, frames, src) for side in SIDES}
+    if len({j for leg in legs.values() for j in leg.joints}) != 12:
+        raise RobotModelError(src, "legs", "the two legs share a joint")
     lower = np.array(model.lowerPositionLimit[7:], dtype=float)
     upper = np.array(model.upperPositionLimit[7:], dtype=float)
     effort = np.array(model.effortLimit[6:], dtype=float)
@@ -235,50 +317,70 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
     stall = _require(doc, "servos.stall_torque_nm", src, float)
     stiffness = _optional(doc, "servos.stiffness_nm_per_rad", src, 78.0)
     derivative = _optional(doc, "servos.derivative_time_s", src, 0.03)
-    servo_limit, servo_k = np.empty(12), np.empty(12)
-    for i, jn in enumerate(JOINT_NAMES):
-        jt = jn.split("_", 1)[1]
-        n = _require(doc, f"servos.joints.{jt}.servos", src, int)
-        ratio = _require(doc, f"servos.joints.{jt}.gear_ratio", src, float)
+    role = {j: r for leg in legs.values() for r, j in zip(LEG_ROLES, leg.joints, strict=True)}
+    servo_limit, servo_k = np.empty(len(names)), np.empty(len(names))
+    table = doc.get("servos", {}).get("joints") if isinstance(doc.get("servos"), dict) else None
+    for i, jn in enumerate(names):
+        key = role.get(jn, jn)  # leg joints by role, any other joint by its name
+        if not isinstance(table, dict) or key not in table:
+            raise RobotModelError(src, f"servos.joints.{key}", "missing (servos and gear ratio of the joint"
+                                  + (f" {jn})" if key != jn else ")"))
+        n = _require(doc, f"servos.joints.{key}.servos", src, int)
+        ratio = _require(doc, f"servos.joints.{key}.gear_ratio", src, float)
         servo_limit[i] = stall * n * ratio
         servo_k[i] = stiffness * n * ratio * ratio
 
     robot.state.q[7:] = 0.0
     robot.set_T_world_fbase(np.eye(4))
     robot.update_kinematics()
+    soles = {leg.sole: side for side, leg in legs.items()}
     fans = []
     fan_docs = doc.get("fans")
     if not isinstance(fan_docs, list) or not fan_docs:
         raise RobotModelError(src, "fans", "expected a non-empty list")
     for k, fd in enumerate(fan_docs):
+        key = f"fans[{k}]"
+        if not isinstance(fd, dict):
+            raise RobotModelError(src, key, "expected a mapping")
         frame = _require(fd, "frame", src, str)
-        foot = _require(fd, "foot", src, str)
-        try:
-            T_fan, T_foot = robot.get_T_world_frame(frame), robot.get_T_world_frame(foot)
-        except Exception:
-            raise RobotModelError(src, f"fans[{k}]", f"frame {frame!r} or {foot!r} not in the URDF") from None
-        off = np.linalg.solve(T_foot, T_fan)[:3, 3]
+        mount = fd.get("mount", fd.get("foot"))
+        if not isinstance(mount, str) or (mount not in soles and mount != trunk):
+            raise RobotModelError(src, f"{key}.mount", f"expected a sole frame ({', '.join(soles)}) or the trunk "
+                                  f"({trunk}), got {mount!r}")
+        if frame not in frames:
+            raise RobotModelError(src, f"{key}.frame", f"frame {frame!r} not in the URDF")
+        T_fan, T_mount = robot.get_T_world_frame(frame), robot.get_T_world_frame(mount)
+        off = np.linalg.solve(T_mount, T_fan)[:3, 3]
         axis = tuple(float(a) for a in fd.get("axis", [0, 0, 1]))
         if axis != (0.0, 0.0, 1.0):
-            raise RobotModelError(src, f"fans[{k}].axis", "only vertical thrust [0, 0, 1] is modelled")
+            raise RobotModelError(src, f"{key}.axis", "only vertical thrust [0, 0, 1] is modelled")
         fmax = _require(fd, "max_thrust_n", src, float)
         if fmax < 0:
-            raise RobotModelError(src, f"fans[{k}].max_thrust_n", "must be >= 0")
-        lag = _optional(fd, "lag_s", src, 0.05)
-        fans.append(Fan(frame, foot, axis, fmax, tuple(float(v) for v in off), lag))
+            raise RobotModelError(src, f"{key}.max_thrust_n", "must be >= 0")
+        name = fd.get("name", frame)
+        if not isinstance(name, str) or not name.replace("_", "").isalnum():
+            raise RobotModelError(src, f"{key}.name", f"expected letters, digits and _, got {name!r}")
+        fans.append(Fan(name, frame, mount, soles.get(mount), fmax, tuple(float(v) for v in off),
+                        _optional(fd, "lag_s", src, 0.05)))
+    if len({f.name for f in fans}) != len(fans):
+        raise RobotModelError(src, "fans", "two fans share a name")
 
-    hip_l = robot.get_T_world_frame("left_hip_yaw_link")[:3, 3]
-    hip_r = robot.get_T_world_frame("right_hip_yaw_link")[:3, 3]
-    foot_l = robot.get_T_world_frame("left_foot")[:3, 3]
-    knee_l = robot.get_T_world_frame("left_shank")[:3, 3]
-    ankle_l = robot.get_T_world_frame("left_ankle")[:3, 3]
-    if np.linalg.norm((hip_l + hip_r) / 2) > 1e-9:
-        raise RobotModelError(str(urdf), "trunk", "trunk origin is not the midpoint of the hip joints")
+    def at(frame: str) -> np.ndarray:
+        return robot.get_T_world_frame(frame)[:3, 3]
+
+    hips = {s: at(legs[s].joints[0]) for s in SIDES}
+    left = legs["left"]
+    hip_l, knee_l, ankle_l, foot_l = hips["left"], at(left.joints[3]), at(left.joints[4]), at(left.sole)
+    if np.linalg.norm((hips["left"] + hips["right"]) / 2) > 1e-9:
+        raise RobotModelError(str(urdf), trunk, "trunk origin is not the midpoint of the hip joints")
+    stance = _optional(doc, "stance_width_m", src, float(abs(at(legs["left"].sole)[1] - at(legs["right"].sole)[1])))
     return RobotModel(
         name=yaml_path.parent.name,
         urdf_path=urdf.resolve(),
         yaml_path=yaml_path.resolve(),
         mass_kg=float(robot.total_mass()),
+        trunk=trunk,
+        legs=legs,
         joint_names=names,
         lower_rad=lower,
         upper_rad=upper,
@@ -287,18 +389,44 @@ def load_robot(name_or_path: str = "jethr1") -> RobotModel:
         fans=tuple(fans),
         sole_length_m=_require(doc, "sole.length_m", src, float),
         sole_width_m=_require(doc, "sole.width_m", src, float),
-        hip_offset_m=float(np.linalg.norm(hip_l - hip_r) / 2),
+        stance_width_m=stance,
+        hip_offset_m=float(np.linalg.norm(hips["left"] - hips["right"]) / 2),
         thigh_m=float(np.linalg.norm(knee_l - hip_l)),
         shank_m=float(np.linalg.norm(ankle_l - knee_l)),
         ankle_height_m=float(np.linalg.norm(foot_l - ankle_l)),
         leg_length_m=float(np.linalg.norm(hip_l - foot_l)),
-        height_m=_geometry_height(urdf, robot),
+        height_m=_geometry_height(urdf, robot, [legs[s].sole for s in SIDES]),
         servo_stiffness_nm_per_rad=servo_k,
         servo_damping_nms_per_rad=servo_k * derivative,
         armature_kgm2=_optional(doc, "servos.armature_kgm2", src, 0.003),
         controller=_numbers(doc, "controller", src),
         twin=_numbers(doc, "twin", src),
     )
+
+
+def _frame_names(robot) -> list[str]:
+    return [f.name for f in robot.model.frames]
+
+
+def _leg(doc: dict, side: str, joints: tuple[str, ...], frames: set[str], src: str) -> Leg:
+    """``legs.<side>``: the sole frame and the six joints by role."""
+    key = f"legs.{side}"
+    sole = _require(doc, f"{key}.sole", src, str)
+    if sole not in frames:
+        raise RobotModelError(src, f"{key}.sole", f"frame {sole!r} not in the URDF")
+    by_role = _require(doc, f"{key}.joints", src, dict)
+    names = []
+    for role in LEG_ROLES:
+        name = by_role.get(role)
+        if not isinstance(name, str):
+            raise RobotModelError(src, f"{key}.joints.{role}", "missing (the joint's name in the URDF)")
+        if name not in joints:
+            raise RobotModelError(src, f"{key}.joints.{role}", f"no joint {name!r} in the URDF")
+        names.append(name)
+    extra = set(by_role) - set(LEG_ROLES)
+    if extra:
+        raise RobotModelError(src, f"{key}.joints", f"unknown roles {sorted(extra)} (roles: {', '.join(LEG_ROLES)})")
+    return Leg(side, sole, tuple(names), tuple(joints.index(n) for n in names))
 
 
 @dataclass(frozen=True)
@@ -359,10 +487,14 @@ def robot_summary(model: RobotModel) -> dict:
             )
         ],
         "fans": [
-            {"frame": f.frame, "foot": f.foot, "max_thrust_n": f.max_thrust_n,
-             "offset_in_foot_m": list(f.offset_in_foot_m), "lag_s": f.lag_s}
+            {"name": f.name, "frame": f.frame, "mount": f.mount, "max_thrust_n": f.max_thrust_n,
+             "offset_m": list(f.offset_m), "lag_s": f.lag_s}
             for f in model.fans
         ],
+        "trunk": model.trunk,
+        "legs": {s: {"sole": leg.sole, "joints": dict(zip(LEG_ROLES, leg.joints, strict=True))}
+                 for s, leg in model.legs.items()},
+        "stance_width_m": model.stance_width_m,
         "sole": {"length_m": model.sole_length_m, "width_m": model.sole_width_m},
         "weight_n": model.mass_kg * GRAVITY,
     }

@@ -133,18 +133,18 @@ def load_plan(folder: Path) -> PlanTrack:
     except (KeyError, TypeError, ValueError) as exc:
         raise InputError(str(summary_path), "", f"malformed: {exc}".splitlines()[0]) from None
     try:
-        c = read_trajectory_csv(csv_path.read_text(encoding="utf-8"))
+        c = read_trajectory_csv(csv_path.read_text(encoding="utf-8"), str(csv_path), robot)
         q = np.stack([c[f"{j}_rad"] for j in robot.joint_names], axis=1)
         pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"], c["pelvis_qw"], c["pelvis_qx"],
                            c["pelvis_qy"], c["pelvis_qz"]], axis=1)
-        thrust = np.stack([c[f"thrust_{f.foot.split('_')[0]}_n"] for f in robot.fans], axis=1)
+        thrust = np.stack([c[f"thrust_{f.name}_n"] for f in robot.fans], axis=1)
         window = np.stack([c["thrust_window_lo_n"], c["thrust_window_hi_n"]], axis=1)
         zmp = np.stack([c["zmp_x_m"], c["zmp_y_m"]], axis=1)
         track = PlanTrack(folder, robot, cartons, rate, thrust_max, float(tol.get("thrust_error", 0.0)),
                           float(tol.get("mass_error", 0.0)), c["time_s"], q, pelvis, thrust, window, zmp,
                           c["support"], c["phase"], c["step"].astype(int), c["sample"].astype(int),
                           np.stack([c[f"{j}_cmd_rad"] for j in robot.joint_names], axis=1),
-                          np.stack([c[f"thrust_cmd_{f.foot.split('_')[0]}_n"] for f in robot.fans], axis=1))
+                          np.stack([c[f"thrust_cmd_{f.name}_n"] for f in robot.fans], axis=1))
     except (KeyError, ValueError, IndexError, OSError, UnicodeDecodeError) as exc:
         raise InputError(str(csv_path), "", f"malformed trajectory: {exc}".splitlines()[0]) from None
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
@@ -267,9 +267,9 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     dt_c = nsub * m.opt.timestep
     fans = robot.fans
     fan_ids = [twin.fan_bodies[f.frame] for f in fans]
-    fan_side = [f.foot.split("_")[0] for f in fans]
     side_index = {s: k for k, s in enumerate(SIDES)}
     applied = np.zeros(len(fans))
+    caps = np.array([min(f.max_thrust_n, track.thrust_max_n) for f in fans])  # each fan's limit [N]
     integral = 0.0
     buf = np.zeros(6)
     n_rows = len(track)
@@ -315,14 +315,21 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         if controller == "feedback" and alone and k >= n_settle:
             same = track.phase[j] == track.phase[i] and track.step[j] == track.step[i]
             zref = (1 - a) * track.zmp[i] + a * track.zmp[j] if same else track.zmp[i]
-            f_idx = int(np.argmax(ff)) if ff.max() > 0 else next(
-                (n for n, s in enumerate(fan_side) if s != sup), 0)
-            lo, hi = track.window[i]
-            if not np.isfinite(lo):
-                lo, hi = 0.0, track.thrust_max_n
-            e = ctl.band_error(loads[sup][1][:2], zref, d.xpos[fan_ids[f_idx]][:2], poly, gains.band_margin_m)
-            cmd[f_idx], integral = ctl.step(gains, integral, e, ff[f_idx], lo * lo_gain,
-                                            min(track.thrust_max_n, hi * hi_gain))
+            # the law acts on the total thrust of the fans that carry it, in their planned shares (the
+            # window's direction); without planned thrust, on the swing sole's first fan
+            ff_total = float(ff.sum())
+            carry = np.flatnonzero(ff > 0) if ff_total > 0 else np.array(robot.swing_fans(_other(sup))[:1], dtype=int)
+            share = ff[carry] / ff_total if ff_total > 0 else np.ones(len(carry))
+            if len(carry):
+                top = float(np.min(caps[carry] / share))  # the total at which a carrying fan reaches its limit
+                lo, hi = track.window[i]
+                if not np.isfinite(lo):
+                    lo, hi = 0.0, top
+                point = sum(share[n] * d.xpos[fan_ids[k]][:2] for n, k in enumerate(carry))
+                e = ctl.band_error(loads[sup][1][:2], zref, point, poly, gains.band_margin_m)
+                total_cmd, integral = ctl.step(gains, integral, e, float(ff[carry].sum()), lo * lo_gain,
+                                               min(top, hi * hi_gain))
+                cmd[carry] = share * total_cmd
         else:  # double support: the planned thrust; the integral leaks away
             _, integral = ctl.step(gains, integral, 0.0, 0.0, 0.0, 0.0)
         applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)

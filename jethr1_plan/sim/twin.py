@@ -6,7 +6,7 @@ What is modelled, and why:
   root link (otherwise MuJoCo welds the jointless root to the world and the robot weighs only its
   legs: 4.8 kg instead of 6.8 kg for Jet-HR1). :func:`build_twin` asserts the total mass.
 * **Contacts**: only the soles touch anything. Each sole is a box of the robot YAML's sole size on
-  its ``<side>_foot`` frame (the URDF's collision shapes are switched off: the fan ducts' cylinders
+  its leg's sole frame (the URDF's collision shapes are switched off: the fan ducts' cylinders
   reach the sole plane and would prop the foot up); cartons are boxes, and a floor lies under the
   lowest carton (a robot that falls into the ditch lands on it). Elliptic friction cones, the
   YAML's ``twin.sole_friction``.
@@ -53,11 +53,11 @@ class Twin:
 
     model: object  # mujoco.MjModel
     robot: RobotModel
-    qpos_adr: np.ndarray  # (12,) qpos index of each joint, in the robot's joint order
-    dof_adr: np.ndarray  # (12,) qvel index of each joint
+    qpos_adr: np.ndarray  # (J,) qpos index of each joint, in the robot's joint order
+    dof_adr: np.ndarray  # (J,) qvel index of each joint
     trunk: int  # body id of the root link (its free joint holds the pelvis pose)
     fan_bodies: dict[str, int]  # fan frame name -> body id (the force acts at the frame's origin)
-    foot_bodies: dict[str, int]  # side -> body id of the <side>_foot frame (the sole centre)
+    foot_bodies: dict[str, int]  # side -> body id of the leg's sole frame (the sole centre)
     sole_geoms: dict[str, int]  # side -> geom id of the sole's contact box
     total_mass_kg: float
 
@@ -94,7 +94,7 @@ def build_twin(robot: RobotModel, cartons: tuple[Carton, ...], params: TwinParam
     friction = [params.sole_friction, 0.005, 0.0001]
     h = params.sole_thickness_m
     for side in SIDES:
-        sole = spec.body(f"{side}_foot").add_geom()
+        sole = spec.body(robot.legs[side].sole).add_geom()
         sole.name = f"{side}_sole"
         sole.type = mujoco.mjtGeom.mjGEOM_BOX
         sole.size = [robot.sole_length_m / 2, robot.sole_width_m / 2, h / 2]
@@ -140,7 +140,7 @@ def build_twin(robot: RobotModel, cartons: tuple[Carton, ...], params: TwinParam
         dof_adr=np.array([model.jnt_dofadr[j] for j in joints]),
         trunk=int(model.body(root.name).id),
         fan_bodies={f.frame: int(model.body(f.frame).id) for f in robot.fans},
-        foot_bodies={s: int(model.body(f"{s}_foot").id) for s in SIDES},
+        foot_bodies={s: int(model.body(robot.legs[s].sole).id) for s in SIDES},
         sole_geoms={s: int(model.geom(f"{s}_sole").id) for s in SIDES},
         total_mass_kg=total,
     )
