@@ -519,7 +519,6 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
 
     from jethr1_plan.ditch_curve import curve, curve_png, default_base
     from jethr1_plan.io.atomic import staged_directory
-    from jethr1_plan.robot.model import load_robot
     from jethr1_plan.scenario import load_scenario
 
     gap_values = np.array(_range_spec(gaps, "--gaps"))
@@ -535,7 +534,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     check_writable(outdir.parent)
     if optimiser:
         base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
-    robot = load_robot(base.robot)
+    robot = base.robot
     with _Progress(not no_progress, "ditch curve") as progress:
         doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
     with staged_directory(outdir, frozenset({"ditch_curve.json", "ditch_curve.png"})) as staging:

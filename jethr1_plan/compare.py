@@ -17,7 +17,6 @@ import numpy as np
 
 from jethr1_plan.planning import feet_before_each_step, plan, plan_summary, smoothness
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import Scenario
 from jethr1_plan.search import Cells, Evaluator, SupportStance, exhaustive_cell
 
@@ -61,7 +60,7 @@ def step_evaluator(scenario: Scenario, si: int) -> tuple[Evaluator, Cells]:
     b = scenario.balance
     stance = SupportStance(st.support, tuple(feet[st.support]), b.rho_rad, b.thrust_max_n, b.sole_margin_m,
                            b.tolerance)
-    ev = Evaluator(load_robot(scenario.robot), stance)
+    ev = Evaluator(scenario.robot, stance)
     return ev, ev.cells(st.path_m)
 
 
@@ -86,7 +85,7 @@ def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex",
     runs = [(m, y) for y in yaw_modes for m in methods]
     for k, (m, y) in enumerate(runs):
         key = m if y == yaw_modes[0] else f"{m}+{y}"
-        doc["methods"][key] = run_method(replace(scenario, yaw_mode=y), m, seed)
+        doc["methods"][key] = run_method(replace(scenario, body_yaw=replace(scenario.body_yaw, mode=y)), m, seed)
         if y != yaw_modes[0]:
             base = doc["methods"][m]
             r = doc["methods"][key]

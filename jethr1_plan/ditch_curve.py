@@ -103,7 +103,7 @@ def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_le
         ok = [g for g, f in zip(gaps_m, row["max_thrust_n"], strict=True) if f is not None]
         row["widest_gap_m"] = float(max(ok)) if ok else None
         row["thrust_at_widest_n"] = (row["max_thrust_n"][list(gaps_m).index(max(ok))] if ok else None)
-    return {"robot": base.robot, "optimiser": base.optimiser.method, "thrust_max_n": base.balance.thrust_max_n,
+    return {"robot": base.robot.name, "optimiser": base.optimiser.method, "thrust_max_n": base.balance.thrust_max_n,
             "geometry": {"toe_x_m": TOE_X_M, "heel_inside_m": HEEL_INSIDE_M, "support_y_m": SUPPORT_Y_M},
             "scales": list(scales), "gaps_m": [float(g) for g in gaps_m], "tolerances": rows}
 
@@ -140,7 +140,11 @@ def curve_png(doc: dict) -> bytes:
 def default_base() -> Scenario:
     """A scenario with every default (robot jethr1, Paper A's timing), as the curve's base."""
     from jethr1_plan.optimisers import OptimiserConfig
+    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.scenario import BodyYaw
 
-    return Scenario(source="ditch-curve", name="ditch", robot="jethr1", seed=1, start={}, cartons=(), steps=(),
-                    optimiser=OptimiserConfig(), balance=BalanceConfig(), yaw_mode="eq4", yaw_fixed_rad=0.0,
+    robot = load_robot("jethr1")
+    return Scenario(source="ditch-curve", name="ditch", robot=robot, seed=1, start={}, cartons=(), steps=(),
+                    optimiser=OptimiserConfig(),
+                    balance=BalanceConfig(thrust_max_n=max(f.max_thrust_n for f in robot.fans)), body_yaw=BodyYaw(),
                     timing=Timing(7.5, 3.0, 50.0), nominal_height_m=None)

@@ -11,16 +11,17 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.optimisers import METHODS, GAPhase, OptimiserConfig
+from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
-from jethr1_plan.robot.model import GRAVITY
+from jethr1_plan.robot.model import GRAVITY, RobotModel
 from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_carton
 
 __all__ = [
@@ -142,9 +143,27 @@ class Step:
 
 @dataclass(frozen=True)
 class Timing:
-    swing_s: float = 8.0
-    transfer_s: float = 3.0
-    rate_hz: float = 50.0
+    """``timing:`` of a scenario."""
+
+    swing_s: float = 8.0  # each swing [s]
+    transfer_s: float = 3.0  # each double-support transfer [s]
+    rate_hz: float = 50.0  # output rows per second [Hz]
+
+
+@dataclass(frozen=True)
+class BodyYaw:
+    """``body_yaw:`` of a scenario: how the trunk turns (Paper A's (A-4), Paper B's MPC) [rad, s]."""
+
+    mode: str = "eq4"  # eq4 | mpc | forward_axis | fixed
+    fixed_rad: float = 0.0  # the yaw of mode ``fixed`` [rad]
+    horizon_s: float = 1.6  # mpc: look-ahead [s]
+    alpha: float = 1.0  # mpc: weight of tracking (A-4)'s reference
+    beta: float = 1e-10  # mpc: weight of the yaw acceleration
+
+    @property
+    def mpc(self) -> dict:
+        """The MPC's settings (``yaw_mpc.build_schedule``)."""
+        return {"horizon_s": self.horizon_s, "alpha": self.alpha, "beta": self.beta}
 
 
 #: the robust policy's default: ±10 % thrust, ±5 % total mass, 10 mm of CoM error (model and servo sag)
@@ -161,7 +180,7 @@ class BalanceConfig:
     P_body for it.
     """
 
-    thrust_max_n: float = 23.0
+    thrust_max_n: float = math.inf  # the limit on every fan [N]; a scenario's defaults to its robot's largest fan
     rho_rad: float = math.radians(5.0)
     sole_margin_m: float = 0.0
     policy: str = "robust"
@@ -179,20 +198,22 @@ class Scenario:
 
     source: str
     name: str
-    robot: str
+    robot: RobotModel
     seed: int
     start: dict[str, np.ndarray]
     cartons: tuple[Carton, ...]
     steps: tuple[Step, ...]
     optimiser: OptimiserConfig
     balance: BalanceConfig
-    yaw_mode: str
-    yaw_fixed_rad: float
+    body_yaw: BodyYaw
     timing: Timing
     nominal_height_m: float | None
     expect: dict = field(default_factory=dict)
-    yaw_mpc: dict = field(default_factory=lambda: {"horizon_s": 1.6, "alpha": 1.0, "beta": 1e-10})
     text: str = ""  # the scenario file as read (kept in summary.json, so a plan folder names its scenario)
+
+    @property
+    def yaw_mode(self) -> str:
+        return self.body_yaw.mode
 
 
 class _Loader(yaml.SafeLoader):
@@ -379,8 +400,8 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         else:
             if "landing_m" not in sd:
                 raise InputError(src, f"{key}.landing_m", "missing")
-            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float), path_doc.get("clearance_m", 0.05),
-                           path_doc.get("samples", 25))
+            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float),
+                           **{k: path_doc[k] for k in ("clearance_m", "samples") if k in path_doc})
         landing = pts[-1]
         if not on_terrain(landing):
             raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
@@ -398,56 +419,52 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         feet[swing] = landing
 
     opt = doc.get("optimiser", {})
-    fit = opt.get("fitness", {})
-    constants = FitnessConstants(
-        c1=float(fit.get("c1", 11000.0)), c2=float(fit.get("c2", 9000.0)), c4_1=float(fit.get("c4_1", 5000.0)),
-        c4_2=float(fit.get("c4_2", 10.0)), omega=float(fit.get("omega", 50.0)),
-        f3_unit_m=F3_UNITS[fit.get("f3_unit", "mm")], graded=bool(fit.get("graded", True)),
-        weight_n=robot.mass_kg * GRAVITY)
-    dflt = OptimiserConfig()
-
-    def phase(d: dict | None, base: GAPhase) -> GAPhase:
-        d = d or {}
-        return GAPhase(d.get("population", base.population), d.get("generations", base.generations),
-                       float(d.get("half_range_m", base.half_range_m)), float(d.get("crossover", base.crossover)),
-                       float(d.get("mutation", base.mutation)))
-
-    gaex = opt.get("gaex", {})
-    optimiser = OptimiserConfig(
-        method=opt.get("method", "gas"), initial=phase(opt.get("initial"), dflt.initial),
-        intermediate=phase(opt.get("intermediate"), dflt.intermediate), bits=opt.get("bits", 10), constants=constants,
-        gaex_half_m=float(gaex.get("half_m", dflt.gaex_half_m)),
-        gaex_step_m=float(gaex.get("step_m", dflt.gaex_step_m)),
-        sqp_smoothness_n_per_m2=float(opt.get("sqp", {}).get("smoothness_n_per_m2", dflt.sqp_smoothness_n_per_m2)))
+    fit = dict(opt.get("fitness", {}))
+    if "f3_unit" in fit:
+        fit["f3_unit_m"] = F3_UNITS[fit.pop("f3_unit")]
+    constants = _fill(FitnessConstants(weight_n=robot.mass_kg * GRAVITY), fit)
+    base = OptimiserConfig()
+    optimiser = _fill(base, {k: v for k, v in opt.items() if k in ("method", "bits")},
+                      initial=_fill(base.initial, opt.get("initial", {})),
+                      intermediate=_fill(base.intermediate, opt.get("intermediate", {})), constants=constants,
+                      **{f"gaex_{k}": v for k, v in opt.get("gaex", {}).items()},
+                      **{f"sqp_{k}": v for k, v in opt.get("sqp", {}).items()})
     if optimiser.gaex_step_m > optimiser.gaex_half_m:
         raise InputError(src, "optimiser.gaex.step_m", "larger than half_m")
     if optimiser.gaex_half_m / optimiser.gaex_step_m > 50:
         raise InputError(src, "optimiser.gaex", "more than 50 steps per half width (a cube of over 1 million postures "
                          "per sample)")
-    bal = doc.get("balance", {})
-    rob = bal.get("robust", {})
+    bal = dict(doc.get("balance", {}))
     fan_max = max(f.max_thrust_n for f in robot.fans)  # the limit caps every fan; by default none is capped
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")
-    balance = BalanceConfig(float(bal.get("thrust_max_n", fan_max)), float(bal.get("rho_rad", math.radians(5.0))),
-                            float(bal.get("sole_margin_m", 0.0)), bal.get("policy", "robust"),
-                            Tolerance(float(rob.get("thrust_error", ROBUST_DEFAULT.thrust)),
-                                      float(rob.get("mass_error", ROBUST_DEFAULT.mass)),
-                                      float(rob.get("com_error_m", ROBUST_DEFAULT.com_m))))
+    robust = {TOLERANCE_KEYS[k]: v for k, v in bal.pop("robust", {}).items()}
+    balance = _fill(BalanceConfig(thrust_max_n=fan_max), bal, robust=_fill(BalanceConfig().robust, robust))
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
-    t = doc.get("timing", {})
-    timing = Timing(float(t.get("swing_s", 8.0)), float(t.get("transfer_s", 3.0)), float(t.get("rate_hz", 50.0)))
+    timing = _fill(Timing(), doc.get("timing", {}))
     rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
     if rows > MAX_ROWS:
         raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
                          "(lower rate_hz or the durations)")
-    yaw = doc.get("body_yaw", {})
     return Scenario(
-        source=src, name=doc.get("name", Path(src).stem), robot=doc.get("robot", "jethr1"), seed=doc.get("seed", 0),
+        source=src, name=doc.get("name", Path(src).stem), robot=robot, seed=doc.get("seed", 0),
         start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
-        yaw_mode=yaw.get("mode", "eq4"), yaw_fixed_rad=float(yaw.get("fixed_rad", 0.0)), timing=timing,
-        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})),
-        yaw_mpc={"horizon_s": float(yaw.get("horizon_s", 1.6)), "alpha": float(yaw.get("alpha", 1.0)),
-                 "beta": float(yaw.get("beta", 1e-10))})
+        body_yaw=_fill(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
+        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
+
+
+#: the YAML's names of a Tolerance's fields (``balance.robust``)
+TOLERANCE_KEYS = {"thrust_error": "thrust", "mass_error": "mass", "com_error_m": "com_m"}
+
+
+def _fill(default, given: dict, **more):
+    """``default`` (a frozen dataclass: the defaults, stated once there) with the keys a scenario gives
+    (validated by the schema) and ``more``; numbers of float fields as floats."""
+    values = {**given, **more}
+    for f in dataclass_fields(default):
+        v = values.get(f.name)
+        if f.type in ("float", float) and isinstance(v, int) and not isinstance(v, bool):
+            values[f.name] = float(v)
+    return replace(default, **values)

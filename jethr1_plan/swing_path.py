@@ -32,7 +32,7 @@ class Carton:
         return x - hx, x + hx, y - hy, y + hy
 
 
-def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float, samples: int) -> np.ndarray:
+def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25) -> np.ndarray:
     """Circular arc from ``start_m`` to ``end_m`` (3,) with sagitta ``clearance_m``, ``samples`` points.
 
     Points are equally spaced in arc angle; the first and last are exactly the end points. With

@@ -167,3 +167,33 @@ def test_a_long_value_is_not_printed(tmp_path, capsys):
                                     lambda d: d["timing"].update(rate_hz=1e9)], ids=["samples", "rate"])
 def test_absurd_numbers_are_quick(tmp_path, capsys, mutate):
     _timed_exit_2(["plan", str(_variant(tmp_path, mutate)), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+
+
+def test_schema_and_dataclasses_state_the_same_keys():
+    """Every key the schema accepts in a section is a field of the dataclass that holds its default
+    (the defaults are stated once, in the dataclasses), and every such field has a key."""
+    from dataclasses import fields
+
+    from jethr1_plan.optimisers import GAPhase, OptimiserConfig
+    from jethr1_plan.optimisers.problem import FitnessConstants
+    from jethr1_plan.physics.balance import Tolerance
+    from jethr1_plan.scenario import SCHEMA, TOLERANCE_KEYS, BalanceConfig, BodyYaw, Timing
+
+    def keys(*path):
+        node = SCHEMA
+        for p in path:
+            node = node["properties"][p]
+        return set(node["properties"])
+
+    def names(cls, skip=()):
+        return {f.name for f in fields(cls)} - set(skip)
+
+    assert keys("timing") == names(Timing)
+    assert keys("body_yaw") == {"mode", "fixed_rad", "horizon_s", "alpha", "beta"} == names(BodyYaw)
+    assert keys("balance") == names(BalanceConfig)
+    assert {TOLERANCE_KEYS[k] for k in keys("balance", "robust")} == names(Tolerance)
+    assert keys("optimiser", "initial") == keys("optimiser", "intermediate") == names(GAPhase)
+    assert keys("optimiser", "fitness") - {"f3_unit"} | {"f3_unit_m"} == names(FitnessConstants, ["weight_n"])
+    top = keys("optimiser") - {"initial", "intermediate", "fitness", "gaex", "sqp", "nominal_height_m"}
+    assert (top | {f"gaex_{k}" for k in keys("optimiser", "gaex")} | {f"sqp_{k}" for k in keys("optimiser", "sqp")}
+            | {"initial", "intermediate", "constants"}) == names(OptimiserConfig, ["tournament_size", "elites"])

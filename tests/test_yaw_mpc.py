@@ -57,4 +57,4 @@ def test_scientific_notation_in_scenarios(tmp_path):
                                                                     "{mode: mpc, beta: 1e-10}")
     path = tmp_path / "s.yaml"
     path.write_text(doc)
-    assert load_scenario(path).yaw_mpc["beta"] == 1e-10
+    assert load_scenario(path).body_yaw.beta == 1e-10

@@ -26,7 +26,7 @@ from jethr1_plan.planning.report import describe_infeasible, finite_or_none, pla
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, swing_row_positions
 from jethr1_plan.reasons import message
-from jethr1_plan.robot.model import SIDES, RobotModel, load_robot, reach_centre
+from jethr1_plan.robot.model import SIDES, RobotModel, reach_centre
 from jethr1_plan.scenario import Scenario
 
 __all__ = [
@@ -71,7 +71,7 @@ def optimise_step(job: StepJob, solver: PostureSolver | None = None, progress: P
     Returns the step's result and its first infeasible sample (a summary.json record) or None.
     """
     scenario, si = job.scenario, job.index
-    robot = load_robot(scenario.robot)
+    robot = scenario.robot
     solver = solver or make_posture_solver(robot, job.kinematics)
     step = scenario.steps[si]
     support = step.support
@@ -136,7 +136,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
     """
     t0 = time.perf_counter()
-    robot = load_robot(scenario.robot)
+    robot = scenario.robot
     cfg = scenario.optimiser if method is None else replace(scenario.optimiser, method=method)
     seed = scenario.seed if seed is None else seed
     # every step, and the sequence, get a solver of their own (as worker processes do), so that the
@@ -263,7 +263,7 @@ def yaw_schedule(scenario: Scenario, robot: RobotModel):
     feet_at = feet_before_each_step(scenario)
     eq4 = [yaw_function(scenario, robot, st.support, f[st.support]) for st, f in zip(scenario.steps, feet_at,
                                                                                        strict=True)]
-    return build_schedule(scenario, robot, eq4, [st.path_m for st in scenario.steps], **scenario.yaw_mpc)
+    return build_schedule(scenario, robot, eq4, [st.path_m for st in scenario.steps], **scenario.body_yaw.mpc)
 
 
 def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],

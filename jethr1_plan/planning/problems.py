@@ -33,7 +33,7 @@ def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xy
         return lambda sw: float(body_yaw_eq4(support_xyz[:2], sw[:2] + off, support))
     if scenario.yaw_mode == "forward_axis":
         return lambda sw: float(body_yaw_forward_axis(support_xyz[:2], sw[:2] + off))
-    return lambda sw: scenario.yaw_fixed_rad
+    return lambda sw: scenario.body_yaw.fixed_rad
 
 
 def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray,
