@@ -22,8 +22,8 @@ Both search over pelvis positions moved onto the legs' reach balls where they li
 (:meth:`~jethr1_plan.search.Evaluator.into_reach`): the optimum of most cells has a leg at full stretch, where a
 grid or a pattern search otherwise stalls (the CoM moves like the square root of the distance).
 
-The objective is compiled (``balance_kernel``: closed-form IK, CoM, thrust, edge angle, reach in
-one numba loop, equal to the numpy path of ``leg_kinematics`` and ``balance`` to rounding, which
+The objective is compiled (``physics.compiled``: closed-form IK, CoM, thrust, edge angle, reach in
+one numba loop, equal to the numpy path of ``kinematics.closed_form`` and ``balance`` to rounding, which
 agrees with PlaCo to 1e-9 m); the best posture of every member cell is re-checked by PlaCo forward
 kinematics after the sweep. Work is split into z layers, a fixed partition, so the output does not
 depend on the number of workers.
@@ -109,12 +109,24 @@ class SweepSpec:
         return self.robot
 
     @property
+    def support(self) -> tuple[float, float, float]:
+        """The support sole's centre [m] (resolved)."""
+        assert self.support_xyz is not None
+        return self.support_xyz
+
+    @property
+    def fan_limit_n(self) -> float:
+        """The limit on every fan [N] (resolved)."""
+        assert self.thrust_max_n is not None
+        return self.thrust_max_n
+
+    @property
     def swing_side(self) -> str:
         return "left" if self.support_side == "right" else "right"
 
     def support_stance(self) -> SupportStance:
         """What the searches hold fixed."""
-        return SupportStance(self.support_side, self.support_xyz, self.rho_rad, self.thrust_max_n, self.sole_margin_m,
+        return SupportStance(self.support_side, self.support, self.rho_rad, self.fan_limit_n, self.sole_margin_m,
                              self.tolerance)
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -161,7 +173,7 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
     s_idx, d_idx = src[ok], dst[ok]
     P0 = ev.into_reach(c, d_idx, P_all[s_idx] + (c.swing[d_idx] - c.swing[s_idx]) / 2)
     f0, _, r0 = ev(c, d_idx, P0)
-    fmax = spec.thrust_max_n
+    fmax = spec.fan_limit_n
     go = ((f0 < f_all[d_idx] + RELAX_SLACK_N) | ((f_all[d_idx] > fmax) & (f_all[s_idx] <= fmax))
           | ((r0 == Reason.EDGE_ANGLE) & (f_all[d_idx] > 0)))
     if not go.any():
@@ -309,7 +321,8 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
     cat = {f: np.concatenate([getattr(layer, f) for layer in layers]) for f in ("swing", "thrust", "p_body", "yaw",
                                                                              "reason")}
     order = np.lexsort((cat["swing"][:, 2], cat["swing"][:, 1], cat["swing"][:, 0]))
-    return SweepResult(spec, *(cat[f][order] for f in ("swing", "thrust", "p_body", "yaw", "reason")),
+    return SweepResult(spec, swing=cat["swing"][order], thrust=cat["thrust"][order], p_body=cat["p_body"][order],
+                       yaw=cat["yaw"][order], reason=cat["reason"][order],
                        evaluations=sum(layer.evaluations for layer in layers), wall_s=time.perf_counter() - t0)
 
 
@@ -348,7 +361,7 @@ def summary(result: SweepResult) -> dict:
     res = spec.resolution_m
     sup = np.asarray(spec.support_xyz)
     out = {
-        "support": {"side": spec.support_side, "position_m": list(spec.support_xyz)},
+        "support": {"side": spec.support_side, "position_m": list(spec.support)},
         "swing": spec.swing_side,
         "robot": spec.model.name,
         "sole": {"length_m": spec.model.sole_length_m, "width_m": spec.model.sole_width_m},

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -42,7 +43,7 @@ def run_scenario(path: str, outdir: str) -> dict:
     from jethr1_plan.planning import plan, plan_summary
     from jethr1_plan.scenario import load_scenario
 
-    record = {"scenario": str(path), "name": Path(path).stem}
+    record: dict[str, Any] = {"scenario": str(path), "name": Path(path).stem}
     try:
         scenario = load_scenario(path)
     except InputError as exc:
@@ -52,7 +53,7 @@ def run_scenario(path: str, outdir: str) -> dict:
     except InfeasiblePlan as exc:
         summary = exc.summary or {}
         write_summary_only(scenario, Path(outdir), summary)
-        infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
+        infeasible: dict[str, Any] | None = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
     except Exception as exc:  # a bug in one scenario must not lose every other scenario's result
         return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
                 "exit_code": 1}
@@ -65,7 +66,7 @@ def run_scenario(path: str, outdir: str) -> dict:
                     "exit_code": 1}
         infeasible = None
     failed = check_expectations(scenario.expect, summary)
-    out = infeasible or {**record, "status": "feasible", "summary": summary}
+    out: dict[str, Any] = infeasible or {**record, "status": "feasible", "summary": summary}
     out["expect"] = scenario.expect
     out["expectations_failed"] = failed
     if failed:

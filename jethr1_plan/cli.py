@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
@@ -167,10 +168,10 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     _report_kept(folder, kept)
     if as_json:
         click.echo(json_text(summary), nl=False)
-    if not result.feasible:
-        raise InfeasiblePlan(f"infeasible: {result.first_infeasible['reason']} "
-                             f"(step {result.first_infeasible['step']} {result.first_infeasible['phase']} sample "
-                             f"{result.first_infeasible['sample']}); trajectory written with infeasible rows marked")
+    bad = result.first_infeasible
+    if bad is not None:
+        raise InfeasiblePlan(f"infeasible: {bad['reason']} (step {bad['step']} {bad['phase']} sample {bad['sample']}); "
+                             "trajectory written with infeasible rows marked")
     _report_plan(summary, folder)
 
 
@@ -325,7 +326,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     with _Progress(not no_progress, "batch") as progress:
         records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     code = batch_exit_code(records)
-    doc = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
+    doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
         "max_thrust_n": (r.get("summary") or {}).get("max_thrust_n"),
         "mean_thrust_n": (r.get("summary") or {}).get("mean_thrust_n"),
         "feasible": (r.get("summary") or {}).get("feasible"),
@@ -662,7 +663,7 @@ class Terminated(KeyboardInterrupt):
     staging folders removed, nothing half-written is left."""
 
 
-_TERMINATED = []  # set by SIGTERM: joblib and click turn the interrupt into their own exceptions
+_TERMINATED: list[int] = []  # set by SIGTERM: joblib and click turn the interrupt into their own exceptions
 
 
 def _on_sigterm(signum, frame) -> None:

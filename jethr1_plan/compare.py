@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import time
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,7 @@ def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex",
             reference: bool = False, progress=None, yaw_modes: tuple[str, ...] = ("eq4",)) -> dict:
     """The comparison document (``--json``). Methods run under each body-yaw mode; a mode other
     than the first is reported as ``method+mode`` (e.g. ``gas+mpc``) with its thrust cost."""
-    doc = {"scenario": scenario.name, "seed": scenario.seed if seed is None else seed, "methods": {}}
+    doc: dict[str, Any] = {"scenario": scenario.name, "seed": scenario.seed if seed is None else seed, "methods": {}}
     runs = [(m, y) for y in yaw_modes for m in methods]
     for k, (m, y) in enumerate(runs):
         key = m if y == yaw_modes[0] else f"{m}+{y}"

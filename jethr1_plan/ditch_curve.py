@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -74,7 +75,7 @@ def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_le
 
     robust = base.balance.robust
     tolerances = [robust.scaled(k) for k in scales]
-    rows = []
+    rows: list[dict[str, Any]] = []
     for tol in tolerances:
         rows.append({"thrust_error": tol.thrust, "mass_error": tol.mass, "com_error_m": tol.com_m,
                      "max_thrust_n": [None] * len(gaps_m), "reason": [None] * len(gaps_m)})

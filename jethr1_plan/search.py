@@ -43,7 +43,7 @@ __all__ = [
 
 EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the penalty is exact
 REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
-REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (sqp_optimiser keeps ~0.13 mm)
+REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (optimisers.sqp keeps ~0.13 mm)
 
 AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
 DIRECTIONS = np.array([d for d in np.ndindex(3, 3, 3) if d != (1, 1, 1)], dtype=float) - 1.0  # 26 neighbours
@@ -75,7 +75,7 @@ class Cells:
     swing: np.ndarray  # (C, 3) swing sole centres [m]
     yaw: np.ndarray  # (C,) body yaw (A-4) [rad]
     fan: np.ndarray  # (C, 2) thrust point [m]
-    centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot_model.reach_centre) [m]
+    centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot.model.reach_centre) [m]
     centre_w: np.ndarray  # (C, 3) centre of the swing leg's reach ball [m]
 
 

@@ -28,6 +28,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -195,7 +196,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
     if summary and not (isinstance(robot_name, str) and Path(robot_name).is_file()) and sc is not None:
         robot_name = sc.robot  # the plan moved with its summary: the scenario names the robot
     robot = load_robot(robot_name)
-    loaded = {}
+    loaded: dict[Path, tuple[dict[str, np.ndarray], list[np.ndarray] | None]] = {}
     for f in files:
         try:
             data = f.read_bytes()
@@ -258,7 +259,7 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot: RobotModel, q: np.ndarr
 
     wrapper = robot.wrapper()
     n = len(q)
-    out = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES}, "fans": np.zeros((n, len(robot.fans), 2)),
+    out: dict[str, Any] = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES}, "fans": np.zeros((n, len(robot.fans), 2)),
            "com": np.zeros((n, 3)), "tau": np.full((n, len(robot.joint_names)), np.nan),
            "kappa": np.full((n, 2), np.nan)}
     for i in range(n):
@@ -281,8 +282,8 @@ def _forward_kinematics(c: dict[str, np.ndarray], robot: RobotModel, q: np.ndarr
             if supports:
                 out["tau"][i], _ = static_torques(robot, wrapper, np.where(np.isfinite(thrust[i]), thrust[i], 0.0),
                                                   supports)
-            k = leg_condition_numbers(robot, wrapper)
-            out["kappa"][i] = k["left"], k["right"]
+            kappa = leg_condition_numbers(robot, wrapper)
+            out["kappa"][i] = kappa["left"], kappa["right"]
     return out
 
 
@@ -408,23 +409,24 @@ def verify_rows(c: dict[str, np.ndarray], robot: RobotModel, swing_paths: list[n
     paths = [st.path_m for st in scenario.steps] if scenario is not None else (swing_paths or [])
     if paths:
         for i in np.flatnonzero(single):
-            k = int(c["step"][i])
-            candidates = [paths[k]] if scenario is not None and 0 <= k < len(paths) else paths
+            step = int(c["step"][i])
+            candidates = [paths[step]] if scenario is not None and 0 <= step < len(paths) else paths
             d = min(_distance_to_polyline(swing_pos[i], p) for p in candidates)
             if d > TOL_M:
                 found.append((int(i), 5, "swing sole off its path", f"{d:.2e} m from the scenario's swing path"
                               if scenario is not None else f"{d:.2e} m from every swing path of the file"))
-    for k, fan in enumerate(fans):
-        bad = ~((thrust[:, k] >= 0.0) & (thrust[:, k] <= fmax[k] + 1e-9))
-        fail(bad, 6, "thrust out of range", lambda i, k=k, fan=fan: f"{fan.name} fan {thrust[i, k]:.3f} N outside "
-             f"[0, {fmax[k]:g}] N (the fan's rating and the scenario's limit)")
+    for f_idx, fan in enumerate(fans):
+        bad = ~((thrust[:, f_idx] >= 0.0) & (thrust[:, f_idx] <= fmax[f_idx] + 1e-9))
+        fail(bad, 6, "thrust out of range", lambda i, f_idx=f_idx, fan=fan: f"{fan.name} fan "
+             f"{thrust[i, f_idx]:.3f} N outside [0, {fmax[f_idx]:g}] N (the fan's rating and the scenario's limit)")
         if fan.leg is not None:  # a fan on a sole never pushes while its foot alone supports the robot
-            fail((support == fan.leg) & (thrust[:, k] != 0.0), 6, "thrust on the support foot",
-                 lambda i, k=k, fan=fan: f"{fan.name} fan {thrust[i, k]:.3f} N while its foot supports the robot")
+            fail((support == fan.leg) & (thrust[:, f_idx] != 0.0), 6, "thrust on the support foot",
+                 lambda i, f_idx=f_idx, fan=fan: f"{fan.name} fan {thrust[i, f_idx]:.3f} N while its foot supports "
+                 "the robot")
     com = fk["com"]
-    total = sum(thrust[:, k] for k in range(len(fans)))
+    total = thrust.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        moment = sum(thrust[:, k, None] * fk["fans"][:, k] for k in range(len(fans)))
+        moment = sum(thrust[:, f_idx, None] * fk["fans"][:, f_idx] for f_idx in range(len(fans)))
         zmp = (w * com[:, :2] - moment) / (w - total)[:, None]
     # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
     # planned one by the IK tolerance, so the edge is given that much
@@ -569,11 +571,11 @@ def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> No
         if share is not None and np.isfinite(lo_w[i]):
             carry = np.flatnonzero(share > 0)
             if len(carry) == 1:
-                lo, hi = thrust_window(com[i], fk["fans"][i, carry[0]], poly, robot.mass_kg)
-                lo, hi = float(lo), float(min(hi, fmax[carry[0]]))
+                w_lo, w_hi = thrust_window(com[i], fk["fans"][i, carry[0]], poly, robot.mass_kg)
+                lo, hi = float(w_lo), min(float(w_hi), float(fmax[carry[0]]))
             else:
-                lo, hi = shared_window(com[i], fk["fans"][i, carry], share[carry], poly, robot.mass_kg)
-                lo, hi = float(lo), float(min(hi, np.min(fmax[carry] / share[carry])))
+                w_lo, w_hi = shared_window(com[i], fk["fans"][i, carry], share[carry], poly, robot.mass_kg)
+                lo, hi = float(w_lo), min(float(w_hi), float(np.min(fmax[carry] / share[carry])))
             if not (abs(lo - lo_w[i]) <= WINDOW_TOL_N and abs(hi - hi_w[i]) <= WINDOW_TOL_N):
                 found.append((i, 9, "thrust window column wrong", f"written [{lo_w[i]:.4f}, {hi_w[i]:.4f}] N, "
                               f"recomputed [{lo:.4f}, {hi:.4f}] N"))

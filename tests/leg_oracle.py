@@ -1,5 +1,5 @@
 """The numpy closed-form leg IK and CoM, and a vectorised forward kinematics from the URDF: the
-oracle the compiled ``balance_kernel.postures`` is held to (``leg_kinematics.solve_postures``).
+oracle the compiled ``physics.compiled.postures`` is held to (``kinematics.closed_form.solve_postures``).
 
 Batch-last rotations (3, 3, N): numpy's einsum over that layout is several times faster than matmul
 over (N, 3, 3) stacks of small matrices.

@@ -71,7 +71,7 @@ def _alive(pid: int) -> bool:
 
 def clean_stale(final: Path) -> list[Path]:
     """Remove the staging folders beside ``final`` whose process has gone; return them."""
-    removed = []
+    removed: list[Path] = []
     parent = Path(final).parent
     if not parent.is_dir():
         return removed

@@ -89,7 +89,7 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
         msg = point_cloud(r.swing[mask], r.thrust[mask])
         w.add_message(channel_id=chans[topic], log_time=0, publish_time=0, sequence=seq,
                       data=json.dumps(msg, separators=(",", ":")).encode())
-    x, y, z = r.spec.support_xyz
+    x, y, z = r.spec.support
     cube = {"pose": pose_message((x, y, z - 0.005)), "size": vector3((sole_length_m, sole_width_m, 0.01)),
             "color": {"r": 0.2, "g": 0.2, "b": 0.9, "a": 1.0}}
     w.add_message(channel_id=sole, log_time=0, publish_time=0, sequence=2,
@@ -109,7 +109,7 @@ def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float)
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 9), constrained_layout=True)
     sup = np.asarray(r.spec.support_xyz)
-    fmax = r.spec.thrust_max_n
+    fmax = r.spec.fan_limit_n
     for row, (title, mask) in enumerate((("without thrust (F = 0)", r.without_thrust),
                                          (f"with thrust (F ≤ {fmax:g} N)", r.with_thrust))):
         pts, thr = r.swing[mask], r.thrust[mask]

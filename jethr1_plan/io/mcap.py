@@ -364,7 +364,8 @@ def read_mcap(data: bytes) -> list[tuple[str, str, dict, int]]:
     out = []
     reader = make_reader(io.BytesIO(data), validate_crcs=True)
     for schema, channel, message in reader.iter_messages():
-        out.append((channel.topic, schema.name, json.loads(message.data), message.log_time))
+        out.append((channel.topic, schema.name if schema is not None else "", json.loads(message.data),
+                    message.log_time))
     return out
 
 
@@ -373,4 +374,4 @@ def mcap_schemas(data: bytes) -> dict[str, dict]:
     from mcap.reader import make_reader
 
     summary = make_reader(io.BytesIO(data)).get_summary()
-    return {s.name: json.loads(s.data) for s in summary.schemas.values()}
+    return {} if summary is None else {s.name: json.loads(s.data) for s in summary.schemas.values()}

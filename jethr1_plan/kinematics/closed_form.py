@@ -1,6 +1,6 @@
 """Closed-form leg IK and batched forward kinematics in numpy, geometry read from the URDF.
 
-A fast path beside PlaCo (``posture.py``) for exhaustive sweeps: for a leg whose hip axes (yaw,
+A fast path beside PlaCo (``kinematics.placo``) for exhaustive sweeps: for a leg whose hip axes (yaw,
 roll, pitch) meet at the hip joint centre and whose ankle axes (pitch, roll) meet at the ankle
 centre, with the knee and ankle on the leg's axis, the six joint angles follow in closed form
 (Kajita et al., *Introduction to Humanoid Robotics*, §2.5). Joint placements, axes, link masses and
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jethr1_plan.errors import RobotModelError
 from jethr1_plan.kinematics.base import PostureBatch, Stance
@@ -48,7 +49,7 @@ AXES = {"hip_yaw": (0, 0, 1), "hip_roll": (1, 0, 0), "hip_pitch": (0, 1, 0), "kn
 # faster than matmul over (N, 3, 3) stacks of small matrices.
 
 
-def rot_axis(axis, a: np.ndarray) -> np.ndarray:
+def rot_axis(axis, a: ArrayLike) -> np.ndarray:
     """(3, 3, N) rotations about ``axis`` by angles ``a`` (N,) [rad] (direct for x, y, z; else Rodrigues)."""
     k = np.asarray(axis, dtype=float)
     k = k / np.linalg.norm(k)
@@ -129,8 +130,9 @@ def mass_model(robot: RobotModel):
         if inertial is None:
             continue
         org = inertial.find("origin")
-        com = np.array([float(v) for v in (org.get("xyz") if org is not None else "0 0 0").split()])
-        links[link.get("name")] = (float(inertial.find("mass").get("value")), com)
+        com = np.array([float(v) for v in (org.get("xyz", "0 0 0") if org is not None else "0 0 0").split()])
+        mass = inertial.find("mass")
+        links[str(link.get("name"))] = (float(mass.get("value", "0") if mass is not None else 0.0), com)
     index = {name: k for k, name in enumerate(robot.joint_names)}
     chain = []
     for j in urdf_joints(robot.urdf_path):
@@ -181,7 +183,7 @@ def leg_mass_model(robot: RobotModel):
 
 @functools.lru_cache(maxsize=8)
 def closed_form_arrays(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The robot's constants as ``balance_kernel`` takes them: geom (4,) hip offset, thigh, shank,
+    """The robot's constants as ``physics.compiled`` takes them: geom (4,) hip offset, thigh, shank,
     ankle height [m]; trunk (4,) mass [kg] and CoM [m]; joints (2, 3, 3) per leg (left, right) the
     hip, knee and ankle placements [m]; links (2, 6, 4) per leg and moving link mass and CoM; limits
     (2, 12) [rad], the legs' joints by role (left then right)."""
@@ -193,7 +195,7 @@ def closed_form_arrays(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.nd
             np.stack([robot.lower_rad, robot.upper_rad])[:, robot.leg_index].astype(float))
 
 
-def solve_postures(robot: RobotModel, trunk_xyz: np.ndarray, trunk_yaw: np.ndarray, feet: dict[str, tuple]
+def solve_postures(robot: RobotModel, trunk_xyz: ArrayLike, trunk_yaw: ArrayLike, feet: dict[str, tuple]
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Both legs in closed form: joints (N, J) [rad] in the robot's order (any joint outside the legs at
     0), CoM (N, 3) [m] and status (N,) (a Reason), by ``physics.compiled.postures`` (the one
@@ -231,7 +233,7 @@ class ClosedFormPostureSolver:
         check_structure(model)
         self.model = model
         self.evaluations = 0
-        self.replay_log = None
+        self.replay_log: list | None = None  # PlaCo's only
 
     def solve_batch(self, stance: Stance, p_body: np.ndarray, warm: np.ndarray | None = None) -> PostureBatch:
         p_body = np.atleast_2d(np.asarray(p_body, dtype=float))

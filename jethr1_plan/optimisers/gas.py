@@ -163,6 +163,7 @@ def exhaustive_cube(solver: PostureSolver, problem: SampleProblem, centre: np.nd
         i = int(np.argmin(key)) if np.isfinite(key).any() else 0
         if best is None or key[i] < best_thrust:
             best, best_thrust = c.take(i), key[i]
+    assert best is not None  # the cube is never empty
     return best, count
 
 

@@ -6,7 +6,7 @@ exact minimal thrust H(P_body) (A-5) subject to (A-8) joint limits, the legs' re
 such a problem in a few iterations when it starts near the answer, and along a swing path the
 neighbouring sample's P_body is such a start (continuation). Written with the thrust as a variable,
 the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
-closed-form kinematics (``leg_kinematics``), exact to rounding, three postures per gradient.
+closed-form kinematics (``kinematics.closed_form``), exact to rounding, three postures per gradient.
 
 Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
 that makes it a tie-break (ε = 10 N/m²: a 1 cm move costs 0.001 N; ``optimiser.sqp.
@@ -139,10 +139,10 @@ class AnalyticSample:
             self.coef_rows = np.tile(self.coef, len(self.mass_factors))
             self.u_max = problem.thrust_max_n / self.weight
         else:  # u per fan; a trunk fan's coefficients move with P_body
-            self.coef_rows = self._fan_rows(np.zeros(3)) if not problem.fan_on_trunk.any() else None
+            self.fixed_rows = self._fan_rows(np.zeros(3)) if not problem.fan_on_trunk.any() else None
             self.u_maxes = np.minimum(problem.fan_max_n, problem.thrust_max_n) / self.weight
         self.evaluations = 0
-        self._cache: dict[bytes, tuple] = {}
+        self._cache: dict[bytes, np.ndarray] = {}
         self._limit_mask = limit_mask(robot)
 
     def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -156,7 +156,7 @@ class AnalyticSample:
         edge = edge_angle_error(pr.edge_origin_xy, com[:, :2], pr.ankle_xy)
         c, s = np.cos(pr.stance.body_yaw), np.sin(pr.stance.body_yaw)
         reach = []
-        for side, sgn in (("left", 1.0), ("right", -1.0)):  # hip − ankle, as in leg_kinematics.leg_ik
+        for side, sgn in (("left", 1.0), ("right", -1.0)):  # hip − ankle, as in the closed form's leg IK
             d = P + sgn * self.hip * np.array([-s, c, 0.0]) - (self.feet[side][0] + self.up)
             reach.append(self.reach ** 2 - np.einsum("ij,ij->i", d, d) - self.margins[1])
         lo, hi = self.robot.lower_rad[legs], self.robot.upper_rad[legs]
@@ -184,7 +184,7 @@ class AnalyticSample:
         if self.one:
             poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
         else:
-            rows = self.coef_rows if self.coef_rows is not None else self._fan_rows(x[:3])
+            rows = self.fixed_rows if self.fixed_rows is not None else self._fan_rows(x[:3])
             poly = rows @ x[3:] - np.outer(self.mass_factors, d).ravel()
         return np.concatenate([poly, cons])
 
@@ -205,7 +205,7 @@ class AnalyticSample:
             return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
         moved = x + np.concatenate([FD_STEP * np.eye(3), np.zeros((3, self.nf))], axis=1)
         g = np.stack([self._constraints(moved[k], com[k, :2], cons[k]) for k in range(3)])
-        rows = self.coef_rows if self.coef_rows is not None else self._fan_rows(x[:3])
+        rows = self.fixed_rows if self.fixed_rows is not None else self._fan_rows(x[:3])
         dg_du = np.vstack([rows, np.zeros((len(g0) - len(rows), self.nf))])
         return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
 
@@ -256,17 +256,19 @@ class AnalyticSample:
         if bounds is not None:
             p0 = np.clip(p0, [b[0] for b in bounds], [b[1] for b in bounds])
         _, _, thrust0 = self.posture_terms(p0[None])
+        free: list[tuple[float | None, float | None]] = [(None, None)] * 3
+        box: list[tuple[float | None, float | None]] = list(bounds or free)
         if self.one:
             u0 = min(float(thrust0[0]) / self.weight, self.u_max) if np.isfinite(thrust0[0]) else self.u_max
-            box = (bounds or [(None, None)] * 3) + [(0.0, self.u_max)]
+            box += [(0.0, self.u_max)]
             x0 = np.append(p0, u0)
         else:
             caps = np.minimum(self.problem.fan_max_n, self.problem.thrust_max_n)
             _, split = least_thrust(self.posture_terms(p0[None])[0][:, :2], self.problem.fans_at(p0[None]),
                                     self.problem.support_polygon, self.problem.mass_kg, caps, self.problem.tolerance)
-            u0 = np.where(np.isfinite(split[0]), split[0] / self.weight, self.u_maxes)
-            box = (bounds or [(None, None)] * 3) + [(0.0, float(u)) for u in self.u_maxes]
-            x0 = np.concatenate([p0, np.minimum(u0, self.u_maxes)])
+            shares = np.where(np.isfinite(split[0]), split[0] / self.weight, self.u_maxes)
+            box += [(0.0, float(u)) for u in self.u_maxes]
+            x0 = np.concatenate([p0, np.minimum(shares, self.u_maxes)])
         res = minimize(self._objective, x0, jac=True, method="SLSQP", bounds=box,
                        options={"maxiter": MAX_ITER, "ftol": 1e-7},
                        constraints=[{"type": "ineq", "fun": self._values, "jac": self._jacobian}])
@@ -399,7 +401,7 @@ def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Fo
     ``SMOOTH_N``: the jitter a local optimum leaves in directions where the thrust is flat goes,
     the thrust stays within SMOOTH_N of what was found. Updates ``found`` and ``evals`` in place."""
     n = len(found)
-    base = [None if f is None else f.thrust for f in found]  # the thrusts the optimiser found
+    base = [np.inf if f is None else f.thrust for f in found]  # the thrusts the optimiser found
     for _ in range(sweeps):
         for i in range(1, n - 1):
             a, b, cur = found[i - 1], found[i + 1], found[i]
@@ -426,11 +428,12 @@ def infeasible_between(robot: RobotModel, found: list[Found | None], between: Ca
     them, at a quarter, half and three quarters of the way."""
     bad = []
     for i in range(len(found) - 1):
-        if found[i] is None or found[i + 1] is None:
+        a, b = found[i], found[i + 1]
+        if a is None or b is None:
             continue
         for lam in (BETWEEN if fractions is None else fractions.get(i, ())):
             sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
-            ok, _ = sample.feasible((1 - lam) * found[i].p + lam * found[i + 1].p)
+            ok, _ = sample.feasible((1 - lam) * a.p + lam * b.p)
             evals[i] += sample.evaluations
             if not ok:
                 bad.append(i)
@@ -499,7 +502,7 @@ def optimise_path(request: PathRequest) -> PathResult:
             found[i] = r
     smooth_path(robot, problems, found, evals)
     scale = np.ones(n)
-    fractions = None
+    fractions: dict[int, list[float]] | None = None
     if row_positions is not None:
         fractions = {}
         for u in np.asarray(row_positions, dtype=float):
@@ -513,16 +516,19 @@ def optimise_path(request: PathRequest) -> PathResult:
         redo = sorted({j for i in bad for j in (i, i + 1)})
         scale[redo] *= 2.0
         for j in redo:
-            anchor = found[j - 1].p if j and found[j - 1] is not None else None
-            sample = AnalyticSample(robot, problems[j], anchor, eps, margin_scale=scale[j])
-            r = solve_from_neighbour(sample, found[j].p)
+            before, here = found[j - 1] if j else None, found[j]
+            assert here is not None  # a segment is checked only between two found samples
+            sample = AnalyticSample(robot, problems[j], None if before is None else before.p, eps,
+                                    margin_scale=scale[j])
+            r = solve_from_neighbour(sample, here.p)
             evals[j] += sample.evaluations
             if r is not None:
                 found[j] = r
     # the chosen postures, evaluated with the planner's solver
     out = []
     for i, pr in enumerate(problems):
-        p = found[i].p if found[i] is not None else nominals[i]
+        chosen = found[i]
+        p = chosen.p if chosen is not None else nominals[i]
         cand = evaluate_candidates(solver, pr, p[None])
         evals[i] += 1
         if not cand.feasible[0]:

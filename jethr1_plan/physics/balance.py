@@ -19,6 +19,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jethr1_plan.robot.model import GRAVITY
 
@@ -45,7 +46,7 @@ __all__ = [
 ]
 
 
-def zmp_with_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, mass_kg: float,
+def zmp_with_thrust(com_xy: ArrayLike, fan_xy: ArrayLike, thrust_n: ArrayLike, mass_kg: float,
                     g: float = GRAVITY) -> np.ndarray:
     """ZMP [m] of (A-1), (A-2) for thrust ``thrust_n`` [N] at ``fan_xy`` and the CoM at ``com_xy``."""
     w = mass_kg * g
@@ -141,7 +142,7 @@ def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
     """The bounds of :func:`thrust_window` before they are intersected: lo [N] (≥ 0), hi [N], and
     ``blocked`` (...,) where an edge no thrust can move the ZMP across lies on the wrong side. The
     window is [lo, hi] where ``lo <= hi`` and not ``blocked``; where ``lo > hi``, lo − hi [N] says how
-    far it is from opening. Computed by ``balance_kernel.windows`` (one implementation for every caller).
+    far it is from opening. Computed by ``physics.compiled.windows`` (one implementation for every caller).
     """
     from jethr1_plan.physics.compiled import windows
 
@@ -292,7 +293,7 @@ def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nda
     the Y axis, so their difference is the unsigned angle between the two directions,
     atan2(|u×v|, u·v). A small value means the CoM lies near the line from the support point to the
     swing ankle. Where either direction is shorter than 1e-9 m the angle is undefined: 0. Computed by
-    ``balance_kernel.edge_errors``.
+    ``physics.compiled.edge_errors``.
     """
     from jethr1_plan.physics.compiled import edge_errors
 

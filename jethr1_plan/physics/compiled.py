@@ -1,6 +1,6 @@
 """The per-candidate physics, compiled (numba): the one implementation every caller uses.
 
-* both legs' closed-form IK and the whole-body CoM (:func:`postures`; ``leg_kinematics.solve_postures``);
+* both legs' closed-form IK and the whole-body CoM (:func:`postures`; ``kinematics.closed_form.solve_postures``);
 * the thrust window of (A-1, A-2) under any tolerance (:func:`windows`; ``balance.thrust_window``);
 * the edge angle of (A-10) (:func:`edge_errors`; ``balance.edge_angle_error``);
 * the legs' reach balls (:func:`into_reach`), and the balance-space objective fusing all of them in
@@ -10,7 +10,7 @@ In numpy the objective is ~1,300 array operations per batch, each a pass over me
 whose per-candidate arithmetic stays in registers (about 10x faster). The numpy statements of the
 same formulas are the tests' oracles (``tests/leg_oracle.py``, ``tests/oracle.py``); the tests hold
 the two to rounding. Everything robot-specific comes in as arrays built from the URDF model by
-``leg_kinematics`` (``closed_form_arrays``, ``kernel_params``).
+``kinematics.closed_form`` (``closed_form_arrays``, ``kernel_params``).
 
 Units: m, rad, kg, N.
 """
@@ -33,7 +33,7 @@ NO_BALANCE, THRUST_MAX, EDGE_ANGLE = int(Reason.NO_BALANCE), int(Reason.THRUST_M
 
 @numba.njit(cache=True, inline="always")
 def _rot_zxyx(cz, sz, cx, sx, cy, sy, v0, v1, v2, cx2, sx2):
-    """Rz·Rx·Ry·Rx2 applied to (v0, v1, v2), as leg_kinematics._rot_zxyx (angles as cosine, sine)."""
+    """Rz·Rx·Ry·Rx2 applied to (v0, v1, v2), as tests/leg_oracle.py's rot_zxyx (angles as cosine, sine)."""
     x, y, z = v0, v1, v2
     y, z = cx2 * y - sx2 * z, sx2 * y + cx2 * z
     z, x = cy * z - sy * x, sy * z + cy * x
@@ -103,7 +103,7 @@ def _leg_ik(q, cs, k0, sgn, geom, px, py, pz, cty, sty, fx, fy, fz, cf, sf):
 
 @numba.njit(cache=True)
 def _com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
-    """Whole-body CoM (leg_kinematics.fast_com) from the joints' cosines and sines ``cs`` (12, 2):
+    """Whole-body CoM (tests/leg_oracle.py's fast_com) from the joints' cosines and sines ``cs`` (12, 2):
     trunk, then the left leg's six links, then the right's."""
     x, y, z = _rot_zxyx(cyaw, syaw, 1.0, 0.0, 1.0, 0.0, trunk[1], trunk[2], trunk[3], 1.0, 0.0)
     m_t = trunk[0]

@@ -15,6 +15,8 @@ energy (B-44) and yaw angular momentum (B-41).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from jethr1_plan.robot.model import SIDES, RobotModel
@@ -79,7 +81,7 @@ def generalized_velocities(p: np.ndarray, yaw: np.ndarray, q: np.ndarray, dt: fl
     return np.column_stack([v_local, np.zeros((len(p), 2)), yawdot, np.gradient(q, dt, axis=0)])
 
 
-def analyse_rows(robot: RobotModel, rows, dt: float) -> dict[str, np.ndarray]:
+def analyse_rows(robot: RobotModel, rows, dt: float) -> dict[str, Any]:
     """Torques (N, J), κ per leg (N, 2) and yaw momentum (N,) for every output row."""
     wrapper = robot.wrapper()
     c = rows.columns

@@ -23,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
@@ -45,7 +46,7 @@ from jethr1_plan.robot.model import GRAVITY, RobotModel, fan_ground_xy
 __all__ = ["FanThrust", "Rows", "SequenceBuilder", "convex_hull", "min_jerk", "swing_row_positions"]
 
 
-def min_jerk(t: np.ndarray) -> np.ndarray:
+def min_jerk(t: ArrayLike) -> np.ndarray:
     """Minimum-jerk time law s(t) = 10t³ − 15t⁴ + 6t⁵ on [0, 1]."""
     t = np.clip(t, 0.0, 1.0)
     return t**3 * (10 - 15 * t + 6 * t * t)
@@ -67,7 +68,8 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     def cross(o, a, b):
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
-    lower, upper = [], []
+    lower: list[np.ndarray] = []
+    upper: list[np.ndarray] = []
     for p in pts:
         while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
             lower.pop()
@@ -139,12 +141,12 @@ class SequenceBuilder:
         carry = np.flatnonzero(share > 0)
         if len(carry) == 1:  # one fan: its own window (Paper A)
             k = int(carry[0])
-            lo, hi = thrust_window(com_xy, fans_xy[k], polygon, self.robot.mass_kg)
-            lo, hi = float(lo), float(min(hi, self.robot.fans[k].max_thrust_n))
+            w_lo, w_hi = thrust_window(com_xy, fans_xy[k], polygon, self.robot.mass_kg)
+            lo, hi = float(w_lo), min(float(w_hi), self.robot.fans[k].max_thrust_n)
         else:
-            lo, hi = shared_window(com_xy, fans_xy[carry], share[carry], polygon, self.robot.mass_kg)
+            w_lo, w_hi = shared_window(com_xy, fans_xy[carry], share[carry], polygon, self.robot.mass_kg)
             fmax = np.array([self.robot.fans[k].max_thrust_n for k in carry])
-            lo, hi = float(lo), float(min(hi, np.min(fmax / share[carry])))
+            lo, hi = float(w_lo), min(float(w_hi), float(np.min(fmax / share[carry])))
         return (lo, hi) if lo <= hi else (np.nan, np.nan)
 
     def _describe_tolerance(self) -> str:

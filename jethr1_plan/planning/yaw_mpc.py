@@ -92,12 +92,12 @@ def build_schedule(scenario, robot, eq4_of_step, sample_paths, horizon_s: float,
             ref.append(yaw_of(np.array([np.interp(u, idx, path[:, j]) for j in range(3)])))
         yaw_prev = yaw_of(path[-1])
     ref += [yaw_prev] * (n_tr + 1)
-    ref = np.unwrap(np.asarray(ref))
-    i_yaw = robot.joint_names.index("left_hip_yaw")
+    reference = np.unwrap(np.asarray(ref))
+    i_yaw = robot.legs["left"].index[0]  # the hip yaw
     lo, hi = -robot.upper_rad[i_yaw], -robot.lower_rad[i_yaw]  # trunk yaw = foot yaw (0) − hip yaw
-    yaw, _, _ = mpc_smooth(ref, dt, horizon_s, alpha, beta, lo, hi)
+    yaw, _, _ = mpc_smooth(reference, dt, horizon_s, alpha, beta, lo, hi)
     samples = []
     for start, path in zip(swing_starts, sample_paths, strict=True):
         frac = inverse_min_jerk(np.arange(len(path)) / (len(path) - 1)) * n_sw  # fractional row index
         samples.append(np.interp(start + frac, np.arange(len(yaw)), yaw))
-    return YawSchedule(row_yaw=yaw, row_ref=ref, sample_yaw=samples)
+    return YawSchedule(row_yaw=yaw, row_ref=reference, sample_yaw=samples)

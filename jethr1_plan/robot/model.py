@@ -11,6 +11,7 @@ import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -209,15 +210,20 @@ def _resolve(name_or_path: str | Path) -> Path:
     raise RobotModelError(str(name_or_path), "robot", f"unknown robot (known: {known or 'none'})")
 
 
-def _require(doc: dict, key: str, src: str, kind: type):
-    cur = doc
+def _require(doc: dict, key: str, src: str, kind: type) -> Any:
+    """The value at the dotted ``key``, of type ``kind`` (a finite float for float).
+
+    Raises:
+        RobotModelError: missing or of another type.
+    """
+    cur: Any = doc
     for part in key.split("."):
         if not isinstance(cur, dict) or part not in cur:
             raise RobotModelError(src, key, "missing")
         cur = cur[part]
     if kind is float and isinstance(cur, int) and not isinstance(cur, bool):
         cur = float(cur)
-    if not isinstance(cur, kind) or (kind is float and not math.isfinite(cur)):
+    if not isinstance(cur, kind) or (isinstance(cur, float) and not math.isfinite(cur)):
         raise RobotModelError(src, key, f"expected {kind.__name__}, got {cur!r}")
     return cur
 
@@ -249,16 +255,16 @@ def _geometry_height(urdf: Path, robot, soles: list[str]) -> float:
     z_sole = min(robot.get_T_world_frame(s)[2, 3] for s in soles)
     top = -math.inf
     for link in ET.parse(urdf).getroot().iter("link"):
-        T_link = robot.get_T_world_frame(link.get("name"))
+        T_link = robot.get_T_world_frame(_attr(link, "name", urdf))
         for vis in link.iter("visual"):
-            org = vis.find("origin")
-            xyz = np.array([float(v) for v in (org.get("xyz", "0 0 0") if org is not None else "0 0 0").split()])
+            xyz = np.array(_numbers_of(vis.find("origin"), "xyz", "0 0 0"))
             geom = vis.find("geometry")
-            box, cyl = geom.find("box"), geom.find("cylinder")
+            box = geom.find("box") if geom is not None else None
+            cyl = geom.find("cylinder") if geom is not None else None
             if box is not None:
-                half = np.array([float(v) for v in box.get("size").split()]) / 2
+                half = np.array(_numbers_of(box, "size", "0 0 0")) / 2
             elif cyl is not None:
-                r, ln = float(cyl.get("radius")), float(cyl.get("length"))
+                r, ln = float(_attr(cyl, "radius", urdf)), float(_attr(cyl, "length", urdf))
                 half = np.array([r, r, ln / 2])
             else:
                 continue
@@ -303,7 +309,7 @@ def _load(name_or_path: str | Path) -> RobotModel:
     frames = set(_frame_names(robot))
     trunk = _require(doc, "trunk", src, str)
     root = ET.parse(urdf).getroot()
-    children = {j.find("child").get("link") for j in root.iter("joint") if j.find("child") is not None}
+    children = {_attr(j.find("child"), "link", urdf) for j in root.iter("joint")}
     roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
     if roots != [trunk]:
         raise RobotModelError(src, "trunk", f"{trunk!r} is not the URDF's root link (the root is {roots})")
@@ -360,7 +366,7 @@ def _load(name_or_path: str | Path) -> RobotModel:
         name = fd.get("name", frame)
         if not isinstance(name, str) or not name.replace("_", "").isalnum():
             raise RobotModelError(src, f"{key}.name", f"expected letters, digits and _, got {name!r}")
-        fans.append(Fan(name, frame, mount, soles.get(mount), fmax, tuple(float(v) for v in off),
+        fans.append(Fan(name, frame, mount, soles.get(mount), fmax, (float(off[0]), float(off[1]), float(off[2])),
                         _optional(fd, "lag_s", src, 0.05)))
     if len({f.name for f in fans}) != len(fans):
         raise RobotModelError(src, "fans", "two fans share a name")
@@ -447,15 +453,33 @@ def urdf_joints(urdf: Path) -> tuple[UrdfJoint, ...]:
     """Every joint of the URDF file, in file order."""
     out = []
     for j in ET.parse(urdf).getroot().iter("joint"):
-        org = j.find("origin")
-        ax = j.find("axis")
-
-        def vec(el, key, default="0 0 0"):
-            return tuple(float(v) for v in ((el.get(key, default) if el is not None else default).split()))
-
-        out.append(UrdfJoint(j.get("name"), j.get("type"), j.find("parent").get("link"), j.find("child").get("link"),
-                             vec(org, "xyz"), vec(org, "rpy"), vec(ax, "xyz", "1 0 0")))
+        org, ax = j.find("origin"), j.find("axis")
+        out.append(UrdfJoint(_attr(j, "name", urdf), _attr(j, "type", urdf), _attr(j.find("parent"), "link", urdf),
+                             _attr(j.find("child"), "link", urdf), _vec3(_numbers_of(org, "xyz", "0 0 0")),
+                             _vec3(_numbers_of(org, "rpy", "0 0 0")), _vec3(_numbers_of(ax, "xyz", "1 0 0"))))
     return tuple(out)
+
+
+def _attr(el: ET.Element | None, key: str, urdf: Path) -> str:
+    """An attribute the URDF must have.
+
+    Raises:
+        RobotModelError: the element or the attribute is missing.
+    """
+    value = el.get(key) if el is not None else None
+    if value is None:
+        raise RobotModelError(str(urdf), key, "missing in the URDF (a joint without parent or child, a link without "
+                              "a name?)")
+    return value
+
+
+def _numbers_of(el: ET.Element | None, key: str, default: str) -> list[float]:
+    """The numbers of a URDF attribute (``default`` where the element or the attribute is absent)."""
+    return [float(v) for v in (el.get(key, default) if el is not None else default).split()]
+
+
+def _vec3(v: list[float]) -> tuple[float, float, float]:
+    return (v[0], v[1], v[2])
 
 
 @functools.lru_cache(maxsize=4)

@@ -218,7 +218,8 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
     (the sole's centre where it carries nothing)."""
     import mujoco
 
-    acc = {s: [0.0, np.zeros(3)] for s in twin.sole_geoms}
+    force = {s: 0.0 for s in twin.sole_geoms}  # [N]
+    moment = {s: np.zeros(3) for s in twin.sole_geoms}  # Σ force · contact point [N·m]
     by_geom = {g: s for s, g in twin.sole_geoms.items()}
     for ci in range(d.ncon):
         con = d.contact[ci]
@@ -226,9 +227,9 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
         if side is not None:
             mujoco.mj_contactForce(twin.model, d, ci, buf)
             z = abs(float(con.frame[2::3] @ buf[:3]))  # the world z component of the contact force
-            acc[side][0] += z
-            acc[side][1] += z * con.pos
-    return {s: (f, m / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, (f, m) in acc.items()}
+            force[side] += z
+            moment[side] = moment[side] + z * con.pos
+    return {s: (f, moment[s] / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, f in force.items()}
 
 
 def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Perturbation | None = None,
@@ -276,7 +277,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     duration = float(track.time_s[-1])
     n_settle, n_plan, n_hold = round(SETTLE_S / dt_c), round(duration / dt_c) + 1, round(HOLD_S / dt_c)
     record_every = max(1, round(1.0 / (RECORD_HZ * dt_c)))
-    rec = {"t": [], "qpos": [], "thrust": [], "cop": [], "com": []} if record else None
+    rec: dict[str, list] | None = {"t": [], "qpos": [], "thrust": [], "cop": [], "com": []} if record else None
     max_tilt = sup_tilt = sup_slip = max_thrust = 0.0
     least_margin, least_at = math.inf, None
     fell = None
@@ -302,7 +303,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         sup = track.support[i]
         loads = _sole_loads(twin, d, buf)
         total = sum(f for f, _ in loads.values())
-        cop = sum(f * c for f, c in loads.values()) / total if total > 1e-9 else None
+        cop = np.asarray(sum(f * c for f, c in loads.values()) / total) if total > 1e-9 else None
         # single support as the robot feels it: the swing sole carries (next to) nothing
         alone = sup != "both" and loads[sup][0] > 0.2 * weight and loads[_other(sup)][0] < UNLOADED * weight
         if alone:

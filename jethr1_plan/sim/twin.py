@@ -22,6 +22,7 @@ Units: SI throughout.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -51,7 +52,7 @@ class TwinParams:
 class Twin:
     """A compiled twin: the MuJoCo model and the ids the rehearsal needs."""
 
-    model: object  # mujoco.MjModel
+    model: Any  # mujoco.MjModel
     robot: RobotModel
     qpos_adr: np.ndarray  # (J,) qpos index of each joint, in the robot's joint order
     dof_adr: np.ndarray  # (J,) qvel index of each joint
