@@ -22,13 +22,14 @@ def main() -> None:
     out = Path(tempfile.mkdtemp(prefix="bench-sim-"))
     assert run(["plan", str(ROOT / "configs" / "jet_hr1_trial_robust.yaml"), "-o", str(out), "--no-progress"]) == 0
     track = load_plan(out / "jet_hr1_trial_robust")
+    runs = {}
     for controller in ("feedforward", "feedback"):
         t0 = time.perf_counter()
-        r = rehearse(track, controller)
-        wall = time.perf_counter() - t0
+        runs[controller] = (rehearse(track, controller), time.perf_counter() - t0)
+    for controller, (r, wall) in runs.items():
+        ratio, loop = r.simulated_s / wall, r.simulated_s / r.wall_s
         print(f"simulate {controller:11s}: {r.simulated_s:.1f} s simulated in {wall:.2f} s wall "
-              f"({r.simulated_s / wall:.1f}x real time, loop alone {r.simulated_s / r.wall_s:.1f}x); "
-              f"survived={r.survived}")
+              f"({ratio:.1f}x real time, loop alone {loop:.1f}x); survived={r.survived}")
 
 
 if __name__ == "__main__":

@@ -168,6 +168,20 @@ def _cap(weight, tol_thrust, tol_mass):
 
 
 @numba.njit(cache=True, inline="always")
+def _bound(lo, hi, blocked, coef, rhs):
+    """One edge's row T·coef ≥ rhs applied to the window [lo, hi]: a lower bound (coef > 0), an upper
+    bound (coef < 0), or, where no thrust moves the ZMP across the edge (coef = 0), blocked if the
+    CoM lies beyond it."""
+    if coef > 0:
+        lo = max(lo, rhs / coef)
+    elif coef < 0:
+        hi = min(hi, rhs / coef)
+    elif rhs > 0:
+        blocked = True
+    return lo, hi, blocked
+
+
+@numba.njit(cache=True, inline="always")
 def _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_com):
     """(lo, hi, blocked) of balance.thrust_window for one CoM and one fan: per edge k,
     F·(a_k − X|a_k|) ≥ M·g·((d_k + ε) + Y|d_k + ε|), d_k and a_k the CoM's and the fan's distances beyond
@@ -177,12 +191,7 @@ def _window(cx, cy, fx, fy, normals, offsets, weight, tol_thrust, tol_mass, tol_
     for k in range(len(offsets)):
         rhs = _edge_need(cx, cy, normals[k, 0], normals[k, 1], offsets[k], weight, tol_mass, tol_com)
         coef = _fan_lift(fx, fy, normals[k, 0], normals[k, 1], offsets[k], tol_thrust)
-        if coef > 0:
-            lo = max(lo, rhs / coef)
-        elif coef < 0:
-            hi = min(hi, rhs / coef)
-        elif rhs > 0:
-            blocked = True
+        lo, hi, blocked = _bound(lo, hi, blocked, coef, rhs)
     return lo, hi, blocked
 
 
@@ -217,12 +226,7 @@ def _window_mix(cx, cy, fxs, fys, share, normals, offsets, weight, tol_thrust, t
         coef = 0.0
         for i in range(len(fxs)):
             coef += share[i] * _fan_lift(fxs[i], fys[i], normals[k, 0], normals[k, 1], offsets[k], tol_thrust)
-        if coef > 0:
-            lo = max(lo, rhs / coef)
-        elif coef < 0:
-            hi = min(hi, rhs / coef)
-        elif rhs > 0:
-            blocked = True
+        lo, hi, blocked = _bound(lo, hi, blocked, coef, rhs)
     return lo, hi, blocked
 
 
