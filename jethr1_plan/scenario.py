@@ -9,15 +9,14 @@ checked (soles fully on cartons, swing paths that clear carton edges). Every pro
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field, replace
 from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from jethr1_plan.errors import InputError
+from jethr1_plan.io.yaml_input import read_document, read_text
 from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
@@ -216,146 +215,18 @@ class Scenario:
         return self.body_yaw.mode
 
 
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                  |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
-                  |\.[0-9_]+(?:[eE][-+][0-9]+)?
-                  |[-+]?\.(?:inf|Inf|INF)
-                  |\.(?:nan|NaN|NAN))$""", re.X),
-    list("-+0123456789."))
-
-
-def _keypath(path) -> str:
-    out = ""
-    for p in path:
-        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
-    return out or "(top level)"
-
-
-def _check_finite(doc, src: str, path=()) -> None:
-    if isinstance(doc, dict):
-        for k, v in doc.items():
-            _check_finite(v, src, (*path, k))
-    elif isinstance(doc, list):
-        for i, v in enumerate(doc):
-            _check_finite(v, src, (*path, i))
-    elif isinstance(doc, float) and not math.isfinite(doc):
-        raise InputError(src, _keypath(path), f"{doc} is not a finite number")
-
-
-def _schema_error(doc: dict, src: str) -> None:
-    import jsonschema
-
-    validator = jsonschema.Draft202012Validator(SCHEMA)
-    errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
-    if not errors:
-        return
-    err = errors[0]
-    # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
-    while err.context:
-        branches: dict = {}
-        for sub in err.context:
-            branches.setdefault(sub.relative_schema_path[0], []).append(sub)
-        matched = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
-        pool = matched[0] if matched else err.context
-        err = sorted(pool, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
-    if err.validator == "additionalProperties":
-        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
-        raise InputError(src, _keypath([*err.absolute_path, extra[0]]) if extra else _keypath(err.absolute_path),
-                         "unknown key")
-    if err.validator == "required":
-        missing = err.message.split("'")[1] if "'" in err.message else err.message
-        raise InputError(src, _keypath([*err.absolute_path, missing]), "missing")
-    raise InputError(src, _keypath(err.absolute_path), _describe(err))
-
-
-def _short(value, limit: int = 60) -> str:
-    """A value for a message: its repr, cut to ``limit`` characters (never a whole document)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + "..."
-
-
-def _describe(err) -> str:
-    """One short line for a JSON-Schema error (jsonschema's own messages print the whole value)."""
-    kind, bound, value = err.validator, err.validator_value, err.instance
-    if kind == "type":
-        return f"expected {bound if isinstance(bound, str) else ' or '.join(bound)}, got {_short(value)}"
-    if kind in ("minimum", "exclusiveMinimum"):
-        return f"{_short(value)} is below the {'smallest' if kind == 'minimum' else 'bound'} allowed, {bound:g}"
-    if kind in ("maximum", "exclusiveMaximum"):
-        return f"{_short(value)} is above the largest allowed, {bound:g}"
-    if kind == "enum":
-        return f"{_short(value)}: expected one of {', '.join(map(str, bound))}"
-    if kind == "const":
-        return f"{_short(value)}: expected {bound!r}"
-    if kind in ("minItems", "maxItems"):
-        return f"{len(value)} items: expected {'at least' if kind == 'minItems' else 'at most'} {bound}"
-    if kind == "maxLength":
-        return f"{len(value)} characters: at most {bound}"
-    return err.message if len(err.message) <= 120 else err.message[:120] + "..."
-
-
-def _count_values(doc, src: str, cap: int = MAX_VALUES) -> None:
-    """Refuse a document that expands (through YAML aliases) to more than ``cap`` values."""
-    stack, count = [doc], 0
-    while stack:
-        node = stack.pop()
-        count += 1
-        if count > cap:
-            raise InputError(src, "(top level)", f"the document expands to more than {cap:,} values (YAML aliases?); "
-                             "a scenario has a few hundred")
-        if isinstance(node, dict):
-            stack.extend(node.keys())
-            stack.extend(node.values())
-        elif isinstance(node, list):
-            stack.extend(node)
-
-
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario file (the robot it names is loaded for its sole size).
 
     Raises:
         InputError: the first problem found (exit 2).
     """
-    src = str(path)
-    try:
-        p = Path(path)
-        if p.is_dir():
-            raise InputError(src, "", "a folder, not a scenario file")
-        with p.open("rb") as f:
-            data = f.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
-    if len(data) > MAX_FILE_BYTES:
-        raise InputError(src, "", f"larger than {MAX_FILE_BYTES:,} bytes: a scenario is a few kilobytes")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(src, "", f"not UTF-8 text (byte {data[exc.start]:#04x} at offset {exc.start})") from None
-    return load_scenario_text(text, src)
+    return load_scenario_text(read_text(path, MAX_FILE_BYTES, "a scenario"), str(path))
 
 
 def load_scenario_text(text: str, src: str) -> Scenario:
     """A scenario from its YAML ``text``; ``src`` names it in messages (see :func:`load_scenario`)."""
-    try:
-        doc = yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark else ""
-        problem = str(getattr(exc, "problem", None) or exc).splitlines()[0][:120]
-        raise InputError(src, where, f"not valid YAML: {problem}") from None
-    except RecursionError:
-        raise InputError(src, "", "not valid YAML: nested too deeply") from None
-    if not isinstance(doc, dict):
-        raise InputError(src, "(top level)", "expected a mapping")
-    _count_values(doc, src)
-    _check_finite(doc, src)
-    _schema_error(doc, src)
+    doc = read_document(text, src, SCHEMA, MAX_VALUES, "a scenario")
     from jethr1_plan.robot.model import load_robot
 
     try:

@@ -18,14 +18,48 @@ import numpy as np
 
 from jethr1_plan.planning.sequence import min_jerk, swing_row_positions
 
-__all__ = ["YawSchedule", "build_schedule", "inverse_min_jerk", "mpc_smooth"]
+__all__ = ["YawSchedule", "build_schedule", "inverse_min_jerk", "mpc_smooth", "yaw_mpc_step", "yaw_step_state"]
+
+
+def yaw_mpc_step(state: np.ndarray, ref: np.ndarray, dt: float, alpha: float = 1.0, beta: float = 1e-10,
+                 lo: float = -np.inf, hi: float = np.inf) -> tuple[float, np.ndarray, np.ndarray]:
+    """One update of (B-37): from the yaw state (θ [rad], θ̇ [rad/s]) over the horizon of the reference
+    ``ref`` (N,) [rad] at steps of ``dt`` [s], minimise α/2‖Θ_ref − Θ‖² + β/2‖Θ̈‖² within [lo, hi].
+    Returns the first acceleration [rad/s²] (B-38), the state after it (B-34) and the predicted yaws (N,) [rad]."""
+    import placo
+
+    n = len(ref)
+    problem = placo.Problem()
+    u = problem.add_variable(n)
+    integ = placo.Integrator(u, np.asarray(state, dtype=float).copy(), 2, dt)
+    for k in range(1, n + 1):
+        problem.add_constraint(integ.expr(k, 0) == ref[k - 1]).configure("soft", alpha)
+        if np.isfinite(lo):
+            problem.add_constraint(integ.expr(k, 0) >= lo)
+        if np.isfinite(hi):
+            problem.add_constraint(integ.expr(k, 0) <= hi)
+    problem.add_constraint(u.expr() == np.zeros(n)).configure("soft", beta)
+    problem.solve()
+    acc = np.asarray(u.value, dtype=float)
+    predicted = np.empty(n)
+    x = np.asarray(state, dtype=float).copy()
+    for k in range(n):
+        x = integ.A @ x + integ.B.ravel() * acc[k]
+        predicted[k] = x[0]
+        if k == 0:
+            first = x.copy()
+    return float(acc[0]), first, predicted
+
+
+def yaw_step_state(state: np.ndarray, acc: float, dt: float) -> np.ndarray:
+    """(B-34): the yaw state (θ, θ̇) after ``dt`` [s] at the angular acceleration ``acc`` [rad/s²]."""
+    theta, rate = state
+    return np.array([theta + dt * rate + 0.5 * dt * dt * acc, rate + dt * acc])
 
 
 def mpc_smooth(ref: np.ndarray, dt: float, horizon_s: float = 1.6, alpha: float = 1.0, beta: float = 1e-10,
                lo: float = -np.inf, hi: float = np.inf) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Receding-horizon yaw (θ [rad], θ̇ [rad/s], θ̈ [rad/s²]) at every step of the reference ``ref``."""
-    import placo
-
     ref = np.asarray(ref, dtype=float)
     m = len(ref)
     n = max(2, round(horizon_s / dt))
@@ -34,19 +68,7 @@ def mpc_smooth(ref: np.ndarray, dt: float, horizon_s: float = 1.6, alpha: float 
     theta, rate, acc = np.zeros(m), np.zeros(m), np.zeros(m)
     for i in range(m):
         theta[i], rate[i] = state
-        problem = placo.Problem()
-        u = problem.add_variable(n)
-        integ = placo.Integrator(u, state.copy(), 2, dt)
-        for k in range(1, n + 1):
-            problem.add_constraint(integ.expr(k, 0) == padded[i + k]).configure("soft", alpha)
-            if np.isfinite(lo):
-                problem.add_constraint(integ.expr(k, 0) >= lo)
-            if np.isfinite(hi):
-                problem.add_constraint(integ.expr(k, 0) <= hi)
-        problem.add_constraint(u.expr() == np.zeros(n)).configure("soft", beta)
-        problem.solve()
-        acc[i] = float(u.value[0])
-        state = integ.A @ state + integ.B.ravel() * acc[i]
+        acc[i], state, _ = yaw_mpc_step(state, padded[i + 1:i + n + 1], dt, alpha, beta, lo, hi)
     return theta, rate, acc
 
 

@@ -27,6 +27,7 @@ __all__ = [
     "Leg",
     "RobotModel",
     "UrdfJoint",
+    "WalkingStructure",
     "fan_ground_xy",
     "load_robot",
     "reach_centre",
@@ -124,6 +125,20 @@ class Fan:
         return self.leg is None
 
 
+@dataclass(frozen=True)
+class WalkingStructure:
+    """What Paper B's walking uses beyond the legs (the robot YAML's ``walking:``; all optional).
+
+    Without a waist the pelvic rotation is the trunk's own yaw (both hip yaws turning together);
+    without arm-swing joints the yaw momentum is not compensated.
+    """
+
+    waist_yaw: str | None = None  # the joint between the pelvis (the trunk) and the torso (B-6's q_WY)
+    torso: str | None = None  # the frame that keeps facing the walk while the pelvis turns
+    arm_swing: tuple[str, ...] = ()  # the joints of the arm-swing QP (B-43's q_up)
+    arm_home_rad: tuple[tuple[str, float], ...] = ()  # the arms' initial pose (B-43's q_up^init) [rad]
+
+
 @dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
 class RobotModel:
     """A loaded robot: the URDF path and what the YAML adds, with figures read from PlaCo.
@@ -157,6 +172,7 @@ class RobotModel:
     armature_kgm2: float  # rotor inertia reflected through each joint's gearbox
     controller: dict  # the thrust feedback law's settings (sim.controller.Gains); {} for the defaults
     twin: dict  # contact settings of the twin (sim.twin.TwinParams); {} for the defaults
+    walking: WalkingStructure = WalkingStructure()
 
     @property
     def leg_index(self) -> np.ndarray:
@@ -341,9 +357,9 @@ def _load(name_or_path: str | Path) -> RobotModel:
     robot.update_kinematics()
     soles = {leg.sole: side for side, leg in legs.items()}
     fans = []
-    fan_docs = doc.get("fans")
-    if not isinstance(fan_docs, list) or not fan_docs:
-        raise RobotModelError(src, "fans", "expected a non-empty list")
+    fan_docs = doc.get("fans", [])
+    if not isinstance(fan_docs, list):
+        raise RobotModelError(src, "fans", "expected a list (empty for a robot without fans)")
     for k, fd in enumerate(fan_docs):
         key = f"fans[{k}]"
         if not isinstance(fd, dict):
@@ -407,7 +423,39 @@ def _load(name_or_path: str | Path) -> RobotModel:
         armature_kgm2=_optional(doc, "servos.armature_kgm2", src, 0.003),
         controller=_numbers(doc, "controller", src),
         twin=_numbers(doc, "twin", src),
+        walking=_walking(doc, names, frames, legs, src),
     )
+
+
+def _walking(doc: dict, joints: tuple[str, ...], frames: set[str], legs: dict[str, Leg], src: str
+             ) -> WalkingStructure:
+    """``walking:``: the waist yaw joint, the torso frame, the arm-swing joints and their home pose."""
+    block = doc.get("walking", {})
+    if not isinstance(block, dict):
+        raise RobotModelError(src, "walking", "expected a mapping")
+    unknown = set(block) - {"waist_yaw", "torso", "arm_swing", "arm_home_rad"}
+    if unknown:
+        raise RobotModelError(src, f"walking.{sorted(unknown)[0]}", "unknown key")
+    leg_joints = {j for leg in legs.values() for j in leg.joints}
+    waist = block.get("waist_yaw")
+    if waist is not None and (not isinstance(waist, str) or waist not in joints or waist in leg_joints):
+        raise RobotModelError(src, "walking.waist_yaw", f"expected a joint of the URDF outside the legs, got {waist!r}")
+    torso = block.get("torso")
+    if torso is not None and (not isinstance(torso, str) or torso not in frames):
+        raise RobotModelError(src, "walking.torso", f"frame {torso!r} not in the URDF")
+    if (waist is None) != (torso is None):
+        raise RobotModelError(src, "walking", "waist_yaw and torso go together")
+    arms = block.get("arm_swing", [])
+    if not isinstance(arms, list) or any(not isinstance(a, str) or a not in joints or a in leg_joints or a == waist
+                                         for a in arms):
+        raise RobotModelError(src, "walking.arm_swing", "expected a list of joints of the URDF outside the legs "
+                              "and the waist")
+    home = block.get("arm_home_rad", {})
+    if not isinstance(home, dict) or any(k not in joints for k in home):
+        raise RobotModelError(src, "walking.arm_home_rad", "expected joint names of the URDF")
+    for k in home:
+        _require(home, k, src, float)
+    return WalkingStructure(waist, torso, tuple(arms), tuple((str(k), float(v)) for k, v in home.items()))
 
 
 def _frame_names(robot) -> list[str]:

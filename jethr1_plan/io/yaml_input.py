@@ -1,0 +1,161 @@
+"""YAML input files (scenarios, walks): bounded reading, parsing, and one-line messages for every problem.
+
+Every problem is an :class:`~jethr1_plan.errors.InputError` naming the file, the key path and what
+is wrong: bytes that are not UTF-8, a file far larger than any input, YAML that does not parse or
+expands (through aliases) to too many values, a number that is not finite, a key the schema does
+not know or a value it does not allow.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import yaml
+
+from jethr1_plan.errors import InputError
+
+__all__ = ["YamlLoader", "check_finite", "check_schema", "count_values", "describe", "keypath", "read_document",
+           "read_text", "short"]
+
+
+class YamlLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string."""
+
+
+YamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                  |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                  |\.[0-9_]+(?:[eE][-+][0-9]+)?
+                  |[-+]?\.(?:inf|Inf|INF)
+                  |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
+
+
+def keypath(path) -> str:
+    """``a.b[2].c``: a key path for a message."""
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
+
+
+def check_finite(doc, src: str, path=()) -> None:
+    """Refuse NaN and infinities anywhere in the document."""
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            check_finite(v, src, (*path, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            check_finite(v, src, (*path, i))
+    elif isinstance(doc, float) and not math.isfinite(doc):
+        raise InputError(src, keypath(path), f"{doc} is not a finite number")
+
+
+def check_schema(doc: dict, src: str, schema: dict) -> None:
+    """The first violation of ``schema`` as one short InputError (unknown key, missing key, type, bound)."""
+    import jsonschema
+
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
+    if not errors:
+        return
+    err = errors[0]
+    # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
+    while err.context:
+        branches: dict = {}
+        for sub in err.context:
+            branches.setdefault(sub.relative_schema_path[0], []).append(sub)
+        matched = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
+        pool = matched[0] if matched else err.context
+        err = sorted(pool, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
+    if err.validator == "additionalProperties":
+        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
+        raise InputError(src, keypath([*err.absolute_path, extra[0]]) if extra else keypath(err.absolute_path),
+                         "unknown key")
+    if err.validator == "required":
+        missing = err.message.split("'")[1] if "'" in err.message else err.message
+        raise InputError(src, keypath([*err.absolute_path, missing]), "missing")
+    raise InputError(src, keypath(err.absolute_path), describe(err))
+
+
+def short(value, limit: int = 60) -> str:
+    """A value for a message: its repr, cut to ``limit`` characters (never a whole document)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def describe(err) -> str:
+    """One short line for a JSON-Schema error (jsonschema's own messages print the whole value)."""
+    kind, bound, value = err.validator, err.validator_value, err.instance
+    if kind == "type":
+        return f"expected {bound if isinstance(bound, str) else ' or '.join(bound)}, got {short(value)}"
+    if kind in ("minimum", "exclusiveMinimum"):
+        return f"{short(value)} is below the {'smallest' if kind == 'minimum' else 'bound'} allowed, {bound:g}"
+    if kind in ("maximum", "exclusiveMaximum"):
+        return f"{short(value)} is above the largest allowed, {bound:g}"
+    if kind == "enum":
+        return f"{short(value)}: expected one of {', '.join(map(str, bound))}"
+    if kind == "const":
+        return f"{short(value)}: expected {bound!r}"
+    if kind in ("minItems", "maxItems"):
+        return f"{len(value)} items: expected {'at least' if kind == 'minItems' else 'at most'} {bound}"
+    if kind == "maxLength":
+        return f"{len(value)} characters: at most {bound}"
+    return err.message if len(err.message) <= 120 else err.message[:120] + "..."
+
+
+def count_values(doc, src: str, cap: int, what: str) -> None:
+    """Refuse a document that expands (through YAML aliases) to more than ``cap`` values."""
+    stack, count = [doc], 0
+    while stack:
+        node = stack.pop()
+        count += 1
+        if count > cap:
+            raise InputError(src, "(top level)", f"the document expands to more than {cap:,} values (YAML aliases?); "
+                             f"{what} has a few hundred")
+        if isinstance(node, dict):
+            stack.extend(node.keys())
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+
+
+def read_text(path: str | Path, max_bytes: int, what: str) -> str:
+    """The UTF-8 text of ``path`` (at most ``max_bytes``); ``what`` names the kind of file in messages."""
+    src = str(path)
+    try:
+        p = Path(path)
+        if p.is_dir():
+            raise InputError(src, "", f"a folder, not {what} file")
+        with p.open("rb") as f:
+            data = f.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise InputError(src, "", f"larger than {max_bytes:,} bytes: {what} is a few kilobytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(src, "", f"not UTF-8 text (byte {data[exc.start]:#04x} at offset {exc.start})") from None
+
+
+def read_document(text: str, src: str, schema: dict, max_values: int, what: str) -> dict:
+    """The YAML mapping in ``text``, its size, numbers and structure checked against ``schema``."""
+    try:
+        doc = yaml.load(text, Loader=YamlLoader)  # a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}" if mark else ""
+        problem = str(getattr(exc, "problem", None) or exc).splitlines()[0][:120]
+        raise InputError(src, where, f"not valid YAML: {problem}") from None
+    except RecursionError:
+        raise InputError(src, "", "not valid YAML: nested too deeply") from None
+    if not isinstance(doc, dict):
+        raise InputError(src, "(top level)", "expected a mapping")
+    count_values(doc, src, max_values, what)
+    check_finite(doc, src)
+    check_schema(doc, src, schema)
+    return doc
