@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.io.yaml_input import read_document, read_text
+from jethr1_plan.io.yaml_input import fill_dataclass, read_document, read_text
 from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
@@ -293,11 +292,11 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     fit = dict(opt.get("fitness", {}))
     if "f3_unit" in fit:
         fit["f3_unit_m"] = F3_UNITS[fit.pop("f3_unit")]
-    constants = _fill(FitnessConstants(weight_n=robot.mass_kg * GRAVITY), fit)
+    constants = fill_dataclass(FitnessConstants(weight_n=robot.mass_kg * GRAVITY), fit)
     base = OptimiserConfig()
-    optimiser = _fill(base, {k: v for k, v in opt.items() if k in ("method", "bits")},
-                      initial=_fill(base.initial, opt.get("initial", {})),
-                      intermediate=_fill(base.intermediate, opt.get("intermediate", {})), constants=constants,
+    optimiser = fill_dataclass(base, {k: v for k, v in opt.items() if k in ("method", "bits")},
+                      initial=fill_dataclass(base.initial, opt.get("initial", {})),
+                      intermediate=fill_dataclass(base.intermediate, opt.get("intermediate", {})), constants=constants,
                       **{f"gaex_{k}": v for k, v in opt.get("gaex", {}).items()},
                       **{f"sqp_{k}": v for k, v in opt.get("sqp", {}).items()})
     if optimiser.gaex_step_m > optimiser.gaex_half_m:
@@ -311,10 +310,11 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")
     robust = {TOLERANCE_KEYS[k]: v for k, v in bal.pop("robust", {}).items()}
-    balance = _fill(BalanceConfig(thrust_max_n=fan_max), bal, robust=_fill(BalanceConfig().robust, robust))
+    balance = fill_dataclass(BalanceConfig(thrust_max_n=fan_max), bal,
+                             robust=fill_dataclass(BalanceConfig().robust, robust))
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
-    timing = _fill(Timing(), doc.get("timing", {}))
+    timing = fill_dataclass(Timing(), doc.get("timing", {}))
     rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
     if rows > MAX_ROWS:
         raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
@@ -322,20 +322,9 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     return Scenario(
         source=src, name=doc.get("name", Path(src).stem), robot=robot, seed=doc.get("seed", 0),
         start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
-        body_yaw=_fill(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
+        body_yaw=fill_dataclass(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
         nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
 
 
 #: the YAML's names of a Tolerance's fields (``balance.robust``)
 TOLERANCE_KEYS = {"thrust_error": "thrust", "mass_error": "mass", "com_error_m": "com_m"}
-
-
-def _fill(default, given: dict, **more):
-    """``default`` (a frozen dataclass: the defaults, stated once there) with the keys a scenario gives
-    (validated by the schema) and ``more``; numbers of float fields as floats."""
-    values = {**given, **more}
-    for f in dataclass_fields(default):
-        v = values.get(f.name)
-        if f.type in ("float", float) and isinstance(v, int) and not isinstance(v, bool):
-            values[f.name] = float(v)
-    return replace(default, **values)

@@ -17,6 +17,7 @@ __all__ = [
     "TEXT_COLUMNS",
     "columns",
     "number_text",
+    "read_csv_table",
     "read_trajectory_csv",
     "trajectory_csv",
     "yaw_quaternion",
@@ -93,13 +94,26 @@ MAX_CSV_BYTES = 200_000_000  # a trajectory is ~1 MB per 1,000 rows; anything la
 
 def read_trajectory_csv(text: str, source: str = "trajectory.csv", robot: RobotModel | None = None
                         ) -> dict[str, np.ndarray]:
-    """Parse a trajectory CSV into columns (numbers as float arrays, NaN where empty).
+    """Parse a plan's trajectory CSV into columns (numbers as float arrays, NaN where empty).
 
     With ``robot``, every column must be one of that robot's plans; without, of any robot's.
 
     Raises:
+        InputError: see :func:`read_csv_table`.
+    """
+    known = set(columns(robot)) if robot is not None else None
+    return read_csv_table(text, source, (lambda h: h in known) if known is not None else _known, TEXT_COLUMNS,
+                          ("feasible",))
+
+
+def read_csv_table(text: str, source: str, known, text_columns: tuple[str, ...] = (),
+                   bool_columns: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+    """Columns of a CSV text whose header names are all ``known`` (a predicate): text columns as
+    object arrays, true/false columns as bool, the others as floats (NaN where empty).
+
+    Raises:
         InputError: a header that is not this format's, a row with the wrong number of cells (a file
-            cut mid-line), a number that does not parse, a ``feasible`` that is not true/false.
+            cut mid-line), a number that does not parse, a boolean that is not true/false.
     """
     from jethr1_plan.errors import InputError
 
@@ -111,8 +125,7 @@ def read_trajectory_csv(text: str, source: str = "trajectory.csv", robot: RobotM
     if not lines:
         raise InputError(source, "header", "empty file")
     header = lines[0].split(",")
-    known = set(columns(robot)) if robot is not None else None
-    unknown = [h for h in header if (h not in known if known is not None else not _known(h))]
+    unknown = [h for h in header if not known(h)]
     if unknown:
         raise InputError(source, "header", f"unknown column {_short(unknown[0])!r}")
     if len(set(header)) != len(header):
@@ -127,9 +140,9 @@ def read_trajectory_csv(text: str, source: str = "trajectory.csv", robot: RobotM
     out: dict[str, np.ndarray] = {}
     for k, name in enumerate(header):
         col = [r[k] for r in cells]
-        if name in TEXT_COLUMNS:
+        if name in text_columns:
             out[name] = np.array(col, dtype=object)
-        elif name == "feasible":
+        elif name in bool_columns:
             bad = next((i for i, v in enumerate(col) if v not in ("true", "false")), None)
             if bad is not None:
                 raise InputError(source, f"row {bad + 1} {name}", f"{_short(col[bad])!r} is not true or false")

@@ -10,14 +10,15 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import fields, replace
 from pathlib import Path
 
 import yaml
 
 from jethr1_plan.errors import InputError
 
-__all__ = ["YamlLoader", "check_finite", "check_schema", "count_values", "describe", "keypath", "read_document",
-           "read_text", "short"]
+__all__ = ["YamlLoader", "check_finite", "check_schema", "count_values", "describe", "fill_dataclass", "keypath",
+           "read_document", "read_text", "short"]
 
 
 class YamlLoader(yaml.SafeLoader):
@@ -159,3 +160,14 @@ def read_document(text: str, src: str, schema: dict, max_values: int, what: str)
     check_finite(doc, src)
     check_schema(doc, src, schema)
     return doc
+
+
+def fill_dataclass(default, given: dict, **more):
+    """``default`` (a frozen dataclass: the defaults, stated once there) with the keys a document gives
+    (validated by its schema) and ``more``; integers given for float fields as floats."""
+    values = {**given, **more}
+    for f in fields(default):
+        v = values.get(f.name)
+        if f.type in ("float", float) and isinstance(v, int) and not isinstance(v, bool):
+            values[f.name] = float(v)
+    return replace(default, **values)

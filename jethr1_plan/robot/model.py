@@ -137,6 +137,7 @@ class WalkingStructure:
     torso: str | None = None  # the frame that keeps facing the walk while the pelvis turns
     arm_swing: tuple[str, ...] = ()  # the joints of the arm-swing QP (B-43's q_up)
     arm_home_rad: tuple[tuple[str, float], ...] = ()  # the arms' initial pose (B-43's q_up^init) [rad]
+    com_height_m: float | None = None  # the LIPM's z_c a walk uses unless it states its own [m]
 
 
 @dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
@@ -433,7 +434,7 @@ def _walking(doc: dict, joints: tuple[str, ...], frames: set[str], legs: dict[st
     block = doc.get("walking", {})
     if not isinstance(block, dict):
         raise RobotModelError(src, "walking", "expected a mapping")
-    unknown = set(block) - {"waist_yaw", "torso", "arm_swing", "arm_home_rad"}
+    unknown = set(block) - {"waist_yaw", "torso", "arm_swing", "arm_home_rad", "com_height_m"}
     if unknown:
         raise RobotModelError(src, f"walking.{sorted(unknown)[0]}", "unknown key")
     leg_joints = {j for leg in legs.values() for j in leg.joints}
@@ -455,7 +456,12 @@ def _walking(doc: dict, joints: tuple[str, ...], frames: set[str], legs: dict[st
         raise RobotModelError(src, "walking.arm_home_rad", "expected joint names of the URDF")
     for k in home:
         _require(home, k, src, float)
-    return WalkingStructure(waist, torso, tuple(arms), tuple((str(k), float(v)) for k, v in home.items()))
+    height = None
+    if "com_height_m" in block:
+        height = _require(doc, "walking.com_height_m", src, float)
+        if not 0.0 < height < 10.0:
+            raise RobotModelError(src, "walking.com_height_m", f"{height:g} m: expected a height in (0, 10) m")
+    return WalkingStructure(waist, torso, tuple(arms), tuple((str(k), float(v)) for k, v in home.items()), height)
 
 
 def _frame_names(robot) -> list[str]:
