@@ -16,60 +16,11 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from jethr1_plan.cli_common import FiniteFloat, Progress, err_console, range_spec, report_kept
+from jethr1_plan.cli_walk import walk_cmd, walk_sweep_cmd
 from jethr1_plan.errors import InfeasiblePlan, InputError, Jethr1Error
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
-
-err_console = Console(stderr=True)
-if not err_console.is_terminal:  # logs and CI: no terminal width to respect, keep tables readable
-    err_console = Console(stderr=True, width=160)
-
-
-class FiniteFloat(click.ParamType):
-    """A finite float within [lo, hi] (click's FloatRange lets NaN through: NaN < lo is False)."""
-
-    name = "float"
-
-    def __init__(self, lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False):
-        self.lo, self.hi, self.lo_open = lo, hi, lo_open
-
-    def convert(self, value, param, ctx):
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            self.fail(f"{value!r} is not a number", param, ctx)
-        if not math.isfinite(x):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        if x < self.lo or (self.lo_open and x == self.lo) or x > self.hi:
-            self.fail(f"{x:g} is outside {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]", param, ctx)
-        return x
-
-
-class _Progress:
-    """A rich progress bar on stderr, off when stderr is not a terminal or with --no-progress."""
-
-    def __init__(self, enabled: bool, label: str):
-        self.enabled = enabled and err_console.is_terminal
-        self.label = label
-        self._p = None
-
-    def __enter__(self):
-        if self.enabled:
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self._p = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                               TimeElapsedColumn(), console=err_console, transient=True)
-            self._p.__enter__()
-            self._task = self._p.add_task(self.label, total=None)
-        return self
-
-    def __call__(self, label: str, done: int, total: int) -> None:
-        if self._p is not None:
-            self._p.update(self._task, completed=done, total=total, description=f"{self.label}: {label}")
-
-    def __exit__(self, *exc):
-        if self._p is not None:
-            self._p.__exit__(*exc)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -118,11 +69,6 @@ def robot_show(name: str, as_json: bool) -> None:
 LAYOUT = Path(__file__).resolve().parent / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
 
 
-def _report_kept(folder: Path, kept: list[str]) -> None:
-    if kept:
-        err_console.print(f"kept {', '.join(kept)} in {folder}/ (files jethr1 did not write)", markup=False)
-
-
 @main.command()
 @click.argument("scenario_path", metavar="SCENARIO.yaml", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "outdir", default="out", show_default=True, type=click.Path(file_okay=False,
@@ -157,15 +103,15 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
     check_writable(outdir)
     try:
-        with _Progress(not no_progress, scenario.name) as progress:
+        with Progress(not no_progress, scenario.name) as progress:
             result = run_plan(scenario, method=optimiser, seed=seed, progress=progress, keep_going=write_infeasible,
                               jobs=jobs, kinematics=kinematics, strict_torque=strict_torque)
     except InfeasiblePlan as exc:
-        _report_kept(*write_summary_only(scenario, outdir, exc.summary))
+        report_kept(*write_summary_only(scenario, outdir, exc.summary))
         raise
     summary = plan_summary(result)
     folder, kept = write_plan_outputs(result, outdir, summary, trajectory=True, strict_torque=strict_torque)
-    _report_kept(folder, kept)
+    report_kept(folder, kept)
     if as_json:
         click.echo(json_text(summary), nl=False)
     bad = result.first_infeasible
@@ -271,7 +217,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                      z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
                      method=method, pbody_resolution_m=pbody_resolution)
     _require_dask(executor)
-    with _Progress(not no_progress, "balance space") as progress:
+    with Progress(not no_progress, "balance space") as progress:
         result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     checked = verify_members(result)
     doc = summary(result)
@@ -323,7 +269,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     from jethr1_plan.io.atomic import check_writable
 
     check_writable(outdir)
-    with _Progress(not no_progress, "batch") as progress:
+    with Progress(not no_progress, "batch") as progress:
         records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
     code = batch_exit_code(records)
     doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
@@ -410,7 +356,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, as_j
     from jethr1_plan.io.atomic import check_writable
 
     check_writable(outdir.parent)
-    with _Progress(not no_progress, "compare") as progress:
+    with Progress(not no_progress, "compare") as progress:
         doc = compare(scenario, names, seed, reference, progress, modes)
     with staged_directory(outdir, frozenset({"compare.json", "compare_trajectories.png", "compare_time.png"})
                           ) as staging:
@@ -487,21 +433,6 @@ def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as
         c.print(f"numerical reach, pelvis {name}: {n['step_m']:.3f} m (PlaCo IK converged: {n['placo_converged']})")
 
 
-def _range_spec(text: str, option: str, max_count: int = 200) -> list[float]:
-    """``LO:HI:STEP`` [m] (inclusive) to its values; InputError naming ``option`` when malformed."""
-    parts = text.split(":")
-    try:
-        lo, hi, step = (float(v) for v in parts)
-    except ValueError:
-        raise InputError(option, text, "expected LO:HI:STEP, three numbers") from None
-    if not all(math.isfinite(v) for v in (lo, hi, step)) or step <= 0 or hi < lo or lo <= 0:
-        raise InputError(option, text, "expected finite 0 < LO <= HI and STEP > 0")
-    count = math.floor((hi - lo) / step + 1e-9) + 1
-    if count > max_count:
-        raise InputError(option, text, f"{count} values: at most {max_count}")
-    return [round(lo + k * step, 9) for k in range(count)]
-
-
 @main.command("ditch-curve")
 @click.option("--gaps", default="0.30:0.50:0.01", show_default=True, help="Ditch widths LO:HI:STEP [m].")
 @click.option("--scales", default="0,0.25,0.5,0.75,1", show_default=True,
@@ -522,7 +453,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.scenario import load_scenario
 
-    gap_values = np.array(_range_spec(gaps, "--gaps"))
+    gap_values = np.array(range_spec(gaps, "--gaps"))
     try:
         scale_values = tuple(float(v) for v in scales.split(","))
     except ValueError:
@@ -536,7 +467,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     if optimiser:
         base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
     robot = base.robot
-    with _Progress(not no_progress, "ditch curve") as progress:
+    with Progress(not no_progress, "ditch curve") as progress:
         doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
     with staged_directory(outdir, frozenset({"ditch_curve.json", "ditch_curve.png"})) as staging:
         tmp = staging.path
@@ -594,7 +525,7 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
     else:
         perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
-    with _Progress(not no_progress, f"simulate {plan_dir}") as progress:
+    with Progress(not no_progress, f"simulate {plan_dir}") as progress:
         runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw)
     from jethr1_plan.sim.controller import Gains
 
@@ -629,6 +560,10 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
     if ok < len(runs):
         raise click.exceptions.Exit(6)
+
+
+main.add_command(walk_cmd)
+main.add_command(walk_sweep_cmd)
 
 
 def run(argv: list[str] | None = None) -> int:

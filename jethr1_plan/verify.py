@@ -148,6 +148,15 @@ def _json(path: Path) -> dict:
     return doc
 
 
+def _csv_header(path: Path) -> list[str] | None:
+    """The first line of a CSV split at commas (None: no such file or not text)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline(100_000).strip().split(",")
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
 def _scenario_for(summary_path: Path, summary: dict | None, explicit: Path | None):
     """The scenario to check against: ``--scenario`` (must exist), else the file summary.json names
     (as written, then beside summary.json), else the copy summary.json holds."""
@@ -191,6 +200,14 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
         raise InputError(str(path), "", "no such file (expected trajectory.csv, trajectory.mcap or their folder)")
     summary_path = folder / "summary.json"
     summary = _json(summary_path) if summary_path.is_file() else None
+    from jethr1_plan.verify_walk import is_walk, verify_walk
+
+    if is_walk(summary, _csv_header(folder / "trajectory.csv")):
+        if summary is None:
+            raise InputError(str(summary_path), "", "a walk is verified against its summary.json, which is missing")
+        if scenario is not None:
+            raise InputError(str(scenario), "--scenario", "a walk has no scenario (its summary.json states the walk)")
+        return verify_walk(folder, summary, files)
     sc = _scenario_for(summary_path, summary, scenario)
     robot_name = (summary or {}).get("robot_yaml") or (summary or {}).get("robot") or (sc.robot if sc else "jethr1")
     if summary and not (isinstance(robot_name, str) and Path(robot_name).is_file()) and sc is not None:

@@ -1,5 +1,5 @@
 """A generated walk rehearsed in the MuJoCo twin (``sim.twin``): the position servos follow the walk's
-joint rows from its first posture, and the run falls when the trunk tilts more than
+joint rows (or their sag-compensated commands) from its first posture, and the run falls when the trunk tilts more than
 ``FALL_TILT_DEG`` from level or sinks more than ``FALL_DROP_M`` below the plan; it ends with both
 soles measured against their last footholds.
 """
@@ -38,8 +38,9 @@ def _tilt_deg(R: np.ndarray) -> float:
     return math.degrees(math.acos(float(np.clip(R[2, 2], -1.0, 1.0))))
 
 
-def rehearse_walk(walk) -> WalkRun:
-    """Replay ``walk`` (a ``walking.generator.Walk``) in the twin of its robot on flat ground."""
+def rehearse_walk(walk, commands_rad: np.ndarray | None = None) -> WalkRun:
+    """Replay ``walk`` (a ``walking.generator.Walk``) in the twin of its robot on flat ground, the
+    servos following ``commands_rad`` (N, J) (default: the joint rows themselves)."""
     import mujoco
 
     robot = walk.robot
@@ -54,6 +55,7 @@ def rehearse_walk(walk) -> WalkRun:
         d.qpos[3:7] = [w, x, y, z]
         d.qpos[twin.qpos_adr] = walk.q[i]
 
+    cmd = walk.q if commands_rad is None else np.asarray(commands_rad, dtype=float)
     place(0)
     mujoco.mj_forward(m, d)
     # the first posture rests its soles on the floor: lift or lower the whole robot onto it
@@ -71,7 +73,7 @@ def rehearse_walk(walk) -> WalkRun:
         x = min(max(t * rate, 0.0), rows - 1.0)
         i = min(int(x), rows - 2)
         a = x - i
-        d.ctrl[:] = (1 - a) * walk.q[i] + a * walk.q[i + 1]
+        d.ctrl[:] = (1 - a) * cmd[i] + a * cmd[i + 1]
         mujoco.mj_step(m, d)
         if k % 10:
             continue

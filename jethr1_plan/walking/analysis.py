@@ -18,11 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jethr1_plan.kinematics.base import quaternion_from_matrix
 from jethr1_plan.walking.com_mpc import GRAVITY_MS2
 from jethr1_plan.walking.generator import Walk
-from jethr1_plan.walking.timeline import SIDES, polygon_of
+from jethr1_plan.walking.timeline import SIDES, polygon_margin, polygon_of
 
-__all__ = ["Verdict", "WalkAnalysis", "analyse", "energy_two_steps", "judge"]
+__all__ = ["Verdict", "WalkAnalysis", "analyse", "energy_two_steps", "judge", "zmp_from_momentum"]
 
 
 @dataclass
@@ -62,7 +63,7 @@ def analyse(walk: Walk) -> WalkAnalysis:
     mass = robot.mass_kg
     for i in range(n):
         T = walk.base[i]
-        quat = _quaternion(T[:3, :3])
+        quat = quaternion_from_matrix(T[:3, :3])
         w.state.q[:3] = T[:3, 3]
         w.state.q[3:7] = quat
         w.state.q[7:] = walk.q[i]
@@ -88,17 +89,13 @@ def analyse(walk: Walk) -> WalkAnalysis:
         wrench, *_ = np.linalg.lstsq(Jc[:, :6].T, full[:6], rcond=None)
         tau[i] = full[6:] - Jc[:, 6:].T @ wrench
         h[i] = w.centroidal_map() @ v[i]
-    hdot = np.gradient(h, dt, axis=0)
-    c = walk.com
-    fz = hdot[:, 2] + mass * GRAVITY_MS2
-    zmp = np.column_stack([c[:, 0] - (c[:, 2] * hdot[:, 0] + hdot[:, 4]) / fz,
-                           c[:, 1] - (c[:, 2] * hdot[:, 1] - hdot[:, 3]) / fz])
+    zmp = zmp_from_momentum(walk.com, h, dt, mass)
     margin = np.zeros(n)
     polygons: dict[tuple, np.ndarray] = {}
     for i, key in enumerate(walk.timeline.support_keys(walk.t)):
         if key not in polygons:
             polygons[key] = polygon_of(key, robot.sole_length_m, robot.sole_width_m, 0.0)
-        margin[i] = _margin(zmp[i], polygons[key])
+        margin[i] = polygon_margin(zmp[i], polygons[key])
     err_m = np.max([np.linalg.norm(walk.feet[s][:, :3, 3] - walk.feet_target[s], axis=1) for s in SIDES], axis=0)
     err_rad = np.max([np.linalg.norm(walk.feet[s][:, :3, :3] - np.eye(3), axis=(1, 2)) / np.sqrt(2) for s in SIDES],
                      axis=0)
@@ -107,20 +104,13 @@ def analyse(walk: Walk) -> WalkAnalysis:
     return WalkAnalysis(kappa, tau, zmp, margin, energy_two_steps(walk, tau, v[:, 6:]), err_m, err_rad, knee_margin)
 
 
-def _margin(p: np.ndarray, polygon: np.ndarray) -> float:
-    """Signed distance [m] of ``p`` inside a counter-clockwise convex ``polygon`` (negative: outside)."""
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
-    return float(np.min(np.einsum("kd,kd->k", normals, polygon) - normals @ p))
-
-
-def _quaternion(R: np.ndarray) -> np.ndarray:
-    """(x, y, z, w) of a rotation matrix."""
-    w = np.sqrt(max(0.0, 1.0 + R[0, 0] + R[1, 1] + R[2, 2])) / 2.0
-    x = np.copysign(np.sqrt(max(0.0, 1.0 + R[0, 0] - R[1, 1] - R[2, 2])) / 2.0, R[2, 1] - R[1, 2])
-    y = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] + R[1, 1] - R[2, 2])) / 2.0, R[0, 2] - R[2, 0])
-    z = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] - R[1, 1] + R[2, 2])) / 2.0, R[1, 0] - R[0, 1])
-    return np.array([x, y, z, w])
+def zmp_from_momentum(com: np.ndarray, h: np.ndarray, dt: float, mass_kg: float) -> np.ndarray:
+    """(N, 2) the ZMP on the ground [m] of a motion sampled every ``dt`` [s]: CoM ``com`` (N, 3) [m] and
+    centroidal momentum ``h`` (N, 6) = (p [N·s], L [N·m·s]), its rate by central differences."""
+    hdot = np.gradient(h, dt, axis=0)
+    fz = hdot[:, 2] + mass_kg * GRAVITY_MS2
+    return np.column_stack([com[:, 0] - (com[:, 2] * hdot[:, 0] + hdot[:, 4]) / fz,
+                            com[:, 1] - (com[:, 2] * hdot[:, 1] - hdot[:, 3]) / fz])
 
 
 def energy_two_steps(walk: Walk, tau: np.ndarray, qd: np.ndarray) -> float:
@@ -145,10 +135,16 @@ class Verdict:
     time_s: float | None = None
 
 
+def _over_torque(robot, tau: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(tau) / robot.servo_limit_nm))
+    return f"{robot.joint_names[k]} needs {abs(tau[k]):.2f} N·m, beyond its {robot.servo_limit_nm[k]:g} N·m"
+
+
 def judge(walk: Walk, a: WalkAnalysis, foot_tol_m: float = 1e-3, foot_tol_rad: float = 0.01,
           knee_margin_rad: float = 0.1, zmp_margin_m: float = 0.0, edge_rows: int = 2) -> Verdict:
     """The first row that breaks a criterion: a sole off its target, a knee within ``knee_margin_rad``
-    of straight (near the singularity the IK loses the foot), a joint beyond its limits, the
+    of straight (near the singularity the IK loses the foot), a joint beyond its limits or a torque
+    beyond its servo's, the
     multibody ZMP outside the support (the first and last ``edge_rows`` rows excepted: one-sided
     differences)."""
     robot = walk.robot
@@ -159,6 +155,7 @@ def judge(walk: Walk, a: WalkAnalysis, foot_tol_m: float = 1e-3, foot_tol_rad: f
                                                        f"(margin {knee_margin_rad:g} rad)"),
         (np.any((walk.q < robot.lower_rad - 1e-6) | (walk.q > robot.upper_rad + 1e-6), axis=1),
          lambda i: "a joint beyond its limits"),
+        (np.any(np.abs(a.tau) > robot.servo_limit_nm, axis=1), lambda i: _over_torque(robot, a.tau[i])),
     ]
     zmp_bad = a.zmp_margin < zmp_margin_m
     zmp_bad[:edge_rows] = False

@@ -30,7 +30,7 @@ class PelvisRotation:
     """The pelvic rotation (B-27..B-38); ``mode`` none keeps the pelvis facing the walk."""
 
     mode: str = "paper_b"  # paper_b | none
-    k_pel: float = 0.25  # (B-31, B-32); Paper B does not state it: see the README
+    k_pel: float = 0.4  # (B-31, B-32); Paper B does not state it: chosen by walk-sweep, see the README
     horizon_s: float = 1.6  # the yaw MPC's horizon (Paper B: 1.6 s)
     alpha: float = 1.0  # α_pel
     beta: float = 1e-10  # β_pel
@@ -91,10 +91,10 @@ def generalized_velocity(T0: np.ndarray, T1: np.ndarray, q0: np.ndarray, q1: np.
     """(6 + J,): the base's linear and angular velocity in its own frame, then the joint rates, of
     the motion from (T0, q0) to (T1, q1) over ``dt`` [s] (pinocchio's free-flyer convention; the
     angular velocity from the rotation vector of R0ᵀR1)."""
-    R0, R1 = T0[:3, :3], T1[:3, :3]
+    R0, R1 = np.ascontiguousarray(T0[:3, :3]), np.ascontiguousarray(T1[:3, :3])
     out = np.empty(6 + len(q0))
-    out[:3] = R1.T @ (T1[:3, 3] - T0[:3, 3]) / dt
-    R = R0.T @ R1
+    out[:3] = np.ascontiguousarray(R1.T) @ (T1[:3, 3] - T0[:3, 3]) / dt
+    R = np.ascontiguousarray(R0.T) @ R1
     c = min(1.0, max(-1.0, (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0))
     angle = math.acos(c)
     k = 0.5 if angle < 1e-9 else angle / (2.0 * math.sin(angle))

@@ -64,7 +64,8 @@ class SuccessCriteria:
     foot_tolerance_rad: float = 0.01  # and this of flat, facing the walk [rad]
     knee_margin_rad: float = 0.1  # no knee closer than this to straight (the leg's singularity) [rad]
     zmp_margin_m: float = 0.0  # the multibody ZMP at least this far inside the support polygon [m]
-    rehearse: bool = True  # and the walk rehearsed in the MuJoCo twin without a fall
+    rehearse: bool = True  # and the walk rehearsed in the MuJoCo twin without a fall,
+    landing_tolerance_m: float = 0.02  # its soles ending within this of their last footholds [m]
 
 
 @dataclass(frozen=True)
@@ -160,7 +161,8 @@ SCHEMA = _obj({
                      "foot_tolerance_rad": {"type": "number", "exclusiveMinimum": 0, "maximum": 3.2},
                      "knee_margin_rad": {"type": "number", "minimum": 0, "maximum": 3.2},
                      "zmp_margin_m": {"type": "number", "minimum": -1, "maximum": 1},
-                     "rehearse": {"type": "boolean"}}),
+                     "rehearse": {"type": "boolean"},
+                     "landing_tolerance_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 10}}),
 })
 
 
