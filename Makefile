@@ -33,6 +33,7 @@ bench: install
 	$(BIN)/python bench/bench_plan.py
 	$(BIN)/python bench/bench_balance_space.py
 	$(BIN)/python bench/bench_simulate.py
+	$(BIN)/python bench/bench_walk.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

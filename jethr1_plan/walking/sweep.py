@@ -37,8 +37,7 @@ def walk_point(spec: WalkSpec) -> dict[str, Any]:
             "peak_yaw_momentum_arms_held_nms": r.armless_peak_momentum_nms,
             "least_knee_margin_rad": float(np.min(a.knee_margin_rad)),
             "least_zmp_margin_m": float(np.min(a.zmp_margin[2:-2])) if len(a.zmp_margin) > 4 else None,
-            "rehearsal_survived": None if r.rehearsal is None else r.rehearsal.survived,
-            "realtime_factor": float(w.timeline.duration_s / w.wall_s) if w.wall_s > 0 else None}
+            "rehearsal_survived": None if r.rehearsal is None else r.rehearsal.survived}
 
 
 def max_contiguous_step(lengths_m: list[float], ok: list[bool]) -> float | None:
@@ -99,7 +98,10 @@ def sweep(spec: WalkSpec, lengths_m: list[float], modes: list[str], jobs: int = 
     max_step = {m: max_contiguous_step(lengths_m, [r["ok"] for r in rows if r["mode"] == m]) for m in modes}
     longest_ok = {m: max((r["step_m"] for r in rows if r["mode"] == m and r["ok"]), default=None) for m in modes}
     base = max_step.get("none")
-    gain = {m: (None if base in (None, 0) or max_step[m] is None else max_step[m] / base) for m in modes}
+    gain: dict[str, float | None] = {}
+    for m in modes:
+        best = max_step[m]
+        gain[m] = None if base is None or base == 0 or best is None else best / base
     return {"kind": "walk-sweep", "walk_file": spec.source, "name": spec.name, "robot": spec.robot.name,
             "com_height_m": spec.com.height_m, "timing": {"single_support_s": spec.timing.single_support_s,
                                                           "double_support_s": spec.timing.double_support_s},
