@@ -65,10 +65,11 @@ def test_com_matches_an_independent_sum_over_urdf_links(robot, reference):
         np.testing.assert_allclose(wrapper.com_world(), com, atol=1e-12)
 
 
-def test_urdf_is_in_step_with_its_generator():
+@pytest.mark.parametrize("name", ["jethr1", "dyros_jet_like"])
+def test_urdf_is_in_step_with_its_generator(name):
     out = subprocess.run([sys.executable, "-c", "import build_urdf, sys; sys.stdout.write(build_urdf.build())"],
-                         cwd=ROOT / "robots" / "jethr1", capture_output=True, text=True, check=True)
-    assert out.stdout == (ROOT / "robots" / "jethr1" / "jethr1.urdf").read_text()
+                         cwd=ROOT / "robots" / name, capture_output=True, text=True, check=True)
+    assert out.stdout == (ROOT / "robots" / name / f"{name}.urdf").read_text()
 
 
 def test_robot_show_json(capsys):
