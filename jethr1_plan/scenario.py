@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.io.yaml_input import fill_dataclass, read_document, read_text
+from jethr1_plan.io.yaml_input import build_with_robot, fill_dataclass, read_text
 from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
@@ -225,14 +225,7 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def load_scenario_text(text: str, src: str) -> Scenario:
     """A scenario from its YAML ``text``; ``src`` names it in messages (see :func:`load_scenario`)."""
-    doc = read_document(text, src, SCHEMA, MAX_VALUES, "a scenario")
-    from jethr1_plan.robot.model import load_robot
-
-    try:
-        robot = load_robot(doc.get("robot", "jethr1"))
-    except InputError as exc:
-        raise InputError(src, "robot", str(exc)) from None
-    return replace(_build(doc, src, robot), text=text)
+    return replace(build_with_robot(text, src, SCHEMA, MAX_VALUES, "a scenario", _build), text=text)
 
 
 def _build(doc: dict, src: str, robot) -> Scenario:

@@ -39,6 +39,7 @@ __all__ = [
     "TIME",
     "TOPICS",
     "VECTOR3",
+    "JsonMcap",
     "frame_transforms",
     "joint_rotations",
     "log_time",
@@ -240,28 +241,41 @@ def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np
     return {"transforms": tfs}
 
 
+class JsonMcap:
+    """An MCAP being written: JSON messages on channels whose JSON schemas are registered up front
+    (zstd-compressed chunks, one sequence number per message, logged at :func:`log_time`)."""
+
+    def __init__(self, schemas: dict[str, dict], topics: dict[str, str]):
+        from mcap.writer import CompressionType, Writer
+
+        self._buf = io.BytesIO()
+        self._w = Writer(self._buf, compression=CompressionType.ZSTD)
+        self._w.start(profile="", library="jethr1-plan")
+        ids = {name: self._w.register_schema(name=name, encoding="jsonschema",
+                                             data=json.dumps(schema, sort_keys=True).encode())
+               for name, schema in schemas.items()}
+        self._channels = {topic: self._w.register_channel(topic=topic, message_encoding="json", schema_id=ids[name])
+                          for topic, name in topics.items()}
+        self._seq = 0
+
+    def put(self, topic: str, t: float, msg: dict) -> None:
+        """Log ``msg`` on ``topic`` at ``t`` [s] from the start."""
+        ns = log_time(t)
+        self._w.add_message(channel_id=self._channels[topic], log_time=ns, publish_time=ns, sequence=self._seq,
+                            data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
+        self._seq += 1
+
+    def finish(self) -> bytes:
+        """The file's bytes."""
+        self._w.finish()
+        return self._buf.getvalue()
+
+
 def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
     """The MCAP bytes of a planned trajectory (zstd-compressed chunks)."""
-    from mcap.writer import CompressionType, Writer
-
-    buf = io.BytesIO()
-    w = Writer(buf, compression=CompressionType.ZSTD)
-    w.start(profile="", library="jethr1-plan")
     fans = [f.name for f in robot.fans]
-    schemas = {**SCHEMAS, "jethr1.Thrust": thrust_schema(fans)}
-    schema_ids = {name: w.register_schema(name=name, encoding="jsonschema",
-                                          data=json.dumps(s, sort_keys=True).encode()) for name, s in schemas.items()}
-    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=schema_ids[name])
-                for topic, name in TOPICS.items()}
-    seq = 0
-
-    def put(topic: str, t: float, msg: dict) -> None:
-        nonlocal seq
-        ns = log_time(t)
-        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
-                      data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
-        seq += 1
-
+    out = JsonMcap({**SCHEMAS, "jethr1.Thrust": thrust_schema(fans)}, TOPICS)
+    put = out.put
     put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
     put("/terrain", 0.0, terrain_update(cartons))
     put("/swing_path", 0.0, swing_path_update(paths))
@@ -291,8 +305,7 @@ def trajectory_mcap(robot: RobotModel, rows, cartons, paths) -> bytes:
         zmp = c["zmp"][i]
         put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world",
                         "pose": pose_message((zmp[0], zmp[1], _ground(c, i)))})
-    w.finish()
-    return buf.getvalue()
+    return out.finish()
 
 
 def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:

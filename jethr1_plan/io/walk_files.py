@@ -16,7 +16,6 @@ joint's torque ``<joint>_tau_nm`` by inverse dynamics, and the servo commands ``
 from __future__ import annotations
 
 import io
-import json
 from pathlib import Path
 
 import numpy as np
@@ -27,9 +26,9 @@ from jethr1_plan.io.mcap import (
     ROBOT_DESCRIPTION_SCHEMA,
     SCHEMAS,
     TIME,
+    JsonMcap,
     frame_transforms,
     joint_rotations,
-    log_time,
     pose_message,
     quat_axis_angle,
     scene_entity,
@@ -133,28 +132,11 @@ def _footstep_cubes(robot: RobotModel, result: WalkResult) -> list[dict]:
 def walk_mcap(result: WalkResult) -> bytes:
     """The MCAP bytes of a walk: the robot moving, its footsteps, CoM and ZMP (planned and reached),
     and at every MPC update the yaw reference over the horizon (Fig. 7)."""
-    from mcap.writer import CompressionType, Writer
-
     walk, a = result.walk, result.analysis
     robot = walk.robot
-    buf = io.BytesIO()
-    w = Writer(buf, compression=CompressionType.ZSTD)
-    w.start(profile="", library="jethr1-plan")
     schemas = {**SCHEMAS, **_WALK_SCHEMAS}
-    used = sorted(set(WALK_TOPICS.values()))
-    schema_ids = {name: w.register_schema(name=name, encoding="jsonschema",
-                                          data=json.dumps(schemas[name], sort_keys=True).encode()) for name in used}
-    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=schema_ids[name])
-                for topic, name in WALK_TOPICS.items()}
-    seq = 0
-
-    def put(topic: str, t: float, msg: dict) -> None:
-        nonlocal seq
-        ns = log_time(t)
-        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
-                      data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
-        seq += 1
-
+    out = JsonMcap({name: schemas[name] for name in sorted(set(WALK_TOPICS.values()))}, WALK_TOPICS)
+    put = out.put
     put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
     put("/footsteps", 0.0, {"deletions": [], "entities": [scene_entity(0.0, "footsteps",
                                                                        cubes=_footstep_cubes(robot, result))]})
@@ -188,8 +170,7 @@ def walk_mcap(result: WalkResult) -> bytes:
                                     "time_s": [t + dt_mpc * (k + 1) for k in range(len(ref))],
                                     "yaw_ref_rad": [float(v) for v in ref], "yaw_rad": float(walk.yaw[i]),
                                     "yaw_rate_rad_s": float(walk.yaw_rate[i])})
-    w.finish()
-    return buf.getvalue()
+    return out.finish()
 
 
 # --- figures ------------------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.io.yaml_input import fill_dataclass, read_document, read_text
+from jethr1_plan.io.yaml_input import build_with_robot, fill_dataclass, read_text
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.walking.com_mpc import CoMSettings
 from jethr1_plan.walking.generator import ArmSwing, PelvisRotation
@@ -177,14 +177,7 @@ def load_walk(path: str | Path) -> WalkSpec:
 
 def load_walk_text(text: str, src: str) -> WalkSpec:
     """A walk from its YAML ``text``; ``src`` names it in messages."""
-    doc = read_document(text, src, SCHEMA, MAX_VALUES, "a walk")
-    from jethr1_plan.robot.model import load_robot
-
-    try:
-        robot = load_robot(doc.get("robot", "jethr1"))
-    except InputError as exc:
-        raise InputError(src, "robot", str(exc)) from None
-    return replace(_build(doc, src, robot), text=text)
+    return replace(build_with_robot(text, src, SCHEMA, MAX_VALUES, "a walk", _build), text=text)
 
 
 def _build(doc: dict, src: str, robot: RobotModel) -> WalkSpec:
