@@ -101,7 +101,7 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
     """Walk WALK.yaml at every step length with and without pelvic rotation: the longest step each
     mode reaches, E_con over two steps, peak κ, yaw and yaw momentum (walk_sweep.json, .csv, .png)."""
     from jethr1_plan.io.atomic import check_writable, staged_directory
-    from jethr1_plan.walking.spec import ROTATION_MODES
+    from jethr1_plan.walking.spec import ROTATION_MODES, check_walk
     from jethr1_plan.walking.sweep import sweep, sweep_png
 
     lengths = range_spec(steps_m, "--steps-m")
@@ -114,8 +114,6 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
         raise InputError(spec.source, "footsteps.kind", "walk-sweep varies the step length: it needs repetitive "
                          "footsteps")
     for length in lengths:  # every length must make a valid walk (soles apart, rows bounded)
-        from jethr1_plan.walking.spec import check_walk
-
         check_walk(spec.varied(step_length_m=length), spec.source)
     outdir = outdir if outdir is not None else Path("out/walk_sweep") / Path(spec.source).stem
     check_writable(outdir.parent)
@@ -153,23 +151,26 @@ def _sweep_csv(doc: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _cell(row: dict, key: str, fmt: str) -> str:
+    v = row.get(key)
+    return "-" if v is None else format(v, fmt)
+
+
 def _report_sweep(doc: dict, outdir: Path) -> None:
+    from jethr1_plan.walking.sweep import NOT_WALKED
+
     t = Table(title=f"{doc['name']} on {doc['robot']}: CoM {doc['com_height_m']:g} m, k_pel {doc['k_pel']:g}, "
                     f"arm swing {'on' if doc['arm_swing'] else 'off (or no arms)'}")
     for col in ("step [m]", "mode", "walks", "E_con 2 steps [J]", "peak κ", "peak yaw [rad]",
                 "peak h_z [N·m·s]", "arms held", "why not"):
         t.add_column(col, justify="right" if col not in ("mode", "why not") else "left")
     for r in doc["rows"]:
-        if r.get("reason") and r["reason"].startswith("not walked"):
+        if r.get("reason") == NOT_WALKED:
             continue
-
-        def f(key: str, fmt: str, r=r) -> str:
-            v = r.get(key)
-            return "-" if v is None else format(v, fmt)
-
         t.add_row(f"{r['step_m']:.3f}", r["mode"], "[green]yes[/]" if r["ok"] else "[red]no[/]",
-                  f("energy_two_steps_j", ".1f"), f("peak_kappa", ".1f"), f("peak_yaw_rad", ".3f"),
-                  f("peak_yaw_momentum_nms", ".3f"), f("peak_yaw_momentum_arms_held_nms", ".3f"),
+                  *(_cell(r, key, fmt) for key, fmt in (("energy_two_steps_j", ".1f"), ("peak_kappa", ".1f"),
+                                                        ("peak_yaw_rad", ".3f"), ("peak_yaw_momentum_nms", ".3f"),
+                                                        ("peak_yaw_momentum_arms_held_nms", ".3f"))),
                   (r.get("reason") or "")[:60])
     err_console.print(t)
     parts = []

@@ -202,7 +202,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
     summary = _json(summary_path) if summary_path.is_file() else None
     from jethr1_plan.verify_walk import is_walk, verify_walk
 
-    if is_walk(summary, _csv_header(folder / "trajectory.csv")):
+    if is_walk(summary, None if summary is not None else _csv_header(folder / "trajectory.csv")):
         if summary is None:
             raise InputError(str(summary_path), "", "a walk is verified against its summary.json, which is missing")
         if scenario is not None:

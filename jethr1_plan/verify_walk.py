@@ -20,6 +20,7 @@ rate, start soles, footholds and success criteria) every row must hold:
 
 from __future__ import annotations
 
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -27,16 +28,15 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.kinematics.base import pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
-from jethr1_plan.walking.analysis import zmp_from_momentum
+from jethr1_plan.walking.analysis import EDGE_ROWS, SuccessCriteria, zmp_from_momentum
 from jethr1_plan.walking.generator import generalized_velocity
-from jethr1_plan.walking.timeline import SIDES, polygon_margin, polygon_of
+from jethr1_plan.walking.timeline import SIDES, Timeline, polygon_margin, polygon_of
 
 __all__ = ["is_walk", "verify_walk"]
 
 TOL_M = 1e-6  # written vs recomputed positions [m] (shortest round-tripping floats)
 TOL_T = 1e-9  # times are written rounded to 1e-9 s
 TOL_ZMP_M = 1e-5  # the recomputed ZMP differentiates written numbers twice [m]
-EDGE_ROWS = 2
 
 
 def is_walk(summary: dict | None, header: list[str] | None = None) -> bool:
@@ -53,15 +53,24 @@ def _number(summary: dict, key: str, src: str) -> float:
     return float(v)
 
 
-def _foothold_timeline(summary: dict, src: str) -> tuple[dict[str, np.ndarray], list[tuple[str, np.ndarray, float,
-                                                                                          float]]]:
+def _timeline(summary: dict, robot: RobotModel, src: str) -> Timeline:
+    """The walk's footsteps in time, rebuilt from ``summary.json``'s start soles, footholds and timing;
+    its lift and landing times must be the ones the summary states."""
     try:
+        timing = summary["spec"]["timing"]
         start = {s: np.asarray(summary["start_m"][s], dtype=float) for s in SIDES}
-        steps = [(st["side"], np.asarray(st["position_m"], dtype=float), float(st["lift_s"]), float(st["land_s"]))
-                 for st in summary["steps"]]
-    except (KeyError, TypeError, ValueError):
-        raise InputError(src, "steps", "missing or malformed start_m / steps") from None
-    return start, steps
+        footholds = [(st["side"], np.asarray(st["position_m"], dtype=float)) for st in summary["steps"]]
+        tl = Timeline.build(start, footholds, float(timing["start_s"]), float(timing["single_support_s"]),
+                            float(timing["double_support_s"]), float(timing["end_s"]),
+                            float(timing["swing_height_m"]), robot.sole_length_m, robot.sole_width_m)
+        stated = [(float(st["lift_s"]), float(st["land_s"])) for st in summary["steps"]]
+    except (KeyError, TypeError, ValueError, IndexError):
+        raise InputError(src, "steps", "missing or malformed start_m, steps or spec.timing") from None
+    for k, (st, (lift, land)) in enumerate(zip(tl.steps, stated, strict=True)):
+        if abs(st.t_lift - lift) > TOL_T or abs(st.t_land - land) > TOL_T:
+            raise InputError(src, f"steps[{k}]", f"lifts at {lift:g} s and lands at {land:g} s; its timing says "
+                             f"{st.t_lift:g} s and {st.t_land:g} s")
+    return tl
 
 
 def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: int = 50):
@@ -130,13 +139,12 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     if np.isnan(np.concatenate([quat.ravel(), q.ravel()])).any():
         fail([int(np.flatnonzero(np.isnan(np.column_stack([quat, q])).any(axis=1))[0])], "file", "an empty pose cell")
         return n, found[:max_failures], str(folder)
-    success = summary.get("spec", {}).get("success", {})
-    foot_tol = float(success.get("foot_tolerance_m", 1e-3))
-    foot_tol_rad = float(success.get("foot_tolerance_rad", 0.01))
-    knee_margin = float(success.get("knee_margin_rad", 0.1))
-    zmp_margin = float(success.get("zmp_margin_m", 0.0))
-    start, steps = _foothold_timeline(summary, src)
-    _check_rows(c, robot, q, quat, start, steps, rate, foot_tol, foot_tol_rad, knee_margin, zmp_margin, fail)
+    given = summary.get("spec", {}).get("success", {})
+    for f in fields(SuccessCriteria):
+        if f.name in given and f.name != "rehearse":
+            _number(given, f.name, src + " spec.success")
+    criteria = SuccessCriteria(**{f.name: given[f.name] for f in fields(SuccessCriteria) if f.name in given})
+    _check_rows(c, robot, q, quat, _timeline(summary, robot, src), rate, criteria, fail)
     mcap_path = folder / "trajectory.mcap"
     if mcap_path in files and mcap_path.is_file():
         _check_mcap(mcap_path, robot, q, t, fail)
@@ -144,108 +152,74 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     return n, found[:max_failures], str(folder)
 
 
-def _support_at(t: float, steps) -> tuple[str, int]:
-    """(support, index of the step under way or the last landed) at time ``t``."""
-    for k, (side, _, lift, land) in enumerate(steps):
-        if lift < t < land:
-            return ("right" if side == "left" else "left"), k
-    return "both", -1
-
-
-def _check_rows(c, robot: RobotModel, q, quat, start, steps, rate, foot_tol, foot_tol_rad, knee_margin, zmp_margin,
-                fail) -> None:
+def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criteria: SuccessCriteria, fail) -> None:
+    """The pose and balance checks, from one forward-kinematics pass over the written rows."""
     n = len(q)
     t = c["time_s"]
+    dt = 1.0 / rate
+    unit = quat / np.linalg.norm(quat, axis=1)[:, None]
+    T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
+                  for i in range(n)])
+    # the generalised velocity at each row: the mean of the motions over the periods before and after it
+    v_period = np.zeros((n, 6 + len(robot.joint_names)))
+    for i in range(1, n):
+        v_period[i] = generalized_velocity(T[i - 1], T[i], q[i - 1], q[i], dt)
+    v = v_period.copy()
+    v[:-1] = 0.5 * (v_period[:-1] + v_period[1:])
     w = robot.wrapper()
-    nj = len(robot.joint_names)
-    T = np.zeros((n, 4, 4))
-    com = np.zeros((n, 3))
+    com, h = np.zeros((n, 3)), np.zeros((n, 6))
     sole = {s: np.zeros((n, 4, 4)) for s in SIDES}
     for i in range(n):
-        T[i] = pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]],
-                                    quat[i] / np.linalg.norm(quat[i]))
         w.state.q[:3] = T[i][:3, 3]
-        w.state.q[3:7] = quat[i] / np.linalg.norm(quat[i])
+        w.state.q[3:7] = unit[i]
         w.state.q[7:] = q[i]
         w.update_kinematics()
         com[i] = w.com_world()
+        h[i] = w.centroidal_map() @ v[i]
         for s in SIDES:
             sole[s][i] = w.get_T_world_frame(robot.legs[s].sole)
     written_com = np.column_stack([c[f"com_{a}_m"] for a in "xyz"])
     fail(np.flatnonzero(np.linalg.norm(com - written_com, axis=1) > TOL_M), "CoM",
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
                    f"{np.round(com[i], 6).tolist()} m")
-    held = {s: start[s].copy() for s in SIDES}
-    landed = 0
     knees = [robot.legs[s].index[3] for s in SIDES]
-    knee_short = np.flatnonzero(np.min(q[:, knees] - robot.lower_rad[knees], axis=1) < knee_margin - 1e-9)
-    fail(knee_short, "knee", f"closer than {knee_margin:g} rad to straight")
-    supports = []
+    knee_short = np.flatnonzero(np.min(q[:, knees] - robot.lower_rad[knees], axis=1) < criteria.knee_margin_rad - 1e-9)
+    fail(knee_short, "knee", f"closer than {criteria.knee_margin_rad:g} rad to straight")
+    support, _ = tl.phase(t)
+    feet, air = tl.feet(t)
+    edge = np.zeros(n, dtype=bool)  # rows on a phase boundary (times written to 1e-9 s): either phase holds
+    for st in tl.steps:
+        edge |= (np.abs(t - st.t_lift) < 1e-6) | (np.abs(t - st.t_land) < 1e-6)
     for i in range(n):
-        while landed < len(steps) and t[i] >= steps[landed][3] - 1e-9:
-            held[steps[landed][0]] = steps[landed][1]
-            landed += 1
-        support, _ = _support_at(float(t[i]), steps)
-        at_edge = any(min(abs(t[i] - lift), abs(t[i] - land)) < 1e-6 for _, _, lift, land in steps)
-        if at_edge and str(c["support"][i]) in (*SIDES, "both"):
-            support = str(c["support"][i])  # a row on a phase's boundary: either phase, as written
-        if str(c["support"][i]) != support:
-            fail([i], "support", f"written {c['support'][i]!r}, the footsteps say {support!r}")
+        written_support = str(c["support"][i])
+        if written_support != support[i] and not (edge[i] and written_support in (*SIDES, "both")):
+            fail([i], "support", f"written {written_support!r}, the footsteps say {support[i]!r}")
         for s in SIDES:
             p = sole[s][i][:3, 3]
             written = np.array([c[f"{s}_foot_{a}_m"][i] for a in "xyz"])
             if np.linalg.norm(p - written) > TOL_M:
                 fail([i], "feet", f"the {s} sole written at {np.round(written, 6).tolist()} m, forward kinematics "
                      f"puts it at {np.round(p, 6).tolist()} m")
-            if support in (s, "both"):
-                err = float(np.linalg.norm(p - held[s]))
+            if not air[s][i]:  # bearing weight: on its foothold and flat
+                err = float(np.linalg.norm(p - feet[s][i]))
                 tilt = float(np.linalg.norm(sole[s][i][:3, :3] - np.eye(3)) / np.sqrt(2))
-                if err > foot_tol + 1e-12:
+                if err > criteria.foot_tolerance_m + 1e-12:
                     fail([i], "feet", f"the {s} sole bears weight {1000 * err:.2f} mm from its foothold "
-                         f"{np.round(held[s], 4).tolist()} m")
-                if tilt > foot_tol_rad:
+                         f"{np.round(feet[s][i], 4).tolist()} m")
+                if tilt > criteria.foot_tolerance_rad:
                     fail([i], "feet", f"the {s} sole bears weight {tilt:.3f} rad off flat")
-            elif p[2] < -TOL_M - foot_tol:
+            elif p[2] < -TOL_M - criteria.foot_tolerance_m:
                 fail([i], "feet", f"the swinging {s} sole is {1000 * -p[2]:.1f} mm below the ground")
-        supports.append(support)
-    zmp = _multibody_zmp(robot, w, T, q, com, 1.0 / rate, nj)
+    zmp = zmp_from_momentum(com, h, dt, robot.mass_kg)
     written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
     fail(np.flatnonzero(np.linalg.norm(zmp - written_zmp, axis=1) > TOL_ZMP_M), "ZMP",
          lambda i: f"written {np.round(written_zmp[i], 5).tolist()} m, recomputed {np.round(zmp[i], 5).tolist()} m")
-    held = {s: start[s].copy() for s in SIDES}
-    landed = 0
+    keys = tl.support_keys(t)
     for i in range(EDGE_ROWS, n - EDGE_ROWS):
-        while landed < len(steps) and t[i] >= steps[landed][3] - 1e-9:
-            held[steps[landed][0]] = steps[landed][1]
-            landed += 1
-        on = SIDES if supports[i] == "both" else (supports[i],)
-        key = tuple((s, *np.round(held[s][:2], 9)) for s in on)
-        inside = polygon_margin(zmp[i], polygon_of(key, robot.sole_length_m, robot.sole_width_m, 0.0))
-        if inside < zmp_margin - 1e-9:
+        inside = polygon_margin(zmp[i], polygon_of(keys[i], robot.sole_length_m, robot.sole_width_m, 0.0))
+        if inside < criteria.zmp_margin_m - 1e-9:
             fail([i], "ZMP", f"the recomputed ZMP is {1000 * inside:.1f} mm inside the support, less than "
-                 f"the walk's margin {1000 * zmp_margin:g} mm")
-
-
-def _multibody_zmp(robot: RobotModel, w, T, q, com, dt: float, nj: int) -> np.ndarray:
-    """(N, 2) the ZMP of the written rows: the centroidal momentum A_G(q)·v of each row (v: the
-    average of the rows' motion before and after it) differentiated in time."""
-    n = len(q)
-    v_period = np.zeros((n, 6 + nj))
-    for i in range(1, n):
-        v_period[i] = generalized_velocity(T[i - 1], T[i], q[i - 1], q[i], dt)
-    v = v_period.copy()
-    v[:-1] = 0.5 * (v_period[:-1] + v_period[1:])
-    h = np.zeros((n, 6))
-    from jethr1_plan.kinematics.base import quaternion_from_matrix
-
-    for i in range(n):
-        w.state.q[:3] = T[i][:3, 3]
-        w.state.q[3:7] = quaternion_from_matrix(T[i][:3, :3])
-        w.state.q[7:] = q[i]
-        w.state.qd = v[i]
-        w.update_kinematics()
-        h[i] = w.centroidal_map() @ v[i]
-    return zmp_from_momentum(com, h, dt, robot.mass_kg)
+                 f"the walk's margin {1000 * criteria.zmp_margin_m:g} mm")
 
 
 def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fail) -> None:

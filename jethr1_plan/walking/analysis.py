@@ -23,7 +23,11 @@ from jethr1_plan.walking.com_mpc import GRAVITY_MS2
 from jethr1_plan.walking.generator import Walk
 from jethr1_plan.walking.timeline import SIDES, polygon_margin, polygon_of
 
-__all__ = ["Verdict", "WalkAnalysis", "analyse", "energy_two_steps", "judge", "zmp_from_momentum"]
+__all__ = ["EDGE_ROWS", "SuccessCriteria", "Verdict", "WalkAnalysis", "analyse", "energy_two_steps", "judge",
+           "zmp_from_momentum"]
+
+
+EDGE_ROWS = 2  # rows at each end whose ZMP comes from one-sided differences: not judged
 
 
 @dataclass
@@ -38,6 +42,12 @@ class WalkAnalysis:
     foot_error_m: np.ndarray  # the worst sole's distance from its target [m]
     foot_error_rad: np.ndarray  # the worst sole's tilt or turn from flat, facing +x [rad]
     knee_margin_rad: np.ndarray  # the least knee angle beyond its straight-leg limit [rad]
+
+    @property
+    def least_zmp_margin_m(self) -> float | None:
+        """The least ZMP margin of the judged rows [m] (None: too few rows)."""
+        inner = self.zmp_margin[EDGE_ROWS:-EDGE_ROWS]
+        return float(np.min(inner)) if len(inner) else None
 
 
 def _yaw_column(T_sole: np.ndarray, axis_point: np.ndarray) -> np.ndarray:
@@ -127,6 +137,18 @@ def energy_two_steps(walk: Walk, tau: np.ndarray, qd: np.ndarray) -> float:
 
 
 @dataclass(frozen=True)
+class SuccessCriteria:
+    """What a walk must hold to count (``jethr1 walk`` exit 3 otherwise; a failed length in ``walk-sweep``)."""
+
+    foot_tolerance_m: float = 1e-3  # each sole within this of its planned position [m]
+    foot_tolerance_rad: float = 0.01  # and this of flat, facing the walk [rad]
+    knee_margin_rad: float = 0.1  # no knee closer than this to straight (the leg's singularity) [rad]
+    zmp_margin_m: float = 0.0  # the multibody ZMP at least this far inside the support polygon [m]
+    rehearse: bool = True  # and the walk rehearsed in the MuJoCo twin without a fall,
+    landing_tolerance_m: float = 0.02  # its soles ending within this of their last footholds [m]
+
+
+@dataclass(frozen=True)
 class Verdict:
     """Whether a walk is one the robot can take, and the first reason it is not."""
 
@@ -140,27 +162,25 @@ def _over_torque(robot, tau: np.ndarray) -> str:
     return f"{robot.joint_names[k]} needs {abs(tau[k]):.2f} N·m, beyond its {robot.servo_limit_nm[k]:g} N·m"
 
 
-def judge(walk: Walk, a: WalkAnalysis, foot_tol_m: float = 1e-3, foot_tol_rad: float = 0.01,
-          knee_margin_rad: float = 0.1, zmp_margin_m: float = 0.0, edge_rows: int = 2) -> Verdict:
-    """The first row that breaks a criterion: a sole off its target, a knee within ``knee_margin_rad``
-    of straight (near the singularity the IK loses the foot), a joint beyond its limits or a torque
-    beyond its servo's, the
-    multibody ZMP outside the support (the first and last ``edge_rows`` rows excepted: one-sided
-    differences)."""
+def judge(walk: Walk, a: WalkAnalysis, criteria: SuccessCriteria = SuccessCriteria()) -> Verdict:
+    """The first row that breaks one of ``criteria`` the planner's own model can judge (the twin's are
+    the rehearsal's): a sole off its target, a knee within the margin of straight (near the
+    singularity the IK loses the foot), a joint beyond its limits or a torque beyond its servo's, the
+    multibody ZMP outside the support (the first and last ``EDGE_ROWS`` rows excepted)."""
+    c = criteria
     robot = walk.robot
     checks = [
-        (a.foot_error_m > foot_tol_m, lambda i: f"a sole {1000 * a.foot_error_m[i]:.2f} mm off its target"),
-        (a.foot_error_rad > foot_tol_rad, lambda i: f"a sole {a.foot_error_rad[i]:.3f} rad off flat"),
-        (a.knee_margin_rad < knee_margin_rad, lambda i: f"a knee {a.knee_margin_rad[i]:.3f} rad from straight "
-                                                       f"(margin {knee_margin_rad:g} rad)"),
+        (a.foot_error_m > c.foot_tolerance_m, lambda i: f"a sole {1000 * a.foot_error_m[i]:.2f} mm off its target"),
+        (a.foot_error_rad > c.foot_tolerance_rad, lambda i: f"a sole {a.foot_error_rad[i]:.3f} rad off flat"),
+        (a.knee_margin_rad < c.knee_margin_rad, lambda i: f"a knee {a.knee_margin_rad[i]:.3f} rad from straight "
+                                                         f"(margin {c.knee_margin_rad:g} rad)"),
         (np.any((walk.q < robot.lower_rad - 1e-6) | (walk.q > robot.upper_rad + 1e-6), axis=1),
          lambda i: "a joint beyond its limits"),
         (np.any(np.abs(a.tau) > robot.servo_limit_nm, axis=1), lambda i: _over_torque(robot, a.tau[i])),
     ]
-    zmp_bad = a.zmp_margin < zmp_margin_m
-    zmp_bad[:edge_rows] = False
-    if edge_rows:
-        zmp_bad[-edge_rows:] = False
+    zmp_bad = a.zmp_margin < c.zmp_margin_m
+    zmp_bad[:EDGE_ROWS] = False
+    zmp_bad[-EDGE_ROWS:] = False
     checks.append((zmp_bad, lambda i: f"the ZMP {1000 * -a.zmp_margin[i]:.1f} mm outside the support"))
     first, why = None, ""
     for bad, describe in checks:

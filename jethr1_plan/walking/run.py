@@ -65,8 +65,7 @@ def run_walk(spec: WalkSpec, rehearse: bool | None = None) -> WalkResult:
     walk = generate_walk(spec)
     a = analyse(walk)
     s = spec.success
-    verdict = judge(walk, a, foot_tol_m=s.foot_tolerance_m, foot_tol_rad=s.foot_tolerance_rad,
-                    knee_margin_rad=s.knee_margin_rad, zmp_margin_m=s.zmp_margin_m)
+    verdict = judge(walk, a, s)
     commands = servo_commands(walk.q, a.tau, spec.robot.servo_stiffness_nm_per_rad, spec.timing.control_hz,
                               WALK_SAG_FILTER_S)
     run = rehearse_walk(walk, commands) if (s.rehearse if rehearse is None else rehearse) else None
@@ -125,7 +124,7 @@ def walk_summary(result: WalkResult) -> dict:
                                        1.0 - _peak(total) / result.armless_peak_momentum_nms)},
         "energy_two_steps_j": a.energy_two_steps_j,
         "least_knee_margin_rad": float(np.min(a.knee_margin_rad)),
-        "least_zmp_margin_m": float(np.min(a.zmp_margin[2:-2])) if len(a.zmp_margin) > 4 else None,
+        "least_zmp_margin_m": a.least_zmp_margin_m,
         "max_foot_error_m": float(np.max(a.foot_error_m)),
         "peak_torque_nm": {j: float(v) for j, v in zip(spec.robot.joint_names, tau_peak, strict=True)},
         "rehearsal": rehearsal,

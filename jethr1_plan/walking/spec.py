@@ -1,6 +1,6 @@
 """A walk file (``WALK.yaml``, read by ``jethr1 walk`` and ``jethr1 walk-sweep``): the robot, the
 footsteps, the timing, and the settings of Paper B's generator; every default stated once, in the
-dataclasses it fills (``Footsteps``, ``WalkTiming``, ``SuccessCriteria`` here, ``CoMSettings``,
+dataclasses it fills (``Footsteps``, ``WalkTiming`` here, ``SuccessCriteria`` in ``analysis``, ``CoMSettings``,
 ``PelvisRotation`` and ``ArmSwing`` in their modules).
 
 Every problem is one :class:`~jethr1_plan.errors.InputError` naming the file and the key.
@@ -16,6 +16,7 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.yaml_input import build_with_robot, fill_dataclass, read_text
 from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.walking.analysis import SuccessCriteria
 from jethr1_plan.walking.com_mpc import CoMSettings
 from jethr1_plan.walking.generator import ArmSwing, PelvisRotation
 from jethr1_plan.walking.timeline import SIDES, Timeline, repetitive_footsteps
@@ -54,18 +55,6 @@ class WalkTiming:
     end_s: float = 1.0  # standing again after the last landing
     control_hz: float = 100.0  # the IK and the arm QP run at this rate; the rows of trajectory.csv
     swing_height_m: float = 0.05  # the swing sole's apex over its footholds [m]
-
-
-@dataclass(frozen=True)
-class SuccessCriteria:
-    """What a walk must hold to count (``jethr1 walk`` exit 3 otherwise; a failed length in ``walk-sweep``)."""
-
-    foot_tolerance_m: float = 1e-3  # each sole within this of its planned position [m]
-    foot_tolerance_rad: float = 0.01  # and this of flat, facing the walk [rad]
-    knee_margin_rad: float = 0.1  # no knee closer than this to straight (the leg's singularity) [rad]
-    zmp_margin_m: float = 0.0  # the multibody ZMP at least this far inside the support polygon [m]
-    rehearse: bool = True  # and the walk rehearsed in the MuJoCo twin without a fall,
-    landing_tolerance_m: float = 0.02  # its soles ending within this of their last footholds [m]
 
 
 @dataclass(frozen=True)

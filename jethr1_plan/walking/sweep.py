@@ -14,30 +14,26 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.walking.run import run_walk
+from jethr1_plan.walking.run import run_walk, walk_summary
 from jethr1_plan.walking.spec import WalkSpec
 
-__all__ = ["STOP_AFTER", "max_contiguous_step", "sweep", "sweep_png", "walk_point"]
+__all__ = ["NOT_WALKED", "STOP_AFTER", "max_contiguous_step", "sweep", "sweep_png", "walk_point"]
 
 STOP_AFTER = 3  # failures in a row, after a success, that end a mode's sweep
-NOT_WALKED = "not walked: the shorter steps before it failed"
+NOT_WALKED = f"not walked: {STOP_AFTER} shorter steps in a row failed"
 
 
 def walk_point(spec: WalkSpec) -> dict[str, Any]:
-    """One length and mode: its verdict and Paper B's measures (SI units)."""
-    r = run_walk(spec)
-    a, w = r.analysis, r.walk
-    failure = r.failure
-    total = w.h_low + w.h_up
-    return {"ok": r.ok, "reason": None if failure is None else failure[1],
-            "failure_time_s": None if failure is None else failure[0],
-            "energy_two_steps_j": a.energy_two_steps_j, "peak_kappa": float(np.max(a.kappa)),
-            "peak_yaw_rad": float(np.max(np.abs(w.yaw))),
-            "peak_yaw_momentum_nms": float(np.max(np.abs(total))),
-            "peak_yaw_momentum_arms_held_nms": r.armless_peak_momentum_nms,
-            "least_knee_margin_rad": float(np.min(a.knee_margin_rad)),
-            "least_zmp_margin_m": float(np.min(a.zmp_margin[2:-2])) if len(a.zmp_margin) > 4 else None,
-            "rehearsal_survived": None if r.rehearsal is None else r.rehearsal.survived}
+    """One length and mode: its verdict and Paper B's measures (SI units), as the walk's summary states them."""
+    s = walk_summary(run_walk(spec))
+    mom = s["yaw_momentum"]
+    return {"ok": s["ok"], "reason": None if s["failure"] is None else s["failure"]["reason"],
+            "failure_time_s": None if s["failure"] is None else s["failure"]["time_s"],
+            "energy_two_steps_j": s["energy_two_steps_j"], "peak_kappa": s["peak_kappa"],
+            "peak_yaw_rad": s["peak_yaw_rad"], "peak_yaw_momentum_nms": mom["peak_total_nms"],
+            "peak_yaw_momentum_arms_held_nms": mom["peak_with_arms_held_nms"],
+            "least_knee_margin_rad": s["least_knee_margin_rad"], "least_zmp_margin_m": s["least_zmp_margin_m"],
+            "rehearsal_survived": None if s["rehearsal"] is None else s["rehearsal"]["survived"]}
 
 
 def max_contiguous_step(lengths_m: list[float], ok: list[bool]) -> float | None:
