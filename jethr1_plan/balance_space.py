@@ -157,7 +157,7 @@ def _from_neighbour(ev: Evaluator, c: Cells, idx: np.ndarray, P0: np.ndarray, sp
 
 
 def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_all: np.ndarray, f_all: np.ndarray,
-                 src: np.ndarray, dst: np.ndarray) -> int:
+                 src: np.ndarray, dst: np.ndarray, offered: np.ndarray, fresh: np.ndarray) -> int:
     """Cells ``dst`` try their neighbours' (``src``, one cell away) optima; P_all, f_all updated in
     place. Returns how many cells improved.
 
@@ -166,8 +166,13 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
     cell is not, or where it only breaks the edge angle (whose penalty, 50 N per degree, says
     little about how close a valid posture is): thrust varies by up to ~1 N between neighbouring
     cells, so comparing the two cells' optima would retry nearly every cell.
+
+    ``offered`` (cells,) marks the cells whose present optimum was already offered in this direction:
+    offering it again repeats the same search from the same start, which cannot beat the cell's
+    optimum (it only falls). Cells that improve are marked in ``fresh`` (to be offered again).
     """
-    ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000)
+    ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000) & ~offered[src]
+    offered[src] = True
     if not ok.any():
         return 0
     s_idx, d_idx = src[ok], dst[ok]
@@ -182,6 +187,7 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
     P2, f2 = compass_search(ev, c, d_idx, P0, f0, np.full(len(d_idx), 0.004), spec.min_step_m)
     better = f2 < f_all[d_idx] - 1e-9
     P_all[d_idx[better]], f_all[d_idx[better]] = P2[better], f2[better]
+    fresh[d_idx[better]] = True
     return int(better.sum())
 
 
@@ -247,13 +253,17 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
         # found anywhere can travel across the whole grid in one sweep; until no cell improves or
         # RELAX_PASSES rounds are done
         grid = np.arange(n).reshape(len(xs), len(ys), len(zs))
+        directions = ((0, -1), (1, 1), (1, -1), (0, 1))
+        offered = np.zeros((len(directions), n), dtype=bool)  # per direction: the cell's optimum was offered
         for _ in range(RELAX_PASSES):
             improved = 0
-            for axis, d in ((0, -1), (1, 1), (1, -1), (0, 1)):
+            for (axis, d), off in zip(directions, offered, strict=True):
                 order = range(grid.shape[axis]) if d > 0 else range(grid.shape[axis] - 1, -1, -1)
                 for k in list(order)[1:]:
+                    fresh = np.zeros(n, dtype=bool)
                     improved += _relax_slice(ev, c, spec, todo, P_all, f_all, np.take(grid, k - d, axis=axis).ravel(),
-                                             np.take(grid, k, axis=axis).ravel())
+                                             np.take(grid, k, axis=axis).ravel(), off, fresh)
+                    offered[:, fresh] = False  # a new optimum: offer it in every direction again
             if not improved:
                 break
         idx = np.flatnonzero(todo)

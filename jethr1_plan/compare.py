@@ -5,6 +5,10 @@ the smoothness of P_body (Σ‖ΔP_body‖², the largest single step) and of th
 the evaluations and the wall time. With ``reference``, every swing sample is also solved by a dense
 exhaustive search (every pelvis position from which the legs reach, on a 1 cm grid, the six best
 basins refined on a 1 mm grid), and each method's optimality gap is reported against it.
+
+``pareto`` (``compare --pareto``) sweeps each method's smoothness weight instead and reports the
+fronts of max and mean thrust against Σ‖ΔP_body‖², with the verdict on the default optimiser: its
+point dominates GAS's with at least ``EVALUATION_FACTOR`` times fewer evaluations.
 """
 
 from __future__ import annotations
@@ -21,7 +25,8 @@ from jethr1_plan.reasons import Reason
 from jethr1_plan.scenario import Scenario
 from jethr1_plan.search import Cells, Evaluator, SupportStance, exhaustive_cell
 
-__all__ = ["compare", "comparison_pngs", "reference_thrust", "run_method", "step_evaluator"]
+__all__ = ["EVALUATION_FACTOR", "PARETO_WEIGHTS", "compare", "comparison_pngs", "default_weight", "dominates", "pareto",
+           "pareto_png", "reference_thrust", "run_method", "step_evaluator", "with_weight"]
 
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
@@ -158,3 +163,124 @@ def comparison_pngs(doc: dict) -> dict[str, bytes]:
     plt.close(fig)
     out["compare_time.png"] = buf.getvalue()
     return out
+
+
+#: the smoothness weights ``compare --pareto`` sweeps: GAS's ω [per mm², against 10 per N] and sqp's ε [N/m²]
+PARETO_WEIGHTS: dict[str, tuple[float, ...]] = {
+    "gas": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
+    "ga": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
+    "gaex": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
+    "sqp": (10.0, 1e3, 1e4, 3e4, 7e4, 1e5, 2e5, 5e5, 1e6),
+}
+#: what the Pareto verdict asks of a method against GAS at its default: fewer evaluations by this factor
+EVALUATION_FACTOR = 10.0
+
+
+def with_weight(scenario: Scenario, method: str, weight: float) -> Scenario:
+    """``scenario`` with ``method``'s smoothness weight set (ω for the GAs, ε for sqp)."""
+    o = scenario.optimiser
+    if method == "sqp":
+        o = replace(o, method=method, sqp_smoothness_n_per_m2=float(weight))
+    else:
+        o = replace(o, method=method, constants=replace(o.constants, omega=float(weight)))
+    return replace(scenario, optimiser=o)
+
+
+def default_weight(scenario: Scenario, method: str) -> float:
+    """The scenario's (or the default) smoothness weight of ``method``."""
+    o = scenario.optimiser
+    return float(o.sqp_smoothness_n_per_m2 if method == "sqp" else o.constants.omega)
+
+
+def dominates(a: dict, b: dict) -> bool:
+    """Whether plan ``a`` is at least as good as ``b`` in max thrust, mean thrust and Σ‖ΔP_body‖² (all
+    lower is better)."""
+    keys = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")
+    return all(a[k] is not None and b[k] is not None and a[k] <= b[k] for k in keys)
+
+
+def _point(scenario: Scenario, method: str, weight: float, seed: int | None) -> dict:
+    r = run_method(with_weight(scenario, method, weight), method, seed)
+    return {"weight": weight, **{k: r[k] for k in ("max_thrust_n", "mean_thrust_n", "smoothness_m2", "max_step_m",
+                                                   "evaluations", "wall_s", "feasible")}}
+
+
+def pareto(scenario: Scenario, methods: tuple[str, ...] = ("gas", "sqp"), seed: int | None = None,
+           weights: dict[str, tuple[float, ...]] | None = None, jobs: int = 1, progress=None) -> dict:
+    """The fronts of max and mean thrust against Σ‖ΔP_body‖² as each method's smoothness weight is swept
+    (``PARETO_WEIGHTS``; one plan per weight, in ``jobs`` processes: the document does not depend on it
+    but for wall times). Each point says whether it is on its method's front (no other point of the
+    method is as good in all three and better in one). ``verdict``: per method, whether its point at the
+    scenario's weight dominates GAS's at its weight with ``EVALUATION_FACTOR`` times fewer evaluations.
+    """
+    from joblib import Parallel, delayed
+
+    weights = {**PARETO_WEIGHTS, **(weights or {})}
+    runs = [(m, w) for m in methods for w in sorted(set(weights[m]) | {default_weight(scenario, m)})]
+    if jobs > 1:
+        points = list(Parallel(n_jobs=jobs)(delayed(_point)(scenario, m, w, seed) for m, w in runs))
+    else:
+        points = []
+        for k, (m, w) in enumerate(runs):
+            points.append(_point(scenario, m, w, seed))
+            if progress:
+                progress(f"{m} at {w:g}", k + 1, len(runs))
+    doc: dict[str, Any] = {"scenario": scenario.name, "seed": scenario.seed if seed is None else seed,
+                           "policy": scenario.balance.policy, "default_method": scenario.optimiser.method,
+                           "defaults": {m: default_weight(scenario, m) for m in methods}, "fronts": {}}
+    for m in methods:
+        pts = [p for (mm, _), p in zip(runs, points, strict=True) if mm == m]
+        for p in pts:
+            p["default"] = p["weight"] == doc["defaults"][m]
+            p["on_front"] = bool(p["feasible"]) and not any(
+                q is not p and q["feasible"] and dominates(q, p) and any(q[k] < p[k] for k in
+                                                                         ("max_thrust_n", "mean_thrust_n",
+                                                                          "smoothness_m2")) for q in pts)
+        doc["fronts"][m] = pts
+    if "gas" in methods:
+        ref = next(p for p in doc["fronts"]["gas"] if p["default"])
+        doc["verdict"] = {}
+        for m in methods:
+            if m == "gas":
+                continue
+            mine = next(p for p in doc["fronts"][m] if p["default"])
+            factor = ref["evaluations"] / max(mine["evaluations"], 1)
+            doc["verdict"][m] = {
+                "dominates_gas": bool(mine["feasible"] and dominates(mine, ref) and factor >= EVALUATION_FACTOR),
+                "max_thrust_n": [mine["max_thrust_n"], ref["max_thrust_n"]],
+                "mean_thrust_n": [mine["mean_thrust_n"], ref["mean_thrust_n"]],
+                "smoothness_m2": [mine["smoothness_m2"], ref["smoothness_m2"]],
+                "evaluation_factor": factor,
+            }
+    return doc
+
+
+def pareto_png(doc: dict) -> bytes:
+    """Max and mean thrust against Σ‖ΔP_body‖², a line per method through its weights; the defaults starred."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
+    for ax, key, label in ((axes[0], "max_thrust_n", "max thrust [N]"), (axes[1], "mean_thrust_n", "mean thrust [N]")):
+        for m, pts in doc["fronts"].items():
+            ok = [p for p in pts if p["feasible"]]
+            line, = ax.plot([p["smoothness_m2"] for p in ok], [p[key] for p in ok], "o-", label=m, ms=4)
+            for p in ok:
+                ax.annotate(f"{p['weight']:g}", (p["smoothness_m2"], p[key]), fontsize=6, alpha=0.7,
+                            xytext=(3, 3), textcoords="offset points")
+            d = [p for p in ok if p["default"]]
+            if d:
+                ax.plot(d[0]["smoothness_m2"], d[0][key], "*", ms=16, color=line.get_color(), mec="k",
+                        label=f"{m} default ({d[0]['weight']:g})")
+        ax.set_xlabel("Σ‖ΔP_body‖² [m²]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"{doc['scenario']} ({doc['policy']} policy): thrust against smoothness as the weight is swept "
+                 "(GAS: ω per mm²; sqp: ε N/m²)")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return buf.getvalue()

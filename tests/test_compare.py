@@ -72,6 +72,7 @@ def test_the_reference_follows_the_robust_policy(tmp_path, capsys):
     beats it by more than its grid error, and it needs more thrust than Paper A's minimal reference."""
     doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
     doc["steps"][0]["path"]["samples"] = 6
+    doc["optimiser"]["sqp"] = {"smoothness_n_per_m2": 10.0}  # the least thrust's path (smoothness a tie-break)
     path = tmp_path / "robust.yaml"
     path.write_text(yaml.safe_dump(doc))
     refs = {}

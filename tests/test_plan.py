@@ -33,7 +33,7 @@ def planned(tmp_path_factory):
 def test_outputs_exist_and_summary_reports(planned):
     assert sorted(p.name for p in planned.iterdir()) == ["summary.json", "trajectory.csv", "trajectory.mcap"]
     s = json.loads((planned / "summary.json").read_text())
-    assert s["feasible"] is True and s["optimiser"] == "gas" and s["seed"] == 1
+    assert s["feasible"] is True and s["optimiser"] == "sqp" and s["seed"] == 1  # sqp: the default
     assert 0 < s["max_thrust_n"] <= 23.0
     assert s["evaluations"] > 0 and s["wall_s"] > 0 and s["sample_count"] == 60
     for key in ("smoothness_m2", "max_step_m", "max_thrust_jump_n", "mean_thrust_n", "version", "steps"):
@@ -177,7 +177,8 @@ def test_no_thrust_over_the_ditch_is_exit_3(tmp_path, capsys):
     s = json.loads((folder / "summary.json").read_text())
     assert s["feasible"] is False
     bad = s["first_infeasible"]
-    assert bad["step"] == 0 and bad["phase"] == "swing" and bad["thrust_n"] > 0
+    # the least thrust there is above the 0 N limit, or none balances at all (sqp reports the latter)
+    assert bad["step"] == 0 and bad["phase"] == "swing" and (bad["thrust_n"] is None or bad["thrust_n"] > 0)
     # the first samples, with the swing foot still beside the support foot, balance without thrust
     assert bad["sample"] > 0 and s["steps"][0]["samples"] == bad["sample"] + 1
 

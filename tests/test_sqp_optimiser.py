@@ -24,8 +24,11 @@ DITCH = ROOT / "configs" / "forward_ditch_450.yaml"
 
 @pytest.fixture(scope="module")
 def ditch_plans():
+    """GAS, sqp with smoothness a tie-break (ε = 10 N/m²: the least thrust's path) and sqp at its default ε."""
     sc = load_scenario(DITCH)
-    return sc, {m: plan(sc, method=m, build_rows=False) for m in ("gas", "sqp")}
+    tie = replace(sc, optimiser=replace(sc.optimiser, sqp_smoothness_n_per_m2=10.0))
+    return sc, {"gas": plan(sc, method="gas", build_rows=False), "sqp": plan(tie, method="sqp", build_rows=False),
+                "default": plan(sc, build_rows=False)}
 
 
 def _problem(sc, robot, i):
@@ -79,22 +82,22 @@ def test_sqp_beats_gas_on_thrust_with_ten_times_fewer_evaluations(ditch_plans):
     assert 10 * opt.evaluations <= gas.evaluations
 
 
-def test_a_heavier_smoothness_term_dominates_gas(ditch_plans):
-    """With ε = 10⁴ N/m² (a 1 cm move costs 1 N) the path is smoother than GAS's and still needs
-    less thrust, at a tenth of the evaluations; and it is smoother than with the default tie-break."""
+def test_the_default_optimiser_dominates_gas(ditch_plans):
+    """The default (sqp at ε = 7·10⁴ N/m²) is at least as smooth as GAS at no more max and mean thrust,
+    with at least 10x fewer evaluations (the Pareto verdict); smoother than the least thrust's path, and
+    its price never raises the path's maximum above that path's."""
     sc, plans = ditch_plans
-    smooth = plan(replace(sc, optimiser=replace(sc.optimiser, method="sqp", sqp_smoothness_n_per_m2=1e4)),
-                  build_rows=False)
-    assert smooth.feasible
+    default, gas, least = plans["default"], plans["gas"], plans["sqp"]
+    assert default.method == "sqp" and default.feasible
 
     def sm(r):
         return float(np.sum(np.diff(r.steps[0].p_body, axis=0) ** 2))
 
-    gas = plans["gas"]
-    assert sm(smooth) <= sm(gas) and sm(smooth) < sm(plans["sqp"])
-    assert smooth.steps[0].thrust_n.max() <= gas.steps[0].thrust_n.max()
-    assert smooth.steps[0].thrust_n.mean() <= gas.steps[0].thrust_n.mean()
-    assert 10 * smooth.evaluations <= gas.evaluations
+    assert sm(default) <= sm(gas) and sm(default) < sm(least)
+    assert default.steps[0].thrust_n.max() <= gas.steps[0].thrust_n.max()
+    assert default.steps[0].thrust_n.mean() <= gas.steps[0].thrust_n.mean()
+    assert 10 * default.evaluations <= gas.evaluations
+    assert default.steps[0].thrust_n.max() <= least.steps[0].thrust_n.max() + 1e-3
 
 
 def test_sqp_is_within_half_a_percent_of_the_exhaustive_minimum(ditch_plans, robot):

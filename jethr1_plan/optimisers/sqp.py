@@ -6,15 +6,17 @@ exact minimal thrust H(P_body) (A-5) subject to (A-8) joint limits, the legs' re
 such a problem in a few iterations when it starts near the answer, and along a swing path the
 neighbouring sample's P_body is such a start (continuation). Written with the thrust as a variable,
 the balance condition is smooth (``AnalyticSample``); gradients are forward differences of the
-closed-form kinematics (``kinematics.closed_form``), exact to rounding, three postures per gradient.
+closed-form kinematics, compiled with the constraints in one loop (``physics.compiled.sample_terms``),
+exact to rounding, three postures per gradient.
 
-Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², with a default weight
-that makes it a tie-break (ε = 10 N/m²: a 1 cm move costs 0.001 N; ``optimiser.sqp.
-smoothness_n_per_m2`` in a scenario trades thrust for smoothness) instead of a price (the paper's
-ω = 50 per mm² against 10 per N is 5·10⁶ N/m², which holds P_body back by up to 3 N of thrust).
-An exact optimiser needs no more: wherever the optimum is unique P_body moves continuously with
-the sample; where it is not (no thrust needed) the tie-break keeps P_body still. Two passes make
-the path smooth where a greedy pass cannot know what is coming:
+Smoothness is the same kind of term as GAS's f3, ε·‖P_body − P_neighbour‖², and ε
+(``optimiser.sqp.smoothness_n_per_m2``) is its price against thrust: the passes below and the
+smoothing sweeps all lower Σ thrust + ε·Σ‖ΔP_body‖². At ε ≤ ``PASS_EPS`` (10 N/m²: a 1 cm move costs
+0.001 N) it is a tie-break and the path is the least thrust's; the default 7·10⁴ N/m² is the weight
+``jethr1 compare --pareto`` picks from the front: on the configs it reaches GAS's smoothness at less
+maximum and mean thrust (Paper A's ω = 50 per mm² against 10 per N is 5·10⁶ N/m²). A price never
+raises the path's maximum: ``lower_peaks`` solves the largest-thrust samples again for their least
+thrust, and the smoothing sweeps do not go above it. Three passes:
 
 1. *forward*: each sample from the previous sample's P_body (kept when it needs no thrust and
    holds every constraint; else a predictor, the last move repeated, then the previous P_body
@@ -26,9 +28,9 @@ the path smooth where a greedy pass cannot know what is coming:
    result replaces the forward one when its thrust is no higher (within ``ACCEPT_N``). Where no
    thrust is needed the postures so line up behind the first sample that needs thrust, and the
    pelvis moves once instead of twice;
-3. *smoothing*: a few sweeps move each P_body towards the midpoint of its neighbours where that
-   holds every constraint and costs at most ``SMOOTH_N`` of thrust (jitter in directions where the
-   thrust is flat).
+3. *smoothing*: sweeps move each P_body towards the midpoint of its neighbours where that holds
+   every constraint and costs at most ``SMOOTH_N`` of thrust (jitter in directions where the thrust is
+   flat) or at most the price of the smoothness gained (``smooth_path``).
 
 SLSQP starts are first brought inside the constraints by least-norm Gauss-Newton steps (the
 neighbour's posture is often just outside them: the foot has moved), and an answer that ends a
@@ -49,11 +51,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize
 
-from jethr1_plan.kinematics.closed_form import check_structure, solve_postures
+from jethr1_plan.kinematics.closed_form import check_structure, closed_form_arrays, solve_postures
 from jethr1_plan.optimisers.base import PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
 from jethr1_plan.physics.balance import edge_angle_error, halfplanes, least_thrust, thrust_window
+from jethr1_plan.physics.compiled import sample_terms
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import GRAVITY, LEG_ROLES, SIDES, RobotModel
 from jethr1_plan.search import DIRECTIONS
@@ -66,6 +69,7 @@ __all__ = [
     "infeasible_between",
     "largest_tolerance",
     "limit_mask",
+    "lower_peaks",
     "optimise_path",
     "smooth_path",
     "solve_from_grid",
@@ -86,6 +90,9 @@ RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside th
 GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
 SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
 SMOOTH_SWEEPS = 4
+PASS_EPS = 10.0  # the tie-break weight: at most this, smoothness is not priced [N/m²]
+PEAK_ROUNDS = 20  # lower_peaks: re-solves at most
+PRICED_SWEEPS = 10  # the smoothing sweeps where smoothness is priced (ε > PASS_EPS)
 BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
 BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7)
 
@@ -144,12 +151,23 @@ class AnalyticSample:
         self.evaluations = 0
         self._cache: dict[bytes, np.ndarray] = {}
         self._limit_mask = limit_mask(robot)
+        if self.one:  # the compiled kernel's arguments (physics.compiled.sample_terms)
+            normals, offsets = halfplanes(problem.support_polygon)
+            self._kernel_args = (
+                float(st.body_yaw), np.array([self.feet[s][0] for s in SIDES], dtype=float),
+                np.array([self.feet[s][1] for s in SIDES], dtype=float), *closed_form_arrays(robot),
+                self._limit_mask, self.margins, np.asarray(problem.edge_origin_xy, dtype=float),
+                np.asarray(problem.ankle_xy, dtype=float), float(problem.rho_rad),
+                np.asarray(problem.fan_xy[0], dtype=float), np.ascontiguousarray(normals, dtype=float),
+                np.ascontiguousarray(offsets, dtype=float), self.weight, tol.thrust, tol.mass, tol.com_m)
 
     def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CoM (M, 3) [m], the P-only constraints (M, K) (≥ 0 when held) and the exact minimal
         thrust (M,) [N] for P_body (M, 3) [m]."""
         pr = self.problem
         self.evaluations += len(P)
+        if self.one:
+            return sample_terms(np.ascontiguousarray(P, dtype=float), *self._kernel_args)
         q, com, status = solve_postures(self.robot, P, pr.stance.body_yaw, self.feet)
         legs = self.robot.leg_index
         q = q[:, legs]
@@ -395,44 +413,98 @@ def largest_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndar
 
 
 def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
-                sweeps: int = SMOOTH_SWEEPS) -> None:
-    """Sweeps that move each P_body towards the midpoint of its neighbours (full, half or quarter
-    way, the first that holds), as long as every constraint holds and the thrust rises by at most
-    ``SMOOTH_N``: the jitter a local optimum leaves in directions where the thrust is flat goes,
-    the thrust stays within SMOOTH_N of what was found. Updates ``found`` and ``evals`` in place."""
+                smoothness_n_per_m2: float = 0.0, sweeps: int = SMOOTH_SWEEPS) -> None:
+    """Gauss–Seidel sweeps that move each P_body towards the midpoint of its neighbours (full, half or
+    quarter way, the first accepted) while every constraint holds and the path's largest thrust does
+    not rise. A move is accepted when the sample's thrust rises by at most ``SMOOTH_N`` above what the
+    passes found (the jitter a local optimum leaves where the thrust is flat goes), or by at most
+    ε·(the fall of ‖P − P_prev‖² + ‖P − P_next‖²), ε = ``smoothness_n_per_m2``: the same price as the
+    passes' term, so every such move lowers Σ thrust + ε·Σ‖ΔP_body‖² and the sweeps end on the
+    trade-off that ε asks for. Up to ``sweeps`` sweeps (more while moves are still being accepted
+    under the price: at most ``PRICED_SWEEPS``). Updates ``found`` and ``evals`` in place."""
     n = len(found)
     base = [np.inf if f is None else f.thrust for f in found]  # the thrusts the optimiser found
-    for _ in range(sweeps):
+    peak = max((t for t in base if np.isfinite(t)), default=0.0)
+    samples: dict[int, AnalyticSample] = {}
+    limit = PRICED_SWEEPS if smoothness_n_per_m2 > PASS_EPS else sweeps
+    for _ in range(limit):
+        moved = 0
         for i in range(1, n - 1):
             a, b, cur = found[i - 1], found[i + 1], found[i]
             if a is None or b is None or cur is None:
                 continue
             mid = 0.5 * (a.p + b.p)
-            if np.linalg.norm(mid - cur.p) < 1e-5:
+            gap = float(np.sum((mid - cur.p) ** 2))
+            if gap < 1e-10:
                 continue
-            sample = AnalyticSample(robot, problems[i], None)
+            sample = samples.get(i)
+            if sample is None:
+                sample = samples[i] = AnalyticSample(robot, problems[i], None)
+            sample.evaluations = 0
             for alpha in (1.0, 0.5, 0.25):
                 p = cur.p + alpha * (mid - cur.p)
                 ok, t = sample.feasible(p)
-                if ok and t <= base[i] + SMOOTH_N:
+                # ‖p − a‖² + ‖p − b‖² = 2‖p − mid‖² + const: its fall is 2·gap·(1 − (1 − α)²)
+                price = smoothness_n_per_m2 * 2.0 * gap * (1.0 - (1.0 - alpha) ** 2)
+                if ok and t <= peak and (t <= base[i] + SMOOTH_N or t - cur.thrust <= price):
                     found[i] = Found(p, t, cur.settled)
+                    moved += 1
                     break
             evals[i] += sample.evaluations
+        if not moved:
+            break
+
+
+def lower_peaks(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
+                rounds: int = PEAK_ROUNDS) -> None:
+    """Where the smoothness price held the path's largest thrust above what its sample needs, that
+    sample is solved again for its least thrust (tie-break weight ``PASS_EPS``, from where it is),
+    and so on for the next largest, until the largest is a sample's least thrust (or ``rounds``
+    re-solves): the price trades thrust for smoothness, never the path's maximum. Updates ``found``
+    and ``evals`` in place."""
+    for _ in range(rounds):
+        thrusts = np.array([np.inf if f is None else f.thrust for f in found])
+        finite = np.isfinite(thrusts)
+        if not finite.any():
+            return
+        i = int(np.argmax(np.where(finite, thrusts, -np.inf)))
+        cur = found[i]
+        assert cur is not None
+        prev = found[i - 1] if i else None
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, PASS_EPS)
+        r = solve_from_neighbour(sample, cur.p)
+        for _ in range(BOX_MOVES):  # the trust box held the answer back: move it there
+            if r is None or r.settled:
+                break
+            r2 = solve_from_neighbour(sample, r.p)
+            if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
+                break
+            r = r2
+        evals[i] += sample.evaluations
+        if r is None or r.thrust >= cur.thrust - ACCEPT_N:
+            return
+        found[i] = r
 
 
 def infeasible_between(robot: RobotModel, found: list[Found | None], between: Callable[[int, float], SampleProblem],
-                       evals: np.ndarray, fractions: dict[int, list[float]] | None = None) -> list[int]:
+                       evals: np.ndarray, fractions: dict[int, list[float]] | None = None,
+                       samples: dict[tuple[int, float], AnalyticSample] | None = None) -> list[int]:
     """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
     the sequence builds there interpolate P_body and the swing sole linearly. Checked without
     margins at ``fractions[i]`` (the fractions of the way at which the rows fall), or, without
-    them, at a quarter, half and three quarters of the way."""
+    them, at a quarter, half and three quarters of the way. ``samples`` keeps the problems between
+    samples from one call to the next (they do not change as P_body does)."""
     bad = []
+    samples = {} if samples is None else samples
     for i in range(len(found) - 1):
         a, b = found[i], found[i + 1]
         if a is None or b is None:
             continue
         for lam in (BETWEEN if fractions is None else fractions.get(i, ())):
-            sample = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
+            sample = samples.get((i, lam))
+            if sample is None:
+                sample = samples[(i, lam)] = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
+            sample.evaluations = 0
             ok, _ = sample.feasible((1 - lam) * a.p + lam * b.p)
             evals[i] += sample.evaluations
             if not ok:
@@ -454,13 +526,14 @@ def optimise_path(request: PathRequest) -> PathResult:
     n = len(problems)
     half = cfg.initial.half_range_m
     eps = cfg.sqp_smoothness_n_per_m2
+    eps_pass = eps
     found: list[Found | None] = [None] * n
     evals = np.zeros(n, dtype=np.int64)
     phase = ["sqp"] * n
     # forward pass
     for i in range(n):
         prev = found[i - 1] if i else None
-        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps)
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps_pass)
         r = None
         if prev is not None:
             ok, f = sample.feasible(prev.p)
@@ -489,7 +562,7 @@ def optimise_path(request: PathRequest) -> PathResult:
         nxt, cur = found[i + 1], found[i]
         if nxt is None:
             continue
-        sample = AnalyticSample(robot, problems[i], nxt.p, eps)
+        sample = AnalyticSample(robot, problems[i], nxt.p, eps_pass)
         ok, f = sample.feasible(nxt.p)  # the next posture itself, when it serves as well, is the answer
         if ok and cur is not None and f <= cur.thrust + ACCEPT_N:
             r = Found(nxt.p.copy(), f, True)
@@ -500,7 +573,9 @@ def optimise_path(request: PathRequest) -> PathResult:
         evals[i] += sample.evaluations
         if r is not None and (cur is None or r.thrust <= cur.thrust + ACCEPT_N):
             found[i] = r
-    smooth_path(robot, problems, found, evals)
+    if eps > PASS_EPS:
+        lower_peaks(robot, problems, found, evals)
+    smooth_path(robot, problems, found, evals, eps)
     scale = np.ones(n)
     fractions: dict[int, list[float]] | None = None
     if row_positions is not None:
@@ -509,8 +584,9 @@ def optimise_path(request: PathRequest) -> PathResult:
             i = int(np.floor(u))
             if u - i > 1e-12 and i < n - 1:
                 fractions.setdefault(i, []).append(float(u - i))
+    kept: dict[tuple[int, float], AnalyticSample] = {}
     for _ in range(BETWEEN_ROUNDS if between is not None else 0):
-        bad = infeasible_between(robot, found, between, evals, fractions)
+        bad = infeasible_between(robot, found, between, evals, fractions, kept)
         if not bad:
             break
         redo = sorted({j for i in bad for j in (i, i + 1)})

@@ -37,6 +37,7 @@ __all__ = [
     "optimise_step",
     "plan",
     "reachable_tolerance",
+    "row_solver",
     "standing_pose",
     "yaw_schedule",
 ]
@@ -183,8 +184,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, given or make_posture_solver(robot, kinematics), steps,
-                                       schedule)
+        rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -195,6 +195,20 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
                 raise InfeasiblePlan(describe_infeasible(first_bad), plan_summary(result))
     return PlanResult(scenario, robot, cfg.method, seed, steps, rows, first_bad, evaluations, time.perf_counter() - t0,
                       optimise_s)
+
+
+def row_solver(robot: RobotModel, given: PostureSolver | None = None, kinematics: str = "placo") -> PostureSolver:
+    """The solver of the output-rate rows: the closed form wherever the legs have its structure (the same
+    postures as PlaCo's IK to 1e-9 m, without an iterative solve per row; PlaCo confirms every written
+    row, its forward kinematics in the self-check putting the soles where they belong), else ``given``
+    or a new solver of ``kinematics``."""
+    from jethr1_plan.errors import RobotModelError
+    from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver
+
+    try:
+        return ClosedFormPostureSolver(robot)
+    except RobotModelError:
+        return given or make_posture_solver(robot, kinematics)
 
 
 def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) -> dict | None:
