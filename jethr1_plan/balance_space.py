@@ -69,6 +69,7 @@ SEED_EVERY = 4  # continuation: generic seeds on every 4th x slice
 RELAX_PASSES = 3  # continuation: rounds of neighbour relaxation
 RELAX_SLACK_N = 0.3  # continuation: a neighbour's optimum is searched from when it scores below this above the cell's
 LAYERS_PER_TASK = 2  # the fixed partition of the work: output never depends on the number of workers
+OFFER_ONCE = True  # relaxation: offer each optimum once per direction (False: every pass, as before; same output)
 
 
 @dataclass(frozen=True)
@@ -171,7 +172,7 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
     offering it again repeats the same search from the same start, which cannot beat the cell's
     optimum (it only falls). Cells that improve are marked in ``fresh`` (to be offered again).
     """
-    ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000) & ~offered[src]
+    ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000) & (~offered[src] if OFFER_ONCE else True)
     offered[src] = True
     if not ok.any():
         return 0
