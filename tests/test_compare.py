@@ -87,3 +87,34 @@ def test_the_reference_follows_the_robust_policy(tmp_path, capsys):
         assert np.all(t >= refs[policy] - 0.2) and np.all(t <= refs[policy] + 0.5)
     loaded = refs["minimal"] > 0.5
     assert loaded.sum() >= 2 and np.all(refs["robust"][loaded] > refs["minimal"][loaded] + 0.5)
+
+
+def test_pareto_fronts_and_verdict(tmp_path, capsys, monkeypatch):
+    """`compare --pareto` plans each weight, marks the defaults and the front (no point of the method is
+    as good in all three measures and better in one), and its verdict is the dominance of the default
+    sqp point over GAS's with 10x fewer evaluations, recomputed here from the points."""
+    from jethr1_plan import compare as cmp
+
+    monkeypatch.setitem(cmp.PARETO_WEIGHTS, "gas", (50.0,))
+    monkeypatch.setitem(cmp.PARETO_WEIGHTS, "sqp", (10.0, 1e6))
+    doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
+    doc["steps"][0]["path"]["samples"] = 12
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    assert run(["compare", str(path), "--pareto", "-o", str(tmp_path / "p"), "--json", "--no-progress"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == ["pareto.json", "pareto.png"]
+    assert (tmp_path / "p" / "pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    sqp, gas = d["fronts"]["sqp"], d["fronts"]["gas"]
+    assert [p["weight"] for p in sqp] == [10.0, 7e4, 1e6] and [p["default"] for p in sqp] == [False, True, False]
+    keys = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")
+    for p in sqp:
+        beaten = any(q is not p and all(q[k] <= p[k] for k in keys) and any(q[k] < p[k] for k in keys) for q in sqp)
+        assert p["on_front"] == (p["feasible"] and not beaten)
+    mine, ref = sqp[1], gas[0]
+    verdict = d["verdict"]["sqp"]
+    expected = all(mine[k] <= ref[k] for k in keys) and ref["evaluations"] >= 10 * mine["evaluations"]
+    assert verdict["dominates_gas"] == expected
+    assert verdict["evaluation_factor"] == ref["evaluations"] / mine["evaluations"]
+    # the price never raises the path's maximum above the least thrust's path (ε = 10)
+    assert all(p["max_thrust_n"] <= sqp[0]["max_thrust_n"] + 1e-3 for p in sqp[1:])

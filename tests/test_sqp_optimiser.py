@@ -86,7 +86,7 @@ def test_the_default_optimiser_dominates_gas(ditch_plans):
     """The default (sqp at ε = 7·10⁴ N/m²) is at least as smooth as GAS at no more max and mean thrust,
     with at least 10x fewer evaluations (the Pareto verdict); smoother than the least thrust's path, and
     its price never raises the path's maximum above that path's."""
-    sc, plans = ditch_plans
+    _, plans = ditch_plans
     default, gas, least = plans["default"], plans["gas"], plans["sqp"]
     assert default.method == "sqp" and default.feasible
 

@@ -65,6 +65,7 @@ __all__ = [
     "AnalyticSample",
     "Found",
     "compass",
+    "follow_box",
     "grid_starts",
     "infeasible_between",
     "largest_tolerance",
@@ -370,6 +371,19 @@ def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.n
     return Found(x, f, False) if ok else None
 
 
+def follow_box(sample: AnalyticSample, r: Found | None) -> Found | None:
+    """Where the trust box held ``r`` back (not settled inside it), move the box there and solve again,
+    up to ``BOX_MOVES`` times, while the thrust falls by more than ``ACCEPT_N``."""
+    for _ in range(BOX_MOVES):
+        if r is None or r.settled:
+            break
+        r2 = solve_from_neighbour(sample, r.p)
+        if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
+            break
+        r = r2
+    return r
+
+
 def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> Found | None:
     """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
     best = None
@@ -472,14 +486,7 @@ def lower_peaks(robot: RobotModel, problems: list[SampleProblem], found: list[Fo
         assert cur is not None
         prev = found[i - 1] if i else None
         sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, PASS_EPS)
-        r = solve_from_neighbour(sample, cur.p)
-        for _ in range(BOX_MOVES):  # the trust box held the answer back: move it there
-            if r is None or r.settled:
-                break
-            r2 = solve_from_neighbour(sample, r.p)
-            if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
-                break
-            r = r2
+        r = follow_box(sample, solve_from_neighbour(sample, cur.p))
         evals[i] += sample.evaluations
         if r is None or r.thrust >= cur.thrust - ACCEPT_N:
             return
@@ -545,13 +552,7 @@ def optimise_path(request: PathRequest) -> PathResult:
                 r = solve_from_neighbour(sample, prev.p, guess)
                 if r is None and guess is not None:  # the box moved on along the path
                     r = solve_from_neighbour(sample, guess)
-                for _ in range(BOX_MOVES):  # the box held the answer back: move it there and go on
-                    if r is None or r.settled:
-                        break
-                    r2 = solve_from_neighbour(sample, r.p)
-                    if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
-                        break
-                    r = r2
+                r = follow_box(sample, r)
         if r is None:
             r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, half)
             phase[i] = "sqp-grid"
