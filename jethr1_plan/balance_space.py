@@ -158,9 +158,9 @@ def _from_neighbour(ev: Evaluator, c: Cells, idx: np.ndarray, P0: np.ndarray, sp
 
 
 def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_all: np.ndarray, f_all: np.ndarray,
-                 src: np.ndarray, dst: np.ndarray, offered: np.ndarray, fresh: np.ndarray) -> int:
+                 src: np.ndarray, dst: np.ndarray, offered: np.ndarray) -> np.ndarray:
     """Cells ``dst`` try their neighbours' (``src``, one cell away) optima; P_all, f_all updated in
-    place. Returns how many cells improved.
+    place. Returns the cells that improved.
 
     A neighbour's optimum is carried over (shifted by half the cell offset) and searched from only
     where it already scores within RELAX_SLACK_N of the cell's own, where it is a member and the
@@ -170,12 +170,13 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
 
     ``offered`` (cells,) marks the cells whose present optimum was already offered in this direction:
     offering it again repeats the same search from the same start, which cannot beat the cell's
-    optimum (it only falls). Cells that improve are marked in ``fresh`` (to be offered again).
+    optimum (it only falls).
     """
     ok = todo[dst] & np.isfinite(f_all[src]) & (f_all[src] < 2000) & (~offered[src] if OFFER_ONCE else True)
     offered[src] = True
+    none = np.zeros(0, dtype=np.int64)
     if not ok.any():
-        return 0
+        return none
     s_idx, d_idx = src[ok], dst[ok]
     P0 = ev.into_reach(c, d_idx, P_all[s_idx] + (c.swing[d_idx] - c.swing[s_idx]) / 2)
     f0, _, r0 = ev(c, d_idx, P0)
@@ -183,13 +184,12 @@ def _relax_slice(ev: Evaluator, c: Cells, spec: SweepSpec, todo: np.ndarray, P_a
     go = ((f0 < f_all[d_idx] + RELAX_SLACK_N) | ((f_all[d_idx] > fmax) & (f_all[s_idx] <= fmax))
           | ((r0 == Reason.EDGE_ANGLE) & (f_all[d_idx] > 0)))
     if not go.any():
-        return 0
+        return none
     d_idx, P0, f0 = d_idx[go], P0[go], f0[go]
     P2, f2 = compass_search(ev, c, d_idx, P0, f0, np.full(len(d_idx), 0.004), spec.min_step_m)
     better = f2 < f_all[d_idx] - 1e-9
     P_all[d_idx[better]], f_all[d_idx[better]] = P2[better], f2[better]
-    fresh[d_idx[better]] = True
-    return int(better.sum())
+    return d_idx[better]
 
 
 def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
@@ -261,10 +261,10 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
             for (axis, d), off in zip(directions, offered, strict=True):
                 order = range(grid.shape[axis]) if d > 0 else range(grid.shape[axis] - 1, -1, -1)
                 for k in list(order)[1:]:
-                    fresh = np.zeros(n, dtype=bool)
-                    improved += _relax_slice(ev, c, spec, todo, P_all, f_all, np.take(grid, k - d, axis=axis).ravel(),
-                                             np.take(grid, k, axis=axis).ravel(), off, fresh)
-                    offered[:, fresh] = False  # a new optimum: offer it in every direction again
+                    better = _relax_slice(ev, c, spec, todo, P_all, f_all, np.take(grid, k - d, axis=axis).ravel(),
+                                          np.take(grid, k, axis=axis).ravel(), off)
+                    offered[:, better] = False  # a new optimum: offer it in every direction again
+                    improved += len(better)
             if not improved:
                 break
         idx = np.flatnonzero(todo)

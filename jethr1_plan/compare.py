@@ -25,8 +25,9 @@ from jethr1_plan.reasons import Reason
 from jethr1_plan.scenario import Scenario
 from jethr1_plan.search import Cells, Evaluator, SupportStance, exhaustive_cell
 
-__all__ = ["EVALUATION_FACTOR", "PARETO_WEIGHTS", "compare", "comparison_pngs", "default_weight", "dominates", "pareto",
-           "pareto_png", "reference_thrust", "run_method", "step_evaluator", "with_weight"]
+__all__ = ["EVALUATION_FACTOR", "GA_OMEGAS", "MEASURES", "PARETO_WEIGHTS", "compare", "comparison_pngs",
+           "default_weight", "dominates", "pareto", "pareto_png", "reference_thrust", "run_method", "step_evaluator",
+           "with_weight"]
 
 
 def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
@@ -165,13 +166,11 @@ def comparison_pngs(doc: dict) -> dict[str, bytes]:
     return out
 
 
-#: the smoothness weights ``compare --pareto`` sweeps: GAS's ω [per mm², against 10 per N] and sqp's ε [N/m²]
-PARETO_WEIGHTS: dict[str, tuple[float, ...]] = {
-    "gas": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
-    "ga": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
-    "gaex": (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0),
-    "sqp": (10.0, 1e3, 1e4, 3e4, 7e4, 1e5, 2e5, 5e5, 1e6),
-}
+#: the smoothness weights ``compare --pareto`` sweeps: the GAs' ω [per mm², against 10 per N] and sqp's ε [N/m²]
+GA_OMEGAS = (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0)
+PARETO_WEIGHTS: dict[str, tuple[float, ...]] = {"gas": GA_OMEGAS, "ga": GA_OMEGAS, "gaex": GA_OMEGAS,
+                                                "sqp": (10.0, 1e3, 1e4, 3e4, 7e4, 1e5, 2e5, 5e5, 1e6)}
+MEASURES = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")  # what the fronts compare (lower is better)
 #: what the Pareto verdict asks of a method against GAS at its default: fewer evaluations by this factor
 EVALUATION_FACTOR = 10.0
 
@@ -195,8 +194,7 @@ def default_weight(scenario: Scenario, method: str) -> float:
 def dominates(a: dict, b: dict) -> bool:
     """Whether plan ``a`` is at least as good as ``b`` in max thrust, mean thrust and Σ‖ΔP_body‖² (all
     lower is better)."""
-    keys = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")
-    return all(a[k] is not None and b[k] is not None and a[k] <= b[k] for k in keys)
+    return all(a[k] is not None and b[k] is not None and a[k] <= b[k] for k in MEASURES)
 
 
 def _point(scenario: Scenario, method: str, weight: float, seed: int | None) -> dict:
@@ -232,10 +230,9 @@ def pareto(scenario: Scenario, methods: tuple[str, ...] = ("gas", "sqp"), seed: 
         pts = [p for (mm, _), p in zip(runs, points, strict=True) if mm == m]
         for p in pts:
             p["default"] = p["weight"] == doc["defaults"][m]
-            p["on_front"] = bool(p["feasible"]) and not any(
-                q is not p and q["feasible"] and dominates(q, p) and any(q[k] < p[k] for k in
-                                                                         ("max_thrust_n", "mean_thrust_n",
-                                                                          "smoothness_m2")) for q in pts)
+            beaten = any(q is not p and q["feasible"] and dominates(q, p) and any(q[k] < p[k] for k in MEASURES)
+                         for q in pts)
+            p["on_front"] = bool(p["feasible"]) and not beaten
         doc["fronts"][m] = pts
     if "gas" in methods:
         ref = next(p for p in doc["fronts"]["gas"] if p["default"])

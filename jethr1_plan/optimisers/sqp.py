@@ -135,8 +135,8 @@ class AnalyticSample:
         self.hip = g.hip_offset_m
         self.up = np.array([0.0, 0.0, g.ankle_height_m])
         self.weight = problem.mass_kg * GRAVITY
-        self.normals, offsets = halfplanes(problem.support_polygon)
-        self.offsets = offsets - self.margins[3]
+        self.normals, polygon_offsets = halfplanes(problem.support_polygon)
+        self.offsets = polygon_offsets - self.margins[3]
         tol = problem.tolerance
         self.mass_factors = np.array([1.0 + tol.mass, 1.0 - tol.mass]) if tol.mass > 0 else np.ones(1)
         self.one = problem.one_fixed_fan  # Paper A's case: one variable u, constant coefficients
@@ -153,14 +153,13 @@ class AnalyticSample:
         self._cache: dict[bytes, np.ndarray] = {}
         self._limit_mask = limit_mask(robot)
         if self.one:  # the compiled kernel's arguments (physics.compiled.sample_terms)
-            normals, offsets = halfplanes(problem.support_polygon)
             self._kernel_args = (
                 float(st.body_yaw), np.array([self.feet[s][0] for s in SIDES], dtype=float),
                 np.array([self.feet[s][1] for s in SIDES], dtype=float), *closed_form_arrays(robot),
                 self._limit_mask, self.margins, np.asarray(problem.edge_origin_xy, dtype=float),
                 np.asarray(problem.ankle_xy, dtype=float), float(problem.rho_rad),
-                np.asarray(problem.fan_xy[0], dtype=float), np.ascontiguousarray(normals, dtype=float),
-                np.ascontiguousarray(offsets, dtype=float), self.weight, tol.thrust, tol.mass, tol.com_m)
+                np.asarray(problem.fan_xy[0], dtype=float), np.ascontiguousarray(self.normals, dtype=float),
+                np.ascontiguousarray(polygon_offsets, dtype=float), self.weight, tol.thrust, tol.mass, tol.com_m)
 
     def posture_terms(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """CoM (M, 3) [m], the P-only constraints (M, K) (≥ 0 when held) and the exact minimal
@@ -533,14 +532,13 @@ def optimise_path(request: PathRequest) -> PathResult:
     n = len(problems)
     half = cfg.initial.half_range_m
     eps = cfg.sqp_smoothness_n_per_m2
-    eps_pass = eps
     found: list[Found | None] = [None] * n
     evals = np.zeros(n, dtype=np.int64)
     phase = ["sqp"] * n
     # forward pass
     for i in range(n):
         prev = found[i - 1] if i else None
-        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps_pass)
+        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps)
         r = None
         if prev is not None:
             ok, f = sample.feasible(prev.p)
@@ -563,7 +561,7 @@ def optimise_path(request: PathRequest) -> PathResult:
         nxt, cur = found[i + 1], found[i]
         if nxt is None:
             continue
-        sample = AnalyticSample(robot, problems[i], nxt.p, eps_pass)
+        sample = AnalyticSample(robot, problems[i], nxt.p, eps)
         ok, f = sample.feasible(nxt.p)  # the next posture itself, when it serves as well, is the answer
         if ok and cur is not None and f <= cur.thrust + ACCEPT_N:
             r = Found(nxt.p.copy(), f, True)
