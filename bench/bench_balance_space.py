@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jethr1_plan.balance_space import SweepSpec, summary, sweep
+from jethr1_plan.balance_space import SweepSpec, summary, sweep, sweep_layers
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
 from jethr1_plan.search import Evaluator, exhaustive_cell
@@ -59,10 +59,36 @@ def relaxation_ratio(spec: SweepSpec) -> None:
           f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; same cells: {same}")
 
 
+def polling_ratio(spec: SweepSpec) -> None:
+    """Four layers (z = 0.02..0.05 m) with the compass polling a few directions at a time (the last move's
+    first) against complete polls (every direction, then the best: the previous method), in this run."""
+    from jethr1_plan import search
+    from jethr1_plan.balance_space import sweep_layers
+
+    zs = tuple(float(z) for z in spec.axes()[2][2:6])
+    default = search.POLL_CHUNK
+    out = {}
+    for chunk in (len(search.FINE_DIRECTIONS), default):
+        search.POLL_CHUNK = chunk
+        t0 = time.perf_counter()
+        out[chunk] = (sweep_layers(spec, zs), time.perf_counter() - t0)
+    search.POLL_CHUNK = default
+    (old, t_old), (new, t_new) = out[len(search.FINE_DIRECTIONS)], out[default]
+    m_old, m_new = old.reason == Reason.OK, new.reason == Reason.OK
+    both = m_old & m_new
+    gap = new.thrust[both].mean() - old.thrust[both].mean()
+    print(f"compass polls, 4 layers ({len(new.swing)} cells), one core: {default} at a time {new.evaluations:,} "
+          f"evaluations {t_new:.1f} s, complete (previous) {old.evaluations:,} evaluations {t_old:.1f} s; ratio "
+          f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; members {m_new.sum()} "
+          f"against {m_old.sum()}, mean thrust of common members {gap:+.4f} N")
+
+
 def main(resolution: float = 0.01, samples: int = 1000) -> None:
     spec = SweepSpec(resolution_m=float(resolution))
     kernel_speed(spec)
+    sweep_layers(SweepSpec(resolution_m=0.05), (0.0,))  # compile (or load) every kernel before timing
     relaxation_ratio(spec)
+    polling_ratio(spec)
     t0 = time.perf_counter()
     result = sweep(spec, jobs=2)
     wall = time.perf_counter() - t0

@@ -14,9 +14,13 @@ Two inner searches over P_body:
 * ``continuation`` (default): cells are visited in slices along x, each seeded with the best
   P_body of its neighbour in the previous slice and with generic postures (scored on every cell,
   searched from on every 4th slice or where they already beat the neighbour's); a compass
-  (pattern) search then shrinks its step from 32 mm (seeds) or 4 mm (neighbours) to 0.5 mm;
-  Gauss–Seidel relaxation sweeps carry better optima between neighbours. A test checks that it
-  agrees with ``exhaustive`` on sampled cells (same membership, thrust within 0.1 N).
+  (pattern) search then shrinks its step from 32 mm (seeds) or 4 mm (neighbours) to 0.5 mm, polling
+  a few directions at a time, the last move's first (``search.compass_search``); Gauss–Seidel
+  relaxation sweeps carry better optima between neighbours; last, the cells that are members or
+  nearly, with the swing sole 0.15 m or more above the support, are polished by a compass polling
+  all 26 directions (there most optima sit where a straight leg meets a joint limit of the swing
+  leg, a ridge the 14 directions of the search can miss). A test checks that it agrees with
+  ``exhaustive`` on sampled cells (same membership, thrust within 0.1 N).
 
 Both search over pelvis positions moved onto the legs' reach balls where they lie beyond
 (:meth:`~jethr1_plan.search.Evaluator.into_reach`): the optimum of most cells has a leg at full stretch, where a
@@ -42,6 +46,7 @@ from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.reasons import Reason, balances, has_posture
 from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.search import (
+    DIRECTIONS,
     Cells,
     Evaluator,
     SupportStance,
@@ -67,8 +72,13 @@ CELL_REASONS = (Reason.OK, Reason.OVERLAP, Reason.UNREACHABLE, Reason.JOINT_LIMI
                 Reason.EDGE_ANGLE, Reason.THRUST_MAX)
 SEED_EVERY = 4  # continuation: generic seeds on every 4th x slice
 RELAX_PASSES = 3  # continuation: rounds of neighbour relaxation
-RELAX_SLACK_N = 0.3  # continuation: a neighbour's optimum is searched from when it scores below this above the cell's
+RELAX_SLACK_N = 0.15  # continuation: a neighbour's optimum is searched from when it scores below this above the cell's
+#                       (0.3 before; measured without the polish: 35.1 s against 26.0 s, 989 against 987 of 1,000
+#                       cells agreeing with exhaustive)
 LAYERS_PER_TASK = 2  # the fixed partition of the work: output never depends on the number of workers
+POLISH_ABOVE_N = 1.0  # continuation: cells up to this above the fan's maximum get the final polish
+POLISH_STEP_M = 0.004  # ... starting at this compass step
+POLISH_FROM_M = 0.15  # ... with the swing sole at least this high above the support
 OFFER_ONCE = True  # relaxation: offer each optimum once per direction (False: every pass, as before; same output)
 
 
@@ -267,6 +277,15 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
                     improved += len(better)
             if not improved:
                 break
+        # polish: the cells that are members or nearly, polled in all 26 directions (the optimum of most
+        # sits where a straight leg meets a joint limit, a ridge the 14 directions can miss)
+        near = np.flatnonzero(todo & (f_all <= spec.fan_limit_n + POLISH_ABOVE_N) & (f_all > 0)
+                              & (swing[:, 2] - ev.support[2] >= POLISH_FROM_M))
+        if len(near):
+            P2, f2 = compass_search(ev, c, near, P_all[near], f_all[near], np.full(len(near), POLISH_STEP_M),
+                                    spec.min_step_m, axis_dirs=DIRECTIONS, fine_dirs=DIRECTIONS)
+            better = f2 < f_all[near] - 1e-9
+            P_all[near[better]], f_all[near[better]] = P2[better], f2[better]
         idx = np.flatnonzero(todo)
         if len(idx):
             _, t, r = ev(c, idx, P_all[idx])

@@ -16,9 +16,9 @@ from jethr1_plan.balance_space import SweepSpec
 from jethr1_plan.kinematics.closed_form import check_structure
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
 from jethr1_plan.physics.compiled import into_reach
-from jethr1_plan.reasons import Reason
+from jethr1_plan.reasons import Reason, balances
 from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
-from jethr1_plan.search import EDGE_PENALTY_N_PER_DEG, Evaluator
+from jethr1_plan.search import EDGE_PENALTY_N_PER_DEG, FINE_DIRECTIONS, Evaluator, compass_search
 
 from .leg_oracle import fast_com, leg_ik
 from .oracle import edge_angle_error, window_bounds
@@ -124,3 +124,31 @@ def test_into_reach_is_the_nearest_point_of_both_reach_balls():
         rows = np.flatnonzero(idx == c)
         nearest = np.min(np.linalg.norm(P[rows, None, :] - lens[None], axis=2), axis=1)
         assert np.all(np.linalg.norm(out[rows] - P[rows], axis=1) <= nearest + 1e-9)
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 14])
+def test_compass_ends_where_no_poll_direction_improves(chunk):
+    """The compiled compass search, polling ``chunk`` directions at a time (14: every one), stops only
+    where none of the 14 fine directions at the last step (0.5 mm, each moved onto the reach balls)
+    scores lower, or at zero thrust; never above its start; and it counts every evaluation."""
+    spec = SweepSpec(resolution_m=0.01)
+    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
+    rng = np.random.default_rng(11)
+    swing = np.column_stack([rng.uniform(0.1, 0.6, 60), rng.uniform(-0.5, 0.3, 60), rng.uniform(0.0, 0.25, 60)])
+    cells = ev.cells(swing)
+    idx = np.flatnonzero(ev.reach_possible(cells))
+    P0 = ev.into_reach(cells, idx, (ev.support + swing[idx]) / 2 + np.array([0.0, 0.0, 0.38]))
+    f0 = ev(cells, idx, P0)[0]
+    before = ev.evaluations
+    # no cap on the polls (the default stops a stage after 60), so every row ends by its step
+    P, f = compass_search(ev, cells, idx, P0, f0, np.full(len(idx), 0.004), 0.0005, max_iter=100_000, chunk=chunk)
+    spent = ev.evaluations - before
+    assert np.all(f <= f0)
+    obj, _, reason = ev(cells, idx, P)
+    searched = (f > 0) & balances(reason)  # rows that fell back on their best valid posture are left out
+    assert searched.sum() >= 10
+    np.testing.assert_array_equal(obj[searched], f[searched])
+    for d in FINE_DIRECTIONS:
+        polled = ev.into_reach(cells, idx[searched], P[searched] + 0.0005 * d)
+        assert np.all(ev(cells, idx[searched], polled)[0] >= f[searched] - 1e-12)
+    assert spent >= searched.sum() * (6 + 6 + 14 + 14 + 1)  # a failed poll at each of 4, 2, 1, 0.5 mm; the last check

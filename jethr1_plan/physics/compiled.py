@@ -4,7 +4,8 @@
 * the thrust window of (A-1, A-2) under any tolerance (:func:`windows`; ``balance.thrust_window``);
 * the edge angle of (A-10) (:func:`edge_errors`; ``balance.edge_angle_error``);
 * the legs' reach balls (:func:`into_reach`), and the balance-space objective fusing all of them in
-  one loop per candidate (:func:`balance_objective`);
+  one loop per candidate (:func:`balance_objective`; :func:`objective_into` and :func:`into_reach_one`
+  are the same for callers compiled themselves, ``search``'s compass);
 * one swing sample's smooth constraints and exact least thrust (:func:`sample_terms`), what SLSQP
   (``optimisers.sqp``) evaluates thousands of times per path.
 
@@ -26,7 +27,8 @@ import numpy as np
 
 from jethr1_plan.reasons import Reason
 
-__all__ = ["balance_objective", "edge_errors", "into_reach", "postures", "sample_terms", "windows"]
+__all__ = ["balance_objective", "edge_errors", "into_reach", "into_reach_one", "objective_into", "objective_scratch",
+           "postures", "sample_terms", "windows"]
 
 # the reason codes as plain integers (compile-time constants in the kernels)
 OK, UNREACHABLE, JOINT_LIMIT = int(Reason.OK), int(Reason.UNREACHABLE), int(Reason.JOINT_LIMIT)
@@ -452,34 +454,17 @@ def sample_terms(P, yaw, feet, feet_yaw, geom, trunk, joints, links, limits, mas
     return com_out, cons, thrust
 
 
-@numba.njit(cache=True)
-def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support,
-                      scalars, fans):
-    """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
-
-    As ``search.Evaluator``: an unreachable posture scores 4000 + 1e4·(reach excess [m]), one
-    beyond the joint limits 3000 + 1e3·(excess [rad]), one no thrust balances 2000 + 1e3·(CoM to the
-    support centre [m]); otherwise F* + (edge penalty)·(A-10 excess [deg]). The thrust is inf unless
-    the posture is a member or only above the fan's maximum.
-
-    ``fans`` (F, 4): per fan that may thrust, [on the trunk (1) or the swing sole (0), offset x, offset y
-    [m], maximum [N]]. One fan on the swing sole is Paper A's case: its ground point is ``fan[c]`` and
-    its least thrust is the window's lower end; otherwise the least total of :func:`least_total`.
-    """
+@numba.njit(cache=True, inline="always")
+def objective_into(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support, scalars,
+                   fans, obj, thrust_out, reason, q, cs, fxs, fys, fmax, split):
+    """:func:`balance_objective` into ``obj``, ``thrust_out``, ``reason`` (each (M,), given); the rest is
+    scratch from :func:`objective_scratch`."""
     n = len(idx)
-    obj = np.empty(n)
-    thrust_out = np.empty(n)
-    reason = np.empty(n, dtype=np.int8)
-    q = np.empty(12)
-    cs = np.empty((12, 2))
     sup_sgn, rho, thrust_max, weight, edge_pen = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     tol_thrust, tol_mass, tol_com = scalars[5], scalars[6], scalars[7]
     w, L, ah = geom[0], geom[1] + geom[2], geom[3]
     nf = len(fans)
     one = nf == 1 and fans[0, 0] == 0.0
-    fxs, fys, fmax, split = np.empty(nf), np.empty(nf), np.empty(nf), np.empty(nf)
-    for i in range(nf):
-        fmax[i] = min(fans[i, 3], thrust_max)
     for j in range(n):
         c = idx[j]
         px, py, pz = P[j, 0], P[j, 1], P[j, 2]
@@ -499,7 +484,20 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
         for k in range(12):
             limit_excess += max(limits[0, k] - q[k], 0.0) + max(q[k] - limits[1, k], 0.0)
             within &= (q[k] >= limits[0, k]) and (q[k] <= limits[1, k])
-        status = UNREACHABLE if not reach else (OK if within else JOINT_LIMIT)
+        thrust_out[j] = np.inf
+        if not reach:
+            # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank
+            ox, oy = sty * (sup_sgn * w), -cty * (sup_sgn * w)
+            ds = math.sqrt((px - (support[0] + ox)) ** 2 + (py - (support[1] + oy)) ** 2
+                           + (pz - (support[2] + ah)) ** 2)
+            ds_w = math.sqrt((px - (sx - ox)) ** 2 + (py - (sy - oy)) ** 2 + (pz - (sz + ah)) ** 2)
+            obj[j] = 4000 + 1e4 * max(max(ds, ds_w) - L, 0.0)
+            reason[j] = UNREACHABLE
+            continue
+        if not within:
+            obj[j] = 3000 + 1e3 * limit_excess
+            reason[j] = JOINT_LIMIT
+            continue
         cx, cy, _ = _com(cs, trunk, joints, links, px, py, pz, cty, sty)
         if one:
             f = _thrust_lo(cx, cy, fan[c, 0], fan[c, 1], normals, offsets, weight, tol_thrust, tol_mass, tol_com)
@@ -518,26 +516,48 @@ def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limit
             above = math.isfinite(f_free) and not math.isfinite(f)
             if above:
                 f = f_free
-        edge = max(_edge_error(support[0], support[1], cx, cy, sx, sy) - rho, 0.0)
-        if status == UNREACHABLE:
-            # reach excess: distance to the farther of the two reach-ball centres, beyond thigh + shank
-            ox, oy = sty * (sup_sgn * w), -cty * (sup_sgn * w)
-            ds = math.sqrt((px - (support[0] + ox)) ** 2 + (py - (support[1] + oy)) ** 2
-                           + (pz - (support[2] + ah)) ** 2)
-            ds_w = math.sqrt((px - (sx - ox)) ** 2 + (py - (sy - oy)) ** 2 + (pz - (sz + ah)) ** 2)
-            obj[j] = 4000 + 1e4 * max(max(ds, ds_w) - L, 0.0)
-            reason[j] = UNREACHABLE
-        elif status == JOINT_LIMIT:
-            obj[j] = 3000 + 1e3 * limit_excess
-            reason[j] = JOINT_LIMIT
-        elif not math.isfinite(f):
+        if not math.isfinite(f):
             obj[j] = 2000 + 1e3 * math.sqrt((cx - support[0]) ** 2 + (cy - support[1]) ** 2)
             reason[j] = NO_BALANCE
-        else:
-            obj[j] = f + edge_pen * math.degrees(edge)
-            reason[j] = EDGE_ANGLE if edge > 0 else (THRUST_MAX if above else OK)
-        thrust_out[j] = f if (reason[j] == OK or reason[j] == THRUST_MAX) else np.inf
+            continue
+        edge = max(_edge_error(support[0], support[1], cx, cy, sx, sy) - rho, 0.0)
+        obj[j] = f + edge_pen * math.degrees(edge)
+        reason[j] = EDGE_ANGLE if edge > 0 else (THRUST_MAX if above else OK)
+        if reason[j] != EDGE_ANGLE:
+            thrust_out[j] = f
+
+
+@numba.njit(cache=True)
+def balance_objective(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support,
+                      scalars, fans):
+    """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
+
+    As ``search.Evaluator``: an unreachable posture scores 4000 + 1e4·(reach excess [m]), one
+    beyond the joint limits 3000 + 1e3·(excess [rad]), one no thrust balances 2000 + 1e3·(CoM to the
+    support centre [m]); otherwise F* + (edge penalty)·(A-10 excess [deg]). The thrust is inf unless
+    the posture is a member or only above the fan's maximum.
+
+    ``fans`` (F, 4): per fan that may thrust, [on the trunk (1) or the swing sole (0), offset x, offset y
+    [m], maximum [N]]. One fan on the swing sole is Paper A's case: its ground point is ``fan[c]`` and
+    its least thrust is the window's lower end; otherwise the least total of :func:`least_total`.
+    """
+    n = len(idx)
+    obj, thrust_out, reason = np.empty(n), np.empty(n), np.empty(n, dtype=np.int8)
+    q, cs, fxs, fys, fmax, split = objective_scratch(fans, scalars[2])
+    objective_into(P, idx, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets, support, scalars,
+                   fans, obj, thrust_out, reason, q, cs, fxs, fys, fmax, split)
     return obj, thrust_out, reason
+
+
+@numba.njit(cache=True)
+def objective_scratch(fans, thrust_max):
+    """Scratch arrays of :func:`objective_into`: joints, their cosines and sines, and per fan its ground
+    point, its limit [N] (filled) and its share."""
+    nf = len(fans)
+    fmax = np.empty(nf)
+    for i in range(nf):
+        fmax[i] = min(fans[i, 3], thrust_max)
+    return np.empty(12), np.empty((12, 2)), np.empty(nf), np.empty(nf), fmax, np.empty(nf)
 
 
 @numba.njit(cache=True, inline="always")
@@ -549,6 +569,41 @@ def _onto_ball(p0, p1, p2, c0, c1, c2, d, radius, o0, o1, o2):
     return (q0 - o0) ** 2 + (q1 - o1) ** 2 + (q2 - o2) ** 2 <= radius * radius, q0, q1, q2
 
 
+@numba.njit(cache=True, inline="always")
+def into_reach_one(p0, p1, p2, c, centre_w, centre_s, radius):
+    """One point of :func:`into_reach` for cell ``c``."""
+    a0, a1, a2 = centre_w[c, 0], centre_w[c, 1], centre_w[c, 2]
+    b0, b1, b2 = centre_s[c, 0], centre_s[c, 1], centre_s[c, 2]
+    da = math.sqrt((p0 - a0) ** 2 + (p1 - a1) ** 2 + (p2 - a2) ** 2)
+    db = math.sqrt((p0 - b0) ** 2 + (p1 - b1) ** 2 + (p2 - b2) ** 2)
+    if da <= radius and db <= radius:
+        return p0, p1, p2
+    if da > radius:  # onto the swing ball; done if that lands inside the support ball
+        inside, q0, q1, q2 = _onto_ball(p0, p1, p2, a0, a1, a2, da, radius, b0, b1, b2)
+        if inside:
+            return q0, q1, q2
+    if db > radius:  # onto the support ball; done if that lands inside the swing ball
+        inside, q0, q1, q2 = _onto_ball(p0, p1, p2, b0, b1, b2, db, radius, a0, a1, a2)
+        if inside:
+            return q0, q1, q2
+    # onto the circle where the two spheres meet: centre halfway, radius √(R² − (h/2)²), in the
+    # plane normal to the line of centres
+    e0, e1, e2 = b0 - a0, b1 - a1, b2 - a2
+    h = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    if h == 0.0 or h > 2 * radius:
+        return p0, p1, p2
+    e0, e1, e2 = e0 / h, e1 / h, e2 / h
+    m0, m1, m2 = (a0 + b0) / 2, (a1 + b1) / 2, (a2 + b2) / 2
+    rc = math.sqrt(max(radius * radius - h * h / 4, 0.0))
+    t = (p0 - m0) * e0 + (p1 - m1) * e1 + (p2 - m2) * e2
+    u0, u1, u2 = p0 - m0 - t * e0, p1 - m1 - t * e1, p2 - m2 - t * e2
+    nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if nu == 0.0:
+        return p0, p1, p2
+    s = rc * (1.0 - 1e-12) / nu
+    return m0 + u0 * s, m1 + u1 * s, m2 + u2 * s
+
+
 @numba.njit(cache=True)
 def into_reach(P, idx, centre_w, centre_s, radius):
     """P (M, 3) [m] projected onto the intersection of the two legs' reach balls (radius ``radius``
@@ -556,40 +611,9 @@ def into_reach(P, idx, centre_w, centre_s, radius):
     legs reach. Points already inside are unchanged; where the balls do not meet, P is returned.
     A new array.
     """
-    out = P.copy()
+    out = np.empty_like(P)
     for j in range(len(idx)):
-        c = idx[j]
-        a0, a1, a2 = centre_w[c, 0], centre_w[c, 1], centre_w[c, 2]
-        b0, b1, b2 = centre_s[c, 0], centre_s[c, 1], centre_s[c, 2]
-        p0, p1, p2 = P[j, 0], P[j, 1], P[j, 2]
-        da = math.sqrt((p0 - a0) ** 2 + (p1 - a1) ** 2 + (p2 - a2) ** 2)
-        db = math.sqrt((p0 - b0) ** 2 + (p1 - b1) ** 2 + (p2 - b2) ** 2)
-        if da <= radius and db <= radius:
-            continue
-        if da > radius:  # onto the swing ball; done if that lands inside the support ball
-            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, a0, a1, a2, da, radius, b0, b1, b2)
-            if inside:
-                out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
-                continue
-        if db > radius:  # onto the support ball; done if that lands inside the swing ball
-            inside, q0, q1, q2 = _onto_ball(p0, p1, p2, b0, b1, b2, db, radius, a0, a1, a2)
-            if inside:
-                out[j, 0], out[j, 1], out[j, 2] = q0, q1, q2
-                continue
-        # onto the circle where the two spheres meet: centre halfway, radius √(R² − (h/2)²), in the
-        # plane normal to the line of centres
-        e0, e1, e2 = b0 - a0, b1 - a1, b2 - a2
-        h = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-        if h == 0.0 or h > 2 * radius:
-            continue
-        e0, e1, e2 = e0 / h, e1 / h, e2 / h
-        m0, m1, m2 = (a0 + b0) / 2, (a1 + b1) / 2, (a2 + b2) / 2
-        rc = math.sqrt(max(radius * radius - h * h / 4, 0.0))
-        t = (p0 - m0) * e0 + (p1 - m1) * e1 + (p2 - m2) * e2
-        u0, u1, u2 = p0 - m0 - t * e0, p1 - m1 - t * e1, p2 - m2 - t * e2
-        nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        if nu == 0.0:
-            continue
-        s = rc * (1.0 - 1e-12) / nu
-        out[j, 0], out[j, 1], out[j, 2] = m0 + u0 * s, m1 + u1 * s, m2 + u2 * s
+        out[j, 0], out[j, 1], out[j, 2] = into_reach_one(P[j, 0], P[j, 1], P[j, 2], idx[j], centre_w, centre_s,
+                                                          radius)
     return out
+
