@@ -40,44 +40,42 @@ def kernel_speed(spec: SweepSpec, n: int = 200_000) -> None:
           f"numpy {best['numpy']:.3f} µs, ratio {best['numpy'] / best['compiled']:.1f}")
 
 
-def relaxation_ratio(spec: SweepSpec) -> None:
-    """Four layers (z = 0.02..0.05 m) with the relaxation offering each optimum once per direction, against
-    offering it on every pass (the previous method), in this run: the same cells, fewer evaluations."""
+def _four_layers(spec: SweepSpec):
+    """The layers z = 0.02..0.05 m swept on one core: (result, wall [s])."""
+    zs = tuple(float(z) for z in spec.axes()[2][2:6])
+    t0 = time.perf_counter()
+    return sweep_layers(spec, zs), time.perf_counter() - t0
+
+
+def relaxation_ratio(spec: SweepSpec, default) -> None:
+    """Four layers with the relaxation offering each optimum once per direction (``default``: result, wall),
+    against offering it on every pass (the previous method), in this run: the same cells, fewer evaluations."""
     import jethr1_plan.balance_space as bs
 
-    zs = tuple(float(z) for z in spec.axes()[2][2:6])
-    out = {}
-    for once in (False, True):
-        bs.OFFER_ONCE = once
-        t0 = time.perf_counter()
-        out[once] = (bs.sweep_layers(spec, zs), time.perf_counter() - t0)
+    bs.OFFER_ONCE = False
+    old, t_old = _four_layers(spec)
     bs.OFFER_ONCE = True
-    (old, t_old), (new, t_new) = out[False], out[True]
+    new, t_new = default
     same = all(np.array_equal(getattr(old, f), getattr(new, f), equal_nan=True) for f in ("thrust", "p_body", "reason"))
     print(f"relaxation, 4 layers ({len(new.swing)} cells), one core: offered once {new.evaluations:,} evaluations "
           f"{t_new:.1f} s, every pass (previous) {old.evaluations:,} evaluations {t_old:.1f} s; ratio "
           f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; same cells: {same}")
 
 
-def polling_ratio(spec: SweepSpec) -> None:
-    """Four layers (z = 0.02..0.05 m) with the compass polling a few directions at a time (the last move's
-    first) against complete polls (every direction, then the best: the previous method), in this run."""
+def polling_ratio(spec: SweepSpec, default) -> None:
+    """Four layers with the compass polling a few directions at a time, the last move's first (``default``:
+    result, wall), against complete polls (every direction, then the best: the previous method), in this run."""
     from jethr1_plan import search
-    from jethr1_plan.balance_space import sweep_layers
 
-    zs = tuple(float(z) for z in spec.axes()[2][2:6])
-    default = search.POLL_CHUNK
-    out = {}
-    for chunk in (len(search.FINE_DIRECTIONS), default):
-        search.POLL_CHUNK = chunk
-        t0 = time.perf_counter()
-        out[chunk] = (sweep_layers(spec, zs), time.perf_counter() - t0)
-    search.POLL_CHUNK = default
-    (old, t_old), (new, t_new) = out[len(search.FINE_DIRECTIONS)], out[default]
+    chunk = search.POLL_CHUNK
+    search.POLL_CHUNK = len(search.FINE_DIRECTIONS)
+    old, t_old = _four_layers(spec)
+    search.POLL_CHUNK = chunk
+    new, t_new = default
     m_old, m_new = old.reason == Reason.OK, new.reason == Reason.OK
     both = m_old & m_new
     gap = new.thrust[both].mean() - old.thrust[both].mean()
-    print(f"compass polls, 4 layers ({len(new.swing)} cells), one core: {default} at a time {new.evaluations:,} "
+    print(f"compass polls, 4 layers ({len(new.swing)} cells), one core: {chunk} at a time {new.evaluations:,} "
           f"evaluations {t_new:.1f} s, complete (previous) {old.evaluations:,} evaluations {t_old:.1f} s; ratio "
           f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; members {m_new.sum()} "
           f"against {m_old.sum()}, mean thrust of common members {gap:+.4f} N")
@@ -87,8 +85,9 @@ def main(resolution: float = 0.01, samples: int = 1000) -> None:
     spec = SweepSpec(resolution_m=float(resolution))
     kernel_speed(spec)
     sweep_layers(SweepSpec(resolution_m=0.05), (0.0,))  # compile (or load) every kernel before timing
-    relaxation_ratio(spec)
-    polling_ratio(spec)
+    default = _four_layers(spec)  # the default search, the reference of both ratios
+    relaxation_ratio(spec, default)
+    polling_ratio(spec, default)
     t0 = time.perf_counter()
     result = sweep(spec, jobs=2)
     wall = time.perf_counter() - t0

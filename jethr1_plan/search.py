@@ -113,6 +113,11 @@ class Evaluator:
         centre_w = reach_centre(self.geom, self.stance.swing_side, swing, yaw)
         return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w))
 
+    @property
+    def search_radius(self) -> float:
+        """The reach balls' radius the searches use [m]: thigh + shank, REACH_MARGIN_M short."""
+        return self.geom.thigh_m + self.geom.shank_m - REACH_MARGIN_M
+
     def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray) -> np.ndarray:
         """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them.
 
@@ -123,9 +128,8 @@ class Evaluator:
         of thigh + shank: a leg exactly straight is singular (PlaCo's IK cannot place its CoM to
         better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
         """
-        radius = self.geom.thigh_m + self.geom.shank_m - REACH_MARGIN_M
         return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
-                          c.centre_w, c.centre_s, radius)
+                          c.centre_w, c.centre_s, self.search_radius)
 
     def reach_possible(self, c: Cells) -> np.ndarray:
         """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
@@ -206,23 +210,19 @@ def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: n
     """
     P = np.array(P, dtype=float, order="C")
     f = np.array(f, dtype=float)
-    step = np.array(step0, dtype=float)
-    idx = np.ascontiguousarray(idx, dtype=np.int64)
-    radius = ev.geom.thigh_m + ev.geom.shank_m - REACH_MARGIN_M
     counts = np.zeros(len(idx), dtype=np.int64)
-    _compass_rows(P, f, step, counts, idx, coarse_until, float(min_step), max_iter, give_up_after,
-                  POLL_CHUNK if chunk is None else int(chunk),
-                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, radius, c.swing, c.yaw, c.fan, *ev.params)
+    _compass_rows(P, f, np.ascontiguousarray(step0, dtype=float), counts, np.ascontiguousarray(idx, dtype=np.int64),
+                  coarse_until, float(min_step), max_iter, give_up_after, POLL_CHUNK if chunk is None else int(chunk),
+                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, ev.search_radius, c.swing, c.yaw, c.fan, *ev.params)
     ev.evaluations += int(counts.sum())
     return P, f
 
 
 @numba.njit(cache=True)
-def _compass_rows(P, f, step, counts, idx, coarse_until, min_step, max_iter, give_up_after, chunk, axis_dirs,
-                  fine_dirs,
-                  centre_w, centre_s, radius, swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets,
-                  support, scalars, fans):
-    """:func:`compass_search`'s loop, in place on P, f, step; ``counts`` (B,) gets each row's evaluations."""
+def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, give_up_after, chunk, axis_dirs,
+                  fine_dirs, centre_w, centre_s, radius, swing, yaw, fan, geom, trunk, joints, links, limits, normals,
+                  offsets, support, scalars, fans):
+    """:func:`compass_search`'s loop, in place on P and f; ``counts`` (B,) gets each row's evaluations."""
     kmax = max(len(axis_dirs), len(fine_dirs))
     cand, rows = np.empty((kmax, 3)), np.empty(kmax, dtype=np.int64)
     obj, thrust, reason = np.empty(kmax), np.empty(kmax), np.empty(kmax, dtype=np.int8)
@@ -230,7 +230,7 @@ def _compass_rows(P, f, step, counts, idx, coarse_until, min_step, max_iter, giv
     for b in range(len(idx)):
         c = idx[b]
         rows[:] = c
-        p0, p1, p2, fb, st = P[b, 0], P[b, 1], P[b, 2], f[b], step[b]
+        p0, p1, p2, fb, st = P[b, 0], P[b, 1], P[b, 2], f[b], step0[b]
         k0, k1, k2, f_ok = np.nan, np.nan, np.nan, np.inf  # best valid posture met
         last = 0  # the direction of the last move: polled first
         for stage in range(2):
@@ -239,11 +239,11 @@ def _compass_rows(P, f, step, counts, idx, coarse_until, min_step, max_iter, giv
             k = len(dirs)
             if stage == 1:  # the fine direction nearest the last move's
                 d0, d1, d2 = axis_dirs[last, 0], axis_dirs[last, 1], axis_dirs[last, 2]
-                last = 0
+                best_dot = -np.inf
                 for j in range(k):
-                    if dirs[j, 0] * d0 + dirs[j, 1] * d1 + dirs[j, 2] * d2 > (
-                            dirs[last, 0] * d0 + dirs[last, 1] * d1 + dirs[last, 2] * d2):
-                        last = j
+                    dot = dirs[j, 0] * d0 + dirs[j, 1] * d1 + dirs[j, 2] * d2
+                    if dot > best_dot:
+                        best_dot, last = dot, j
             for it in range(max_iter):
                 if st < floor or fb <= 0.0 or (it >= give_up_after and fb >= 2000.0):
                     break
@@ -278,7 +278,7 @@ def _compass_rows(P, f, step, counts, idx, coarse_until, min_step, max_iter, giv
         counts[b] += 1
         if reason[0] != _OK and reason[0] != _THRUST_MAX and math.isfinite(f_ok):
             p0, p1, p2, fb = k0, k1, k2, f_ok
-        P[b, 0], P[b, 1], P[b, 2], f[b], step[b] = p0, p1, p2, fb, st
+        P[b, 0], P[b, 1], P[b, 2], f[b] = p0, p1, p2, fb
 
 
 def pelvis_box(ev: Evaluator, c: Cells, i: int, res: float) -> np.ndarray:
