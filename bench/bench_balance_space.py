@@ -81,6 +81,27 @@ def polling_ratio(spec: SweepSpec, default) -> None:
           f"against {m_old.sum()}, mean thrust of common members {gap:+.4f} N")
 
 
+def projection_ratio(spec: SweepSpec, default) -> None:
+    """Four layers with the searches moving the pelvis into the legs' joint limits (``default``: result,
+    wall), against the reach balls only (the previous release's projection), in this run."""
+    import jethr1_plan.balance_space as bs
+    from jethr1_plan import search
+
+    level, polish = search.SEARCH_LEVEL, bs.POLISH_LEVEL
+    search.SEARCH_LEVEL = bs.POLISH_LEVEL = search.INTO_REACH
+    old, t_old = _four_layers(spec)
+    search.SEARCH_LEVEL, bs.POLISH_LEVEL = level, polish
+    new, t_new = default
+    m_old, m_new = old.reason == Reason.OK, new.reason == Reason.OK
+    both = m_old & m_new
+    lower = np.mean(new.thrust[both] < old.thrust[both] - 1e-6)
+    print(f"projection, 4 layers ({len(new.swing)} cells), one core: into the joint limits {new.evaluations:,} "
+          f"evaluations {t_new:.1f} s, reach balls only (previous) {old.evaluations:,} evaluations {t_old:.1f} s; "
+          f"ratio {new.evaluations / old.evaluations:.2f}x evaluations, {t_new / t_old:.2f}x time; members "
+          f"{m_new.sum()} against {m_old.sum()}; of the common members {lower:.1%} lower, mean thrust "
+          f"{new.thrust[both].mean() - old.thrust[both].mean():+.4f} N")
+
+
 def main(resolution: float = 0.01, samples: int = 1000) -> None:
     spec = SweepSpec(resolution_m=float(resolution))
     kernel_speed(spec)
@@ -88,6 +109,7 @@ def main(resolution: float = 0.01, samples: int = 1000) -> None:
     default = _four_layers(spec)  # the default search, the reference of both ratios
     relaxation_ratio(spec, default)
     polling_ratio(spec, default)
+    projection_ratio(spec, default)
     t0 = time.perf_counter()
     result = sweep(spec, jobs=2)
     wall = time.perf_counter() - t0

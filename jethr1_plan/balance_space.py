@@ -85,6 +85,7 @@ JOIN_GRID_M = 0.001  # continuation: the grid around a member neighbour's optimu
 POLISH_ABOVE_N = 1.0  # continuation: cells up to this above the fan's maximum get the final polish
 POLISH_STEP_M = 0.004  # ... starting at this compass step
 POLISH_FROM_M = 0.15  # ... with the swing sole at least this high above the support
+POLISH_LEVEL = INTO_JOINT_LIMITS  # ... moved into every joint limit (search.Evaluator.into_reach)
 OFFER_ONCE = True  # relaxation: offer each optimum once per direction (False: every pass, as before; same output)
 
 
@@ -316,7 +317,7 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...]) -> LayerResult:
         if len(near):
             P2, f2 = compass_search(ev, c, near, P_all[near], f_all[near], np.full(len(near), POLISH_STEP_M),
                                     spec.min_step_m, axis_dirs=DIRECTIONS, fine_dirs=DIRECTIONS,
-                                    levels=(INTO_JOINT_LIMITS, INTO_JOINT_LIMITS))
+                                    levels=(POLISH_LEVEL, POLISH_LEVEL))
             better = f2 < f_all[near] - 1e-9
             P_all[near[better]], f_all[near[better]] = P2[better], f2[better]
         idx = np.flatnonzero(todo)

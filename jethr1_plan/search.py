@@ -57,6 +57,7 @@ EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the
 # what the searches' projection (Evaluator.into_reach) moves a pelvis position into: the legs' reach balls only; also
 # each leg's roll and knee limits; also its pitch limits (dearer: trigonometry where the pitch is near a limit)
 INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS = 0, 1, 2
+SEARCH_LEVEL = INTO_ROLL_KNEE  # the searches' (INTO_REACH: the previous release's, for the bench's ratio)
 REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
 ZOOM_STEPS_M = (2e-4, 4e-5)  # exhaustive: then grids of these steps (±5) around the best
 _OK, _THRUST_MAX = int(Reason.OK), int(Reason.THRUST_MAX)  # compile-time constants
@@ -130,10 +131,10 @@ class Evaluator:
         """The reach balls' radius the searches use [m]: thigh + shank, REACH_MARGIN_M short."""
         return self.geom.thigh_m + self.geom.shank_m - REACH_MARGIN_M
 
-    def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray, level: int = INTO_ROLL_KNEE) -> np.ndarray:
+    def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray, level: int | None = None) -> np.ndarray:
         """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them,
-        and (``level``) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its pitch limits too
-        (INTO_JOINT_LIMITS).
+        and (``level``, default SEARCH_LEVEL) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its
+        pitch limits too (INTO_JOINT_LIMITS).
 
         The optimum of most cells has a leg at full stretch, where the CoM moves like the square root
         of the distance to the ball's surface: a pattern search stalls against it. Searching over the
@@ -145,7 +146,8 @@ class Evaluator:
         better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
         """
         return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
-                          c.centre_w, c.centre_s, self.search_radius, self.shapes, level)
+                          c.centre_w, c.centre_s, self.search_radius, self.shapes,
+                          SEARCH_LEVEL if level is None else level)
 
     def reach_possible(self, c: Cells) -> np.ndarray:
         """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
@@ -239,7 +241,7 @@ def lens_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
 def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
                    min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002,
                    axis_dirs: np.ndarray = AXIS_DIRECTIONS, fine_dirs: np.ndarray = FINE_DIRECTIONS,
-                   chunk: int | None = None, levels: tuple[int, int] = (INTO_ROLL_KNEE, INTO_ROLL_KNEE)):
+                   chunk: int | None = None, levels: tuple[int, int] | None = None):
     """Compass (pattern) search from P (B, 3) [m] with objective f (B,), one cell per row; returns the
     new (P, f).
 
@@ -249,7 +251,7 @@ def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: n
     from the last move's, and the search moves to the best of the first chunk that improves; when none
     does, the step halves (``chunk`` ≥ the number of directions: a complete poll, the best of all).
     Every poll point is moved into the reach balls and joint limits first (:meth:`Evaluator.into_reach`,
-    ``levels``: the level of the axis stage, then of the fine stage).
+    ``levels``: the level of the axis stage, then of the fine stage; default SEARCH_LEVEL).
     A row stops when its step falls below ``min_step`` [m], when it reaches zero thrust, or, after
     ``give_up_after`` polls of a stage, when it has still found no kinematically valid posture. A row
     that ends on an invalid posture (a penalty a hair above zero) gets the best valid posture it met,
@@ -260,7 +262,8 @@ def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: n
     counts = np.zeros(len(idx), dtype=np.int64)
     _compass_rows(P, f, np.ascontiguousarray(step0, dtype=float), counts, np.ascontiguousarray(idx, dtype=np.int64),
                   coarse_until, float(min_step), max_iter, give_up_after, POLL_CHUNK if chunk is None else int(chunk),
-                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, ev.search_radius, ev.shapes, *levels,
+                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, ev.search_radius, ev.shapes,
+                  *((SEARCH_LEVEL, SEARCH_LEVEL) if levels is None else levels),
                   c.swing, c.yaw, c.fan, *ev.params)
     ev.evaluations += int(counts.sum())
     return P, f
