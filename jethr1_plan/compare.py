@@ -3,8 +3,9 @@
 Runs each optimiser on the same scenario and seed and reports, per method, the thrust (max, mean),
 the smoothness of P_body (Σ‖ΔP_body‖², the largest single step) and of the thrust (largest jump),
 the evaluations and the wall time. With ``reference``, every swing sample is also solved by a dense
-exhaustive search (every pelvis position from which the legs reach, on a 1 cm grid, the six best
-basins refined on a 1 mm grid), and each method's optimality gap is reported against it.
+exhaustive search (every pelvis position from which the legs reach within their joint limits, on a
+1 cm grid, the six best basins refined on a 1 mm grid, then 0.2 and 0.04 mm grids around the best;
+``search.exhaustive_cell``), and each method's optimality gap is reported against it.
 
 ``pareto`` (``compare --pareto``) sweeps each method's smoothness weight instead and reports the
 fronts of max and mean thrust against Σ‖ΔP_body‖², with the verdict on the default optimiser: its
