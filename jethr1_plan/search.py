@@ -28,6 +28,7 @@ from jethr1_plan.physics.compiled import (
     into_reach_one,
     objective_into,
     objective_scratch,
+    pitch_bounds,
 )
 from jethr1_plan.reasons import Reason, balances
 from jethr1_plan.robot.model import GRAVITY, RobotModel, reach_centre
@@ -178,8 +179,6 @@ def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarr
     The knee's limits bound c, c² = a² + b² + 2ab·cos(knee); the ankle roll's and the hip roll's
     (−φ) bound φ; the ankle and hip pitch bound β (``physics.compiled.pitch_bounds``).
     """
-    from jethr1_plan.physics.compiled import pitch_bounds
-
     a, b = thigh_m, shank_m
     out = np.empty((2, 14))
     for row, side in enumerate((swing_side, "right" if swing_side == "left" else "left")):

@@ -180,7 +180,8 @@ def test_into_reach_moves_the_hip_into_the_joint_limits(level):
     noise = rng.normal(0, 0.004, P.shape)
     X = P + noise
     Q = ev.into_reach(cells, idx, X, level)
-    (ok_x, balls_x), (ok_q, _) = (lambda a, b: (a, b))(*within(X)), within(Q)
+    ok_x, balls_x = within(X)
+    ok_q, _ = within(Q)
     inside = ok_x & balls_x
     assert inside.mean() > 0.3 and (~inside).sum() > 10_000
     np.testing.assert_array_equal(Q[inside], X[inside])
