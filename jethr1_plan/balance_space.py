@@ -54,6 +54,7 @@ from jethr1_plan.search import (
     Evaluator,
     SupportStance,
     compass_search,
+    cube_offsets,
     exhaustive_cell,
     generic_seeds,
     lens_seeds,
@@ -182,8 +183,7 @@ def _best_nearby(ev: Evaluator, c: Cells, idx: np.ndarray, P0: np.ndarray, f0: n
     (no balance: the CoM's distance to the sole's centre) pointing elsewhere; the compass then
     descends that penalty and misses the sliver.
     """
-    g = np.arange(-2, 3) * JOIN_GRID_M
-    offsets = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    offsets = cube_offsets(JOIN_GRID_M, 2)
     k = len(offsets)
     rows = np.repeat(idx, k)
     cand = ev.into_reach(c, rows, (P0[:, None, :] + offsets[None]).reshape(-1, 3))

@@ -47,6 +47,7 @@ __all__ = [
     "Evaluator",
     "SupportStance",
     "compass_search",
+    "cube_offsets",
     "exhaustive_cell",
     "generic_seeds",
     "leg_shapes",
@@ -114,10 +115,13 @@ class Evaluator:
         self.params = kernel_params(robot, stance.support_side, self.support, self.poly, stance.rho_rad,
                                     stance.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG,
                                     stance.tolerance)
-        # per level (INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS) the legs' sets of into_reach
-        self.shapes = np.stack([leg_shapes(self.geom.thigh_m, self.geom.shank_m, self.search_radius,
-                                           self.params.limits, stance.swing_side, pitch)
-                                for pitch in (False, False, True)])
+        # per level (INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS) the legs' sets of into_reach: the first two
+        # leave the pitch free (their fast-path pitch range infinite)
+        limited = leg_shapes(self.geom.thigh_m, self.geom.shank_m, self.search_radius, self.params.limits,
+                             stance.swing_side)
+        free = limited.copy()
+        free[:, 12:] = (-np.inf, np.inf)
+        self.shapes = np.stack([free, free, limited])
 
     def cells(self, swing: np.ndarray) -> Cells:
         swing = np.ascontiguousarray(swing, dtype=float)
@@ -169,12 +173,10 @@ class Evaluator:
         return balance_objective(P, idx, c.swing, c.yaw, c.fan, *self.params)
 
 
-def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarray, swing_side: str,
-               pitch: bool = True) -> np.ndarray:
+def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarray, swing_side: str) -> np.ndarray:
     """Per leg (swing, support), the box in (c, φ, β) that ``physics.compiled.into_leg`` keeps the hip
     in: (2, 14), see there. ``limits`` (2, 12) [rad]: the legs' joints by role, left then right (hip
-    yaw, roll, pitch, knee, ankle pitch, roll); ``radius_m``: the searches' reach radius; ``pitch``:
-    False leaves β free (the rows' fast-path range is then infinite).
+    yaw, roll, pitch, knee, ankle pitch, roll); ``radius_m``: the searches' reach radius.
 
     The knee's limits bound c, c² = a² + b² + 2ab·cos(knee); the ankle roll's and the hip roll's
     (−φ) bound φ; the ankle and hip pitch bound β (``physics.compiled.pitch_bounds``).
@@ -192,8 +194,6 @@ def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarr
         bounds = np.array([pitch_bounds(c, out[None], 0, row) for c in np.linspace(c_min, c_max, 4001)])
         b_lo, b_hi = bounds[:, 0].max() + 1e-3, bounds[:, 1].min() - 1e-3  # inside every c's range
         out[row, 12:] = (math.tan(b_lo), math.tan(b_hi)) if b_lo < b_hi else (np.inf, -np.inf)
-        if not pitch:  # every β passes the fast path
-            out[row, 12:] = (-np.inf, np.inf)
     return out
 
 
@@ -332,6 +332,12 @@ def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, gi
         P[b, 0], P[b, 1], P[b, 2], f[b] = p0, p1, p2, fb
 
 
+def cube_offsets(step: float, half: int) -> np.ndarray:
+    """The (2·half + 1)³ offsets [m] of a cubic grid of spacing ``step`` [m] centred on zero: (N, 3)."""
+    g = np.arange(-half, half + 1) * step
+    return np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
 def pelvis_box(ev: Evaluator, c: Cells, i: int, res: float) -> np.ndarray:
     """Grid points [m] of every P_body from which both ankles may be reached (bounding box of the
     intersection of the two reach spheres) at spacing ``res``."""
@@ -397,10 +403,8 @@ def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins
             best_valid_f, best_valid_p = float(v[j]), local[j]
     # zoom: finer grids around the best valid point (a thin ridge of the feasible set can hold 0.1 N within
     # a millimetre)
-    for step in ZOOM_STEPS_M if np.isfinite(best_valid_f) else ():
-        fine = np.arange(-5, 6) * step
-        offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
-        local = ev.into_reach(c, np.full(len(offsets), i), best_valid_p + offsets, level=INTO_JOINT_LIMITS)
+    for zoom in (cube_offsets(step, 5) for step in ZOOM_STEPS_M) if np.isfinite(best_valid_f) else ():
+        local = ev.into_reach(c, np.full(len(zoom), i), best_valid_p + zoom, level=INTO_JOINT_LIMITS)
         o, _, rr = ev(c, np.full(len(local), i), local)
         v = np.where(balances(rr), o, np.inf)
         j = int(np.argmin(v))
