@@ -26,6 +26,9 @@ from jethr1_plan.search import (
     INTO_ROLL_KNEE,
     Evaluator,
     compass_search,
+    exhaustive_cell,
+    generic_seeds,
+    lens_seeds,
 )
 
 from .leg_oracle import fast_com, leg_ik
@@ -220,3 +223,32 @@ def test_compass_ends_where_no_poll_direction_improves(chunk):
         polled = ev.into_reach(cells, idx[searched], P[searched] + 0.0005 * d)
         assert np.all(ev(cells, idx[searched], polled)[0] >= f[searched] - 1e-12)
     assert spent >= searched.sum() * (6 + 6 + 14 + 14 + 1)  # a failed poll at each of 4, 2, 1, 0.5 mm; the last check
+
+
+def test_the_search_slides_along_the_knee_limit_to_the_exhaustive_optimum():
+    """Two high swing soles whose optimum has the swing knee fully bent against its limit while the support
+    leg is straight: from the same best seed, the compass moving candidates onto the reach balls only
+    stops 0.37 and 0.46 N above the exhaustive search's optimum (measured), against the knee's limit;
+    moving them into the knee and roll limits too (the default) it slides along that ridge to within
+    0.1 N, and its posture there has the swing knee at the limit (the oracle's IK)."""
+    spec = SweepSpec()
+    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
+    swing = np.array([[-0.02, -0.02, 0.26], [-0.16, -0.11, 0.26]])
+    cells = ev.cells(swing)
+    idx = np.arange(len(swing))
+    seeds = np.concatenate([generic_seeds(ev, cells, idx), lens_seeds(ev, cells, idx)], axis=1)
+    b, k = seeds.shape[:2]
+    rows = np.repeat(idx, k)
+    ends = {}
+    for level in (INTO_REACH, INTO_ROLL_KNEE):
+        S = ev.into_reach(cells, rows, seeds.reshape(-1, 3), level)
+        obj = ev(cells, rows, S)[0].reshape(b, k)
+        j = np.argmin(obj, axis=1)
+        ends[level] = compass_search(ev, cells, idx, S.reshape(b, k, 3)[idx, j], obj[idx, j], np.full(b, 0.032),
+                                     0.0005, levels=(level, level))
+    best = np.array([exhaustive_cell(ev, cells, i, 0.005)[1] for i in idx])
+    assert np.all(ends[INTO_REACH][1] > best + 0.1)
+    assert np.all(np.abs(ends[INTO_ROLL_KNEE][1] - best) <= 0.1)
+    q, reach = _leg_joints(ev, cells, idx, ends[INTO_ROLL_KNEE][0])["swing"]
+    k0 = 0 if ev.stance.swing_side == "left" else 6
+    assert np.all(reach) and np.all(ev.params.limits[1, k0 + 3] - q[:, 3] < 1e-3)  # knee within 1 mrad of its limit
