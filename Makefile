@@ -16,6 +16,7 @@ install: $(VENV)/.installed
 lint: install
 	$(BIN)/ruff check .
 	$(BIN)/mypy
+	$(BIN)/python tools/check_imports.py
 
 test: install lint
 	$(BIN)/python -m pytest -q
@@ -26,7 +27,7 @@ demo: install
 	$(BIN)/jethr1 plan configs/jet_hr1_trial_robust.yaml -o out
 	$(BIN)/jethr1 simulate out/jet_hr1_trial_robust --controller feedback
 	@echo "Foxglove: open out/jet_hr1_trial_robust/trajectory.mcap and simulation.mcap together, and import the layout"
-	@$(BIN)/python -c "from jethr1_plan.cli import LAYOUT; print(LAYOUT)"
+	@$(BIN)/python -c "from jethr1_plan.cli.plan import LAYOUT; print(LAYOUT)"
 
 bench: install
 	$(BIN)/python bench/bench_evaluator.py

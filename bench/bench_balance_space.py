@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from jethr1_plan.balance_space import SweepSpec, summary, sweep, sweep_layers
+from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep, sweep_layers
+from jethr1_plan.optimisers.search import Evaluator, exhaustive_cell
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
-from jethr1_plan.search import Evaluator, exhaustive_cell
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.test_balance_kernel import numpy_objective  # the numpy path the test compares with
@@ -50,7 +50,7 @@ def _four_layers(spec: SweepSpec):
 def relaxation_ratio(spec: SweepSpec, default) -> None:
     """Four layers with the relaxation offering each optimum once per direction (``default``: result, wall),
     against offering it on every pass (the previous method), in this run: the same cells, fewer evaluations."""
-    import jethr1_plan.balance_space as bs
+    import jethr1_plan.balance_space.sweep as bs
 
     bs.OFFER_ONCE = False
     old, t_old = _four_layers(spec)
@@ -84,7 +84,7 @@ def polling_ratio(spec: SweepSpec, default) -> None:
 def projection_ratio(spec: SweepSpec, default) -> None:
     """Four layers with the searches moving the pelvis into the legs' joint limits (``default``: result,
     wall), against the reach balls only (the previous release's projection), in this run."""
-    import jethr1_plan.balance_space as bs
+    import jethr1_plan.balance_space.sweep as bs
     from jethr1_plan import search
 
     level, polish = search.SEARCH_LEVEL, bs.POLISH_LEVEL

@@ -25,13 +25,21 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bare_loop import bare_replay_seconds
 
-from jethr1_plan.io.plan_files import write_plan_outputs
+from jethr1_plan.files.plan_folder import write_plan
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
-from jethr1_plan.planning import plan, plan_summary
+from jethr1_plan.pipeline.plan import self_check
+from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.robot.model import load_robot
 from jethr1_plan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def write_outputs(result, folder: Path) -> None:
+    """The plan's files, re-checked first (as ``jethr1 plan`` writes them)."""
+    summary = plan_summary(result)
+    write_plan(result, folder, summary, check=lambda text: self_check(text, result, summary, False))
 
 
 def full_plan(config: str, method: str | None = None):
@@ -40,7 +48,7 @@ def full_plan(config: str, method: str | None = None):
     scenario = load_scenario(ROOT / "configs" / f"{config}.yaml")
     result = plan(scenario, method=method)
     with tempfile.TemporaryDirectory() as d:
-        write_plan_outputs(result, Path(d), plan_summary(result), trajectory=True)
+        write_outputs(result, Path(d))
     return result, time.perf_counter() - t0
 
 
@@ -83,7 +91,7 @@ def run_once(robot, config: str):
     result = plan(scenario, method="gas", solver=solver)
     t_plan = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as d:
-        write_plan_outputs(result, Path(d), plan_summary(result), trajectory=True)
+        write_outputs(result, Path(d))
     wall = time.perf_counter() - t0
     log, solver.replay_log = solver.replay_log, None
     return result, wall, t_plan, bare_replay_seconds(robot, log), len(log)

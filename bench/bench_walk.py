@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT))
 
 from jethr1_plan.sim.walk_rehearsal import rehearse_walk  # noqa: E402
 from jethr1_plan.walking.analysis import analyse  # noqa: E402
-from jethr1_plan.walking.run import generate_walk  # noqa: E402
+from jethr1_plan.walking.result import generate_walk  # noqa: E402
 from jethr1_plan.walking.spec import load_walk  # noqa: E402
 
 

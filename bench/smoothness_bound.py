@@ -22,11 +22,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from jethr1_plan.compare import step_evaluator
-from jethr1_plan.planning import plan
+from jethr1_plan.optimisers.search import Evaluator
+from jethr1_plan.planning.plan import plan
 from jethr1_plan.reasons import Reason
 from jethr1_plan.scenario import load_scenario
-from jethr1_plan.search import Evaluator
+from jethr1_plan.studies.compare import step_evaluator
 
 
 def near_optimal_sets(ev: Evaluator, cells, centres: np.ndarray, thrust: np.ndarray, tol: float, step: float,

@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from jethr1_plan.cli import run  # noqa: E402
-from jethr1_plan.sim.controller import Gains  # noqa: E402
+from jethr1_plan.control.thrust_feedback import Gains  # noqa: E402
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse  # noqa: E402
 
 CONFIGS = ("side_step", "forward_ditch_robust", "jet_hr1_trial_robust")

@@ -37,6 +37,7 @@ class InfeasiblePlan(Jethr1Error):
     def __init__(self, message: str, summary: dict | None = None) -> None:
         super().__init__(message)
         self.summary = summary
+        self.written: tuple | None = None  # (folder, files of the user's kept) where summary.json was written
 
 
 class ExpectationFailed(Jethr1Error):

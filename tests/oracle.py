@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.physics.balance import NOMINAL, Tolerance, halfplanes
-from jethr1_plan.robot.model import GRAVITY
+from jethr1_plan.geometry import GRAVITY, halfplanes
+from jethr1_plan.physics.balance import NOMINAL, Tolerance
 
 
 def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,

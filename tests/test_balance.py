@@ -6,15 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from jethr1_plan.geometry import inside_polygon, polygon_margin, sole_polygon
 from jethr1_plan.physics.balance import (
     Tolerance,
     balance_slack,
     body_yaw_eq4,
     edge_angle_error,
-    inside_polygon,
     minimal_thrust,
-    polygon_margin,
-    sole_polygon,
     thrust_window,
     zmp_with_thrust,
 )

@@ -12,13 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space import SweepSpec
+from jethr1_plan.balance_space.sweep import SweepSpec
 from jethr1_plan.kinematics.closed_form import check_structure
-from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
-from jethr1_plan.physics.compiled import into_reach
-from jethr1_plan.reasons import Reason, balances
-from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
-from jethr1_plan.search import (
+from jethr1_plan.optimisers.search import (
     EDGE_PENALTY_N_PER_DEG,
     FINE_DIRECTIONS,
     INTO_JOINT_LIMITS,
@@ -30,6 +26,10 @@ from jethr1_plan.search import (
     generic_seeds,
     lens_seeds,
 )
+from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
+from jethr1_plan.physics.compiled import into_reach
+from jethr1_plan.reasons import Reason, balances
+from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
 
 from .leg_oracle import fast_com, leg_ik
 from .oracle import edge_angle_error, window_bounds

@@ -9,14 +9,15 @@ import jsonschema
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space import SweepSpec, sweep_layers
+from jethr1_plan.balance_space.sweep import SweepSpec, sweep_layers
 from jethr1_plan.cli import run
-from jethr1_plan.io.mcap import mcap_schemas, read_mcap
+from jethr1_plan.files.mcap import mcap_schemas, read_mcap
+from jethr1_plan.geometry import inside_polygon, sole_polygon
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
-from jethr1_plan.physics.balance import edge_angle_error, inside_polygon, minimal_thrust, sole_polygon
+from jethr1_plan.optimisers.search import Evaluator, exhaustive_cell
+from jethr1_plan.physics.balance import edge_angle_error, minimal_thrust
 from jethr1_plan.reasons import Reason
-from jethr1_plan.search import Evaluator, exhaustive_cell
 
 ARGS = ["balance-space", "--resolution", "0.1", "--no-progress"]
 

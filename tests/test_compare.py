@@ -93,7 +93,7 @@ def test_pareto_fronts_and_verdict(tmp_path, capsys, monkeypatch):
     """`compare --pareto` plans each weight, marks the defaults and the front (no point of the method is
     as good in all three measures and better in one), and its verdict is the dominance of the default
     sqp point over GAS's with 10x fewer evaluations, recomputed here from the points."""
-    from jethr1_plan import compare as cmp
+    from jethr1_plan.studies import compare as cmp
 
     monkeypatch.setitem(cmp.PARETO_WEIGHTS, "gas", (50.0,))
     monkeypatch.setitem(cmp.PARETO_WEIGHTS, "sqp", (10.0, 1e6))

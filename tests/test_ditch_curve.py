@@ -7,8 +7,8 @@ import json
 import numpy as np
 
 from jethr1_plan.cli import run
-from jethr1_plan.ditch_curve import default_base, ditch_scenario, landing_x
 from jethr1_plan.scenario import ROBUST_DEFAULT
+from jethr1_plan.studies.ditch_curve import default_base, ditch_scenario, landing_x
 from jethr1_plan.swing_path import sole_on_carton
 
 

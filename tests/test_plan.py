@@ -12,10 +12,10 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.mcap import mcap_schemas, read_mcap
-from jethr1_plan.io.trajectory_csv import columns, read_trajectory_csv
-from jethr1_plan.physics.balance import inside_polygon, sole_polygon, zmp_with_thrust
-from jethr1_plan.planning.sequence import convex_hull
+from jethr1_plan.files.mcap import mcap_schemas, read_mcap
+from jethr1_plan.files.plan_csv import columns, read_trajectory_csv
+from jethr1_plan.geometry import convex_hull, inside_polygon, sole_polygon
+from jethr1_plan.physics.balance import zmp_with_thrust
 from jethr1_plan.scenario import load_scenario
 
 from .conftest import JOINT_NAMES, ROOT
@@ -304,8 +304,8 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     documented epoch, every chunk's CRC is valid, and the shipped layout plots fields the file has."""
     import datetime
 
-    from jethr1_plan.cli import LAYOUT
-    from jethr1_plan.io.mcap import EPOCH_NS
+    from jethr1_plan.cli.plan import LAYOUT
+    from jethr1_plan.files.mcap import EPOCH_NS
 
     msgs = read_mcap((planned / "trajectory.mcap").read_bytes())  # validates the CRCs
     desc = [m for m in msgs if m[0] == "/robot_description"]

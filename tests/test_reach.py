@@ -8,7 +8,7 @@ import math
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.reach import DYROS_JET, ReachFigures, step_lengths
+from jethr1_plan.studies.reach import DYROS_JET, ReachFigures, step_lengths
 
 
 def test_dyros_jet_figures():

@@ -11,9 +11,10 @@ import yaml
 from scipy.optimize import linprog
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.trajectory_csv import read_trajectory_csv
-from jethr1_plan.physics.balance import Tolerance, halfplanes, least_thrust, shared_window, sole_polygon, thrust_window
-from jethr1_plan.robot.model import GRAVITY, load_robot
+from jethr1_plan.files.plan_csv import read_trajectory_csv
+from jethr1_plan.geometry import GRAVITY, halfplanes, sole_polygon
+from jethr1_plan.physics.balance import Tolerance, least_thrust, shared_window, thrust_window
+from jethr1_plan.robot.model import load_robot
 
 from .conftest import JOINT_NAMES, ROOT
 from .robot_copies import copy_scenario, renamed_jethr1

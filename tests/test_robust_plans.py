@@ -9,10 +9,10 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.trajectory_csv import read_trajectory_csv
-from jethr1_plan.kinematics import pose_from_quaternion
-from jethr1_plan.physics.balance import polygon_margin, sole_polygon, thrust_window, zmp_with_thrust
-from jethr1_plan.planning.commands import low_pass
+from jethr1_plan.control.commands import low_pass
+from jethr1_plan.files.plan_csv import read_trajectory_csv
+from jethr1_plan.geometry import polygon_margin, pose_from_quaternion, sole_polygon
+from jethr1_plan.physics.balance import thrust_window, zmp_with_thrust
 
 from .conftest import JOINT_NAMES, ROOT
 

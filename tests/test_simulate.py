@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.mcap import mcap_schemas, read_mcap
-from jethr1_plan.physics.balance import polygon_margin, sole_polygon
-from jethr1_plan.sim import controller as ctl
+from jethr1_plan.control import thrust_feedback as ctl
+from jethr1_plan.files.mcap import mcap_schemas, read_mcap
+from jethr1_plan.geometry import polygon_margin, sole_polygon
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.twin import build_twin
 
@@ -36,7 +36,7 @@ def test_the_twin_weighs_the_robot_and_replays_the_plan_statics(plans, robot):
     assert twin.total_mass_kg == pytest.approx(robot.mass_kg, abs=1e-9) and robot.mass_kg == pytest.approx(6.8)
     d = mujoco.MjData(twin.model)
     c = json.loads((plans / "side_step" / "summary.json").read_text())
-    from jethr1_plan.io.trajectory_csv import read_trajectory_csv
+    from jethr1_plan.files.plan_csv import read_trajectory_csv
 
     rows = read_trajectory_csv((plans / "side_step" / "trajectory.csv").read_text())
     for i in range(0, len(track), 29):

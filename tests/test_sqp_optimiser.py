@@ -10,12 +10,13 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.compare import step_evaluator
+from jethr1_plan.geometry import GRAVITY
 from jethr1_plan.optimisers import sqp
-from jethr1_plan.planning import feet_before_each_step, path_problems, plan
-from jethr1_plan.robot.model import GRAVITY
+from jethr1_plan.optimisers.search import exhaustive_cell
+from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning.problems import feet_before_each_step, path_problems
 from jethr1_plan.scenario import load_scenario
-from jethr1_plan.search import exhaustive_cell
+from jethr1_plan.studies.compare import step_evaluator
 
 from .conftest import ROOT
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from jethr1_plan.geometry import GRAVITY
 from jethr1_plan.physics.statics import energy_consumption, leg_condition_numbers, static_torques
-from jethr1_plan.robot.model import GRAVITY
 
 from .conftest import JOINT_NAMES
 from .leg_oracle import link_poses

@@ -8,7 +8,7 @@ import shutil
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.trajectory_csv import columns
+from jethr1_plan.files.plan_csv import columns
 from jethr1_plan.robot.model import load_robot
 
 from .conftest import ROOT

@@ -59,15 +59,15 @@ def test_com_mpc_obeys_the_lipm_and_keeps_the_zmp_in_the_support(dyros_spec):
     """(B-18): the CoM's written ZMP is the LIPM's, p = c − (z_c/g)·c̈, recomputed here from the CoM
     rows by central second differences (exact for the cubic pieces of a constant jerk; at an MPC
     update the stencil straddles two jerks); it stays inside the support polygon shrunk by the margin."""
-    from jethr1_plan.walking.com_mpc import GRAVITY_MS2, plan_com
-    from jethr1_plan.walking.timeline import polygon_margin
+    from jethr1_plan.geometry import GRAVITY, polygon_margin
+    from jethr1_plan.walking.com_mpc import plan_com
 
     spec = dyros_spec.varied(step_length_m=0.35)
     tl = spec.timeline()
     dt = 1.0 / spec.timing.control_hz
     plan = plan_com(tl, spec.com, dt)
     acc = (plan.pos[2:] - 2 * plan.pos[1:-1] + plan.pos[:-2]) / dt**2
-    err = np.linalg.norm(plan.pos[1:-1] - spec.com.height_m / GRAVITY_MS2 * acc - plan.zmp[1:-1], axis=1)
+    err = np.linalg.norm(plan.pos[1:-1] - spec.com.height_m / GRAVITY * acc - plan.zmp[1:-1], axis=1)
     per_update = round(spec.com.dt_s / dt)
     at_update = (np.arange(1, len(plan.t) - 1) % per_update) == 0
     assert np.max(err[~at_update]) < 1e-8 and np.max(err[at_update]) < 5e-3
@@ -150,8 +150,8 @@ def test_walk_csv_rows_hold_by_forward_kinematics_and_the_mcap_plays_it(dyros_fo
     """Each sole that bears weight sits on its foothold (forward kinematics from the written rows, in
     a fresh PlaCo robot, independent of the generator); the MCAP carries the robot, the footsteps,
     one /joint_states per row and one yaw horizon per MPC update."""
-    from jethr1_plan.io.mcap import read_mcap
-    from jethr1_plan.io.walk_files import read_walk_csv
+    from jethr1_plan.files.mcap import read_mcap
+    from jethr1_plan.files.walk_folder import read_walk_csv
     from jethr1_plan.robot.model import load_robot
 
     s = json.loads((dyros_folder / "summary.json").read_text())
@@ -210,7 +210,7 @@ def test_pelvic_rotation_lowers_kappa_and_lengthens_the_step(dyros_spec):
     """Fig. 13 and the step length: at 0.30 m the lower body's peak κ (B-45) is lower with pelvic
     rotation; at 0.40 m the walk without rotation reaches the straight leg (the knee margin, or the IK
     losing the sole there) while paper_b holds."""
-    from jethr1_plan.walking.run import run_walk
+    from jethr1_plan.pipeline.walk import run_walk
 
     spec = replace(dyros_spec, success=replace(dyros_spec.success, rehearse=False))
     k = {m: float(np.max(run_walk(spec.varied(step_length_m=0.3, mode=m, arms=False)).analysis.kappa))

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.planning.yaw_mpc import inverse_min_jerk, mpc_smooth
+from jethr1_plan.control.yaw_mpc import inverse_min_jerk, mpc_smooth
 from jethr1_plan.scenario import load_scenario
 
 from .conftest import ROOT

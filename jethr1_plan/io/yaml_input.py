@@ -173,18 +173,3 @@ def fill_dataclass(default, given: dict, **more):
     return replace(default, **values)
 
 
-def build_with_robot(text: str, src: str, schema: dict, max_values: int, what: str, build):
-    """Read a document that names its ``robot`` (default ``jethr1``), load that robot and return
-    ``build(doc, src, robot)``.
-
-    Raises:
-        InputError: the document's first problem, or its robot's, under the key ``robot``.
-    """
-    from jethr1_plan.robot.model import load_robot
-
-    doc = read_document(text, src, schema, max_values, what)
-    try:
-        robot = load_robot(doc.get("robot", "jethr1"))
-    except InputError as exc:
-        raise InputError(src, "robot", str(exc)) from None
-    return build(doc, src, robot)

@@ -6,7 +6,8 @@ the default) and :mod:`.closed_form` (the legs in closed form, compiled; same po
 
 from __future__ import annotations
 
-from jethr1_plan.kinematics.base import PostureBatch, PostureSolver, Stance, pose_from_quaternion, pose_matrix
+from jethr1_plan.geometry import pose_from_quaternion, pose_matrix
+from jethr1_plan.kinematics.base import PostureBatch, PostureSolver, Stance
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["KINEMATICS", "PostureBatch", "PostureSolver", "Stance", "make_posture_solver", "pose_from_quaternion",

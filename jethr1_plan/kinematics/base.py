@@ -18,39 +18,10 @@ from typing import Protocol
 
 import numpy as np
 
+from jethr1_plan.geometry import pose_matrix
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["PostureBatch", "PostureSolver", "Stance", "pose_from_quaternion", "pose_matrix",
-           "quaternion_from_matrix"]
-
-
-def pose_matrix(xyz: np.ndarray, yaw_rad: float) -> np.ndarray:
-    """4×4 homogeneous transform of a level frame at ``xyz`` [m] turned by ``yaw_rad`` about z."""
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    T = np.eye(4)
-    T[0, 0], T[0, 1], T[1, 0], T[1, 1] = c, -s, s, c
-    T[:3, 3] = xyz
-    return T
-
-
-def pose_from_quaternion(xyz, quat_xyzw) -> np.ndarray:
-    """4×4 homogeneous transform from a position [m] and a unit quaternion (x, y, z, w)."""
-    qx, qy, qz, qw = quat_xyzw
-    T = np.eye(4)
-    T[:3, :3] = [[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                 [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                 [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]]
-    T[:3, 3] = xyz
-    return T
-
-
-def quaternion_from_matrix(R: np.ndarray) -> np.ndarray:
-    """(x, y, z, w) of a rotation matrix (the inverse of :func:`pose_from_quaternion`'s rotation; w ≥ 0)."""
-    w = np.sqrt(max(0.0, 1.0 + R[0, 0] + R[1, 1] + R[2, 2])) / 2.0
-    x = np.copysign(np.sqrt(max(0.0, 1.0 + R[0, 0] - R[1, 1] - R[2, 2])) / 2.0, R[2, 1] - R[1, 2])
-    y = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] + R[1, 1] - R[2, 2])) / 2.0, R[0, 2] - R[2, 0])
-    z = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] - R[1, 1] + R[2, 2])) / 2.0, R[1, 0] - R[0, 1])
-    return np.array([x, y, z, w])
+__all__ = ["PostureBatch", "PostureSolver", "Stance",]
 
 
 @dataclass(frozen=True)

@@ -22,10 +22,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from jethr1_plan.errors import RobotModelError
+from jethr1_plan.geometry import SIDES, halfplanes
 from jethr1_plan.kinematics.base import PostureBatch, Stance
-from jethr1_plan.physics.balance import NOMINAL, Tolerance, halfplanes
+from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import SIDES, RobotModel, urdf_joints
+from jethr1_plan.robot.model import RobotModel, urdf_joints
 
 __all__ = [
     "AXES",

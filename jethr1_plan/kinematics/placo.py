@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.kinematics.base import PostureBatch, Stance, pose_matrix
+from jethr1_plan.geometry import SIDES, pose_matrix
+from jethr1_plan.kinematics.base import PostureBatch, Stance
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import SIDES, RobotModel, reach_centre
+from jethr1_plan.robot.model import RobotModel, reach_centre
 
 __all__ = ["BENT_SEED", "PlacoPostureSolver", "leg_reach_ok"]
 

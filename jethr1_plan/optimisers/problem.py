@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jethr1_plan.geometry import GRAVITY
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
@@ -22,7 +23,6 @@ from jethr1_plan.physics.balance import (
     zmp_with_thrusts,
 )
 from jethr1_plan.reasons import Reason, ik_failed
-from jethr1_plan.robot.model import GRAVITY
 
 __all__ = ["Candidates", "FitnessConstants", "SampleProblem", "evaluate_candidates", "fitness"]
 

@@ -51,15 +51,16 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import minimize
 
+from jethr1_plan.geometry import GRAVITY, SIDES, halfplanes
 from jethr1_plan.kinematics.closed_form import check_structure, closed_form_arrays, solve_postures
 from jethr1_plan.optimisers.base import PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
-from jethr1_plan.physics.balance import edge_angle_error, halfplanes, least_thrust, thrust_window
+from jethr1_plan.optimisers.search import DIRECTIONS
+from jethr1_plan.physics.balance import edge_angle_error, least_thrust, thrust_window
 from jethr1_plan.physics.compiled import sample_terms
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import GRAVITY, LEG_ROLES, SIDES, RobotModel
-from jethr1_plan.search import DIRECTIONS
+from jethr1_plan.robot.model import LEG_ROLES, RobotModel
 
 __all__ = [
     "AnalyticSample",

@@ -15,13 +15,12 @@ enters the support polygon, which makes H(P_body) of (A-5) exact and closed-form
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from jethr1_plan.robot.model import GRAVITY
+from jethr1_plan.geometry import GRAVITY, halfplanes, wrap_angle
 
 __all__ = [
     "NOMINAL",
@@ -31,16 +30,11 @@ __all__ = [
     "body_yaw_forward_axis",
     "edge_angle_error",
     "edge_angle_excess",
-    "halfplanes",
-    "inside_polygon",
     "least_thrust",
     "minimal_thrust",
-    "polygon_margin",
     "shared_window",
-    "sole_polygon",
     "thrust_window",
     "window_bounds",
-    "wrap_angle",
     "zmp_with_thrust",
     "zmp_with_thrusts",
 ]
@@ -52,41 +46,6 @@ def zmp_with_thrust(com_xy: ArrayLike, fan_xy: ArrayLike, thrust_n: ArrayLike, m
     w = mass_kg * g
     f = np.asarray(thrust_n, dtype=float)[..., None]
     return (w * np.asarray(com_xy) - f * np.asarray(fan_xy)) / (w - f)
-
-
-def sole_polygon(centre_xy: np.ndarray, yaw_rad: float, length_m: float, width_m: float,
-                 margin_m: float = 0.0) -> np.ndarray:
-    """Counter-clockwise corners (4, 2) [m] of a sole rectangle, shrunk by ``margin_m`` on every side."""
-    hl, hw = length_m / 2 - margin_m, width_m / 2 - margin_m
-    if hl <= 0 or hw <= 0:
-        raise ValueError(f"sole margin {margin_m} m leaves no support polygon")
-    local = np.array([[hl, -hw], [hl, hw], [-hl, hw], [-hl, -hw]])
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    return local @ np.array([[c, s], [-s, c]]) + np.asarray(centre_xy, dtype=float)[:2]
-
-
-def halfplanes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Outward normals n (K, 2) and offsets b (K,) with n·x ≤ b inside a CCW convex polygon."""
-    polygon = np.asarray(polygon, dtype=float)
-    return _halfplanes_of(polygon.tobytes(), len(polygon))
-
-
-@functools.lru_cache(maxsize=4096)
-def _halfplanes_of(data: bytes, k: int) -> tuple[np.ndarray, np.ndarray]:
-    polygon = np.frombuffer(data, dtype=float).reshape(k, 2)
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    offsets = np.einsum("kd,kd->k", normals, polygon)
-    normals.setflags(write=False)
-    offsets.setflags(write=False)
-    return normals, offsets
-
-
-def inside_polygon(p_xy: np.ndarray, polygon: np.ndarray, tol_m: float = 1e-12) -> np.ndarray:
-    """True where ``p_xy`` (..., 2) lies in the convex CCW ``polygon`` (boundary included)."""
-    n, b = halfplanes(polygon)
-    return np.all(np.einsum("...d,kd->...k", np.asarray(p_xy, dtype=float), n) <= b + tol_m, axis=-1)
 
 
 def minimal_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, mass_kg: float,
@@ -278,14 +237,6 @@ def balance_slack(com_xy: np.ndarray, fan_xy: np.ndarray, thrust_n: np.ndarray, 
     return (lift - mass_kg * g * (d + tol.mass * np.abs(d))).min(axis=-1)
 
 
-def polygon_margin(p_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """Signed distance [m] from ``p_xy`` (..., 2) to the nearest edge line of a convex CCW polygon:
-    positive inside (the distance to the nearest edge), negative outside (how far beyond the worst
-    edge)."""
-    n, b = halfplanes(polygon)
-    return (b - np.asarray(p_xy, dtype=float) @ n.T).min(axis=-1)
-
-
 def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.ndarray) -> np.ndarray:
     """|θ_ZC − θ_CA| of (A-10) [rad], wrapped to [0, π].
 
@@ -309,11 +260,6 @@ def edge_angle_excess(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nd
     interpolated between it and the next (thrust-borne) sample would break it.
     """
     return np.maximum(edge_angle_error(origin_xy, com_xy, ankle_xy) - rho_rad, 0.0)
-
-
-def wrap_angle(a: np.ndarray | float) -> np.ndarray:
-    """Wrap [rad] to (−π, π]."""
-    return -((-np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi)
 
 
 def body_yaw_eq4(support_xy: np.ndarray, fan_xy: np.ndarray, support_side: str) -> np.ndarray:

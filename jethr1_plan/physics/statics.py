@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.robot.model import SIDES, RobotModel
+from jethr1_plan.geometry import SIDES
+from jethr1_plan.robot.model import RobotModel
 
 __all__ = [
     "FORCE_DIRECTION",

@@ -14,19 +14,21 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from jethr1_plan.control.commands import fan_commands, servo_commands
+from jethr1_plan.control.time_laws import swing_row_positions
 from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.kinematics import PostureSolver, make_posture_solver
 from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.optimisers.problem import SampleProblem
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.physics.statics import analyse_rows
-from jethr1_plan.planning.commands import fan_commands, servo_commands
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, swing_row_positions
+from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder
 from jethr1_plan.reasons import message
-from jethr1_plan.robot.model import SIDES, RobotModel, reach_centre
+from jethr1_plan.robot.model import RobotModel, reach_centre
 from jethr1_plan.scenario import Scenario
 
 __all__ = [
@@ -272,7 +274,7 @@ def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float
 
 def yaw_schedule(scenario: Scenario, robot: RobotModel):
     """The MPC-smoothed body yaw (yaw mode ``mpc``) at every row and swing sample."""
-    from jethr1_plan.planning.yaw_mpc import build_schedule
+    from jethr1_plan.control.yaw_mpc import build_schedule
 
     feet_at = feet_before_each_step(scenario)
     eq4 = [yaw_function(scenario, robot, st.support, f[st.support]) for st, f in zip(scenario.steps, feet_at,

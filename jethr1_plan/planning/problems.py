@@ -6,9 +6,10 @@ from collections.abc import Callable
 
 import numpy as np
 
+from jethr1_plan.geometry import sole_polygon
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.optimisers.problem import SampleProblem
-from jethr1_plan.physics.balance import body_yaw_eq4, body_yaw_forward_axis, sole_polygon
+from jethr1_plan.physics.balance import body_yaw_eq4, body_yaw_forward_axis
 from jethr1_plan.robot.model import RobotModel, fan_ground_xy
 from jethr1_plan.scenario import Scenario
 

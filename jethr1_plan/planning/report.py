@@ -126,7 +126,7 @@ def plan_summary(result: PlanResult) -> dict:
                              "max_thrust_n": float(max(v.max() for v in per_fan.values())),
                              "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
         out["robustness"] = robustness_summary(rows, fans)
-        from jethr1_plan.sim.controller import Gains, law
+        from jethr1_plan.control.thrust_feedback import Gains, law
 
         tol = sc.balance.tolerance
         out["controller"] = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)

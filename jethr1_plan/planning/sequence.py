@@ -23,8 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
+from jethr1_plan.geometry import GRAVITY, convex_hull, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
@@ -32,53 +33,15 @@ from jethr1_plan.physics.balance import (
     balance_slack,
     edge_angle_excess,
     least_thrust,
-    polygon_margin,
     shared_window,
-    sole_polygon,
     thrust_window,
-    wrap_angle,
     zmp_with_thrust,
     zmp_with_thrusts,
 )
 from jethr1_plan.reasons import Reason, message
-from jethr1_plan.robot.model import GRAVITY, RobotModel, fan_ground_xy
+from jethr1_plan.robot.model import RobotModel, fan_ground_xy
 
-__all__ = ["FanThrust", "Rows", "SequenceBuilder", "convex_hull", "min_jerk", "swing_row_positions"]
-
-
-def min_jerk(t: ArrayLike) -> np.ndarray:
-    """Minimum-jerk time law s(t) = 10t³ − 15t⁴ + 6t⁵ on [0, 1]."""
-    t = np.clip(t, 0.0, 1.0)
-    return t**3 * (10 - 15 * t + 6 * t * t)
-
-
-def swing_row_positions(samples: int, duration_s: float, rate_hz: float) -> np.ndarray:
-    """Where the rows of a swing fall along its path: (rows,) fractional sample indices in [0, N − 1],
-    row k at min_jerk(k / n) · (N − 1) with n = round(duration · rate) rows (the landing sample itself
-    starts the next transfer)."""
-    n = max(1, round(duration_s * rate_hz))
-    return min_jerk(np.arange(n) / n) * (samples - 1)
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (K, 2) of 2-D points (monotone chain)."""
-    pts = np.unique(np.round(points, 12), axis=0)
-    pts = pts[np.lexsort((pts[:, 1], pts[:, 0]))]
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[np.ndarray] = []
-    upper: list[np.ndarray] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    for p in pts[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+__all__ = ["FanThrust", "Rows", "SequenceBuilder"]
 
 
 @dataclass

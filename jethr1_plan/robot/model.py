@@ -16,27 +16,25 @@ from typing import Any
 import numpy as np
 import yaml
 
-from jethr1_plan.errors import RobotModelError
+from jethr1_plan.errors import InputError, RobotModelError
+from jethr1_plan.geometry import GRAVITY, SIDES
+from jethr1_plan.io.yaml_input import read_document
 
 __all__ = [
-    "GRAVITY",
     "LEG_ROLES",
     "ROBOTS_DIR",
-    "SIDES",
     "Fan",
     "Leg",
     "RobotModel",
     "UrdfJoint",
     "WalkingStructure",
+    "build_with_robot",
     "fan_ground_xy",
     "load_robot",
     "reach_centre",
     "robot_summary",
     "urdf_joints",
 ]
-
-SIDES = ("left", "right")
-
 
 def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray:
     """Centre [m] of the ball of trunk positions from which the ``side`` leg reaches its ankle.
@@ -90,9 +88,6 @@ def _robots_dir() -> Path:
 
 
 ROBOTS_DIR = _robots_dir()
-GRAVITY = 9.81  # [m/s^2]
-
-
 @dataclass(frozen=True)
 class Leg:
     """One leg as the robot YAML names it: its sole frame and its six joints by role (:data:`LEG_ROLES`)."""
@@ -576,3 +571,18 @@ def robot_summary(model: RobotModel) -> dict:
         "sole": {"length_m": model.sole_length_m, "width_m": model.sole_width_m},
         "weight_n": model.mass_kg * GRAVITY,
     }
+
+
+def build_with_robot(text: str, src: str, schema: dict, max_values: int, what: str, build):
+    """Read a document that names its ``robot`` (default ``jethr1``), load that robot and return
+    ``build(doc, src, robot)``.
+
+    Raises:
+        InputError: the document's first problem, or its robot's, under the key ``robot``.
+    """
+    doc = read_document(text, src, schema, max_values, what)
+    try:
+        robot = load_robot(doc.get("robot", "jethr1"))
+    except InputError as exc:
+        raise InputError(src, "robot", str(exc)) from None
+    return build(doc, src, robot)

@@ -3,7 +3,7 @@ can run, and the rehearsal of a written plan in the twin (``jethr1 simulate``).
 
 * :mod:`jethr1_plan.sim.twin` — the twin: the URDF with a free-floating trunk, position servos at
   the robot YAML's limits, sole contact boxes, cartons, fans as forces with a first-order lag.
-* :mod:`jethr1_plan.sim.controller` — the thrust feedback law on the measured centre of pressure.
+* :mod:`jethr1_plan.control.thrust_feedback` — the thrust feedback law on the measured centre of pressure.
 * :mod:`jethr1_plan.sim.rehearsal` — a plan replayed in the twin: falls, tilt, slip, landings.
 """
 

@@ -19,7 +19,6 @@ scale the fans' thrust and change their lag.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -27,10 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
+from jethr1_plan.control import thrust_feedback as ctl
 from jethr1_plan.errors import InputError
-from jethr1_plan.physics.balance import polygon_margin, sole_polygon
-from jethr1_plan.robot.model import SIDES, RobotModel, load_robot
-from jethr1_plan.sim import controller as ctl
+from jethr1_plan.files.plan_folder import read_json, read_plan
+from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
+from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
 from jethr1_plan.swing_path import Carton, sole_on_carton
 
@@ -102,51 +103,38 @@ class PlanTrack:
 
 
 def load_plan(folder: Path) -> PlanTrack:
-    """Read a plan folder (``trajectory.csv`` + ``summary.json``).
+    """Read a plan folder (``trajectory.csv`` + ``summary.json``, through
+    :func:`~jethr1_plan.files.plan_folder.read_plan`) as the rehearsal follows it.
 
     Raises:
         InputError: a missing or unreadable file, a plan written infeasible, a robot that cannot load.
     """
-    from jethr1_plan.io.trajectory_csv import read_trajectory_csv
-
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(str(folder), "", "not a plan folder (expected trajectory.csv and summary.json in it)")
     summary_path, csv_path = folder / "summary.json", folder / "trajectory.csv"
     if not summary_path.is_file():
         raise InputError(str(summary_path), "", "missing: simulate needs a plan's folder")
-    try:
-        summary = json.loads(summary_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(str(summary_path), "", f"cannot read: {exc}".splitlines()[0]) from None
-    if not isinstance(summary, dict) or summary.get("feasible") is not True:
+    summary = read_json(summary_path)
+    if summary.get("feasible") is not True:
         raise InputError(str(summary_path), "feasible", "the plan is not feasible: nothing to rehearse")
     if not csv_path.is_file():
         raise InputError(str(csv_path), "", "missing: simulate needs the plan's trajectory")
+    plan = read_plan(folder, suffixes=(".csv",))
+    robot, c = plan.robot, plan.table
     try:
-        robot = load_robot(summary.get("robot_yaml") or summary.get("robot", "jethr1"))
-        cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c["size_m"]))
-                        for c in summary.get("terrain", {}).get("cartons", []))
         tol = summary.get("balance", {}).get("tolerance", {})
         rate = float(summary["trajectory"]["rate_hz"])
         thrust_max = float(summary["thrust_max_n"])
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise InputError(str(summary_path), "", f"malformed: {exc}".splitlines()[0]) from None
-    try:
-        c = read_trajectory_csv(csv_path.read_text(encoding="utf-8"), str(csv_path), robot)
-        q = np.stack([c[f"{j}_rad"] for j in robot.joint_names], axis=1)
-        pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"], c["pelvis_qw"], c["pelvis_qx"],
-                           c["pelvis_qy"], c["pelvis_qz"]], axis=1)
-        thrust = np.stack([c[f"thrust_{f.name}_n"] for f in robot.fans], axis=1)
-        window = np.stack([c["thrust_window_lo_n"], c["thrust_window_hi_n"]], axis=1)
-        zmp = np.stack([c["zmp_x_m"], c["zmp_y_m"]], axis=1)
-        track = PlanTrack(folder, robot, cartons, rate, thrust_max, float(tol.get("thrust_error", 0.0)),
-                          float(tol.get("mass_error", 0.0)), c["time_s"], q, pelvis, thrust, window, zmp,
-                          c["support"], c["phase"], c["step"].astype(int), c["sample"].astype(int),
-                          np.stack([c[f"{j}_cmd_rad"] for j in robot.joint_names], axis=1),
-                          np.stack([c[f"thrust_cmd_{f.name}_n"] for f in robot.fans], axis=1))
-    except (KeyError, ValueError, IndexError, OSError, UnicodeDecodeError) as exc:
-        raise InputError(str(csv_path), "", f"malformed trajectory: {exc}".splitlines()[0]) from None
+    q = joint_matrix(c, robot)
+    pelvis = stack(c, ("pelvis_x_m", "pelvis_y_m", "pelvis_z_m", "pelvis_qw", "pelvis_qx", "pelvis_qy", "pelvis_qz"))
+    track = PlanTrack(folder, robot, plan.cartons, rate, thrust_max, float(tol.get("thrust_error", 0.0)),
+                      float(tol.get("mass_error", 0.0)), c["time_s"], q, pelvis, fan_matrix(c, robot),
+                      stack(c, ("thrust_window_lo_n", "thrust_window_hi_n")), stack(c, ("zmp_x_m", "zmp_y_m")),
+                      c["support"], c["phase"], c["step"].astype(int), c["sample"].astype(int),
+                      joint_matrix(c, robot, "_cmd_rad"), fan_matrix(c, robot, "thrust_cmd_"))
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
         raise InputError(str(csv_path), "", "malformed trajectory: fewer than 2 rows or non-finite poses")
     return track
@@ -239,7 +227,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
 
     With ``compensate`` the servos follow the plan's command columns (``<joint>_cmd_rad``: the
     posture plus the sag of the servos under the row's static torque) and the fans its
-    ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.planning.commands`), and
+    ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.control.commands`), and
     the feedback's extra thrust moves the swing leg's commands by J_fanᵀ·ΔF/k as the robot would;
     without it the servos follow the joint columns and the fans the thrust columns.
     """
@@ -285,7 +273,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     lo_gain = (1 - track.mass_error) / (1 + track.thrust_error)
     hi_gain = (1 + track.mass_error) / (1 - track.thrust_error)
     judge = _landing_rows(track)
-    weight = 9.81 * float(m.body_mass.sum())
+    weight = GRAVITY * float(m.body_mass.sum())
     wall0 = time.perf_counter()
     k_end = n_settle + n_plan + n_hold
     t = 0.0
@@ -305,7 +293,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         total = sum(f for f, _ in loads.values())
         cop = np.asarray(sum(f * c for f, c in loads.values()) / total) if total > 1e-9 else None
         # single support as the robot feels it: the swing sole carries (next to) nothing
-        alone = sup != "both" and loads[sup][0] > 0.2 * weight and loads[_other(sup)][0] < UNLOADED * weight
+        alone = sup != "both" and loads[sup][0] > 0.2 * weight and loads[other_side(sup)][0] < UNLOADED * weight
         if alone:
             poly = sole_polygon(track.feet[i, side_index[sup], :2], track.feet_yaw[i, side_index[sup]],
                                 robot.sole_length_m, robot.sole_width_m)
@@ -319,7 +307,8 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
             # the law acts on the total thrust of the fans that carry it, in their planned shares (the
             # window's direction); without planned thrust, on the swing sole's first fan
             ff_total = float(ff.sum())
-            carry = np.flatnonzero(ff > 0) if ff_total > 0 else np.array(robot.swing_fans(_other(sup))[:1], dtype=int)
+            carry = (np.flatnonzero(ff > 0) if ff_total > 0
+                     else np.array(robot.swing_fans(other_side(sup))[:1], dtype=int))
             share = ff[carry] / ff_total if ff_total > 0 else np.ones(len(carry))
             if len(carry):
                 top = float(np.min(caps[carry] / share))  # the total at which a carrying fan reaches its limit
@@ -384,10 +373,6 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         landing_errors_m=landing,
         soles_on_cartons_at_end=on_top, max_thrust_n=max_thrust, simulated_s=max(t, 0.0) + SETTLE_S,
         wall_s=wall, record=rec)
-
-
-def _other(side: str) -> str:
-    return "left" if side == "right" else "right"
 
 
 def _landing_rows(track: PlanTrack) -> list[tuple[int, int, str]]:

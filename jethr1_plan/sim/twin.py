@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.robot.model import SIDES, RobotModel
+from jethr1_plan.geometry import SIDES
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["Twin", "TwinParams", "build_twin"]

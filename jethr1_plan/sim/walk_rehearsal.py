@@ -7,30 +7,18 @@ soles measured against their last footholds.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from jethr1_plan.sim.twin import build_twin
+from jethr1_plan.walking.result import WalkRun
 
-__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "WalkRun", "rehearse_walk"]
+__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "rehearse_walk"]
 
 FALL_TILT_DEG = 10.0  # a trunk tilted more than this from level has fallen [deg]
 FALL_DROP_M = 0.10  # a trunk this far below its planned height has fallen [m]
 SETTLE_S = 0.5  # the first posture held before the walk starts [s]
 HOLD_S = 1.0  # the last posture held after it [s]
-
-
-@dataclass(frozen=True)
-class WalkRun:
-    """The rehearsal's verdict and measurements (SI units; angles in degrees where named so)."""
-
-    survived: bool
-    fell_at_s: float | None  # the walk's time of the fall [s]
-    reason: str
-    max_tilt_deg: float
-    landing_error_m: float  # the soles' largest distance from their last footholds at the end [m]
-    simulated_s: float
 
 
 def _tilt_deg(R: np.ndarray) -> float:

@@ -18,10 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.kinematics.base import quaternion_from_matrix
-from jethr1_plan.walking.com_mpc import GRAVITY_MS2
+from jethr1_plan.geometry import GRAVITY, SIDES, polygon_margin, quaternion_from_matrix
 from jethr1_plan.walking.generator import Walk
-from jethr1_plan.walking.timeline import SIDES, polygon_margin, polygon_of
+from jethr1_plan.walking.timeline import polygon_of
 
 __all__ = ["EDGE_ROWS", "SuccessCriteria", "Verdict", "WalkAnalysis", "analyse", "energy_two_steps", "judge",
            "zmp_from_momentum"]
@@ -118,7 +117,7 @@ def zmp_from_momentum(com: np.ndarray, h: np.ndarray, dt: float, mass_kg: float)
     """(N, 2) the ZMP on the ground [m] of a motion sampled every ``dt`` [s]: CoM ``com`` (N, 3) [m] and
     centroidal momentum ``h`` (N, 6) = (p [N·s], L [N·m·s]), its rate by central differences."""
     hdot = np.gradient(h, dt, axis=0)
-    fz = hdot[:, 2] + mass_kg * GRAVITY_MS2
+    fz = hdot[:, 2] + mass_kg * GRAVITY
     return np.column_stack([com[:, 0] - (com[:, 2] * hdot[:, 0] + hdot[:, 4]) / fz,
                             com[:, 1] - (com[:, 2] * hdot[:, 1] - hdot[:, 3]) / fz])
 

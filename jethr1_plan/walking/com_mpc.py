@@ -19,12 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jethr1_plan.geometry import GRAVITY, halfplanes
 from jethr1_plan.walking.timeline import Timeline, polygon_of
 
-__all__ = ["GRAVITY_MS2", "CoMPlan", "CoMSettings", "plan_com"]
-
-GRAVITY_MS2 = 9.81
-
+__all__ = ["CoMPlan", "CoMSettings", "plan_com"]
 
 @dataclass(frozen=True)
 class CoMSettings:
@@ -67,14 +65,6 @@ def _stack(exprs: list):
     return _affine(np.vstack([e.A for e in exprs]), np.concatenate([e.b for e in exprs]))
 
 
-def _halfplanes(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Outward normals (K, 2) and offsets (K,): n·p ≤ offset inside the counter-clockwise ``polygon``."""
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]])
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals, np.einsum("kd,kd->k", normals, polygon)
-
-
 class _Condensed:
     """(B-12..B-17) condensed: every step's position, velocity and ZMP as A·U + b(x_0), U the 2N jerks
     (x's N, then y's N), A from ``placo.LIPM`` (built once: it depends on the step and the horizon
@@ -108,7 +98,7 @@ def plan_com(timeline: Timeline, settings: CoMSettings, control_dt_s: float) -> 
     every ``control_dt_s`` [s]."""
     import placo
 
-    omega2 = GRAVITY_MS2 / settings.height_m
+    omega2 = GRAVITY / settings.height_m
     dt = settings.dt_s
     horizon = max(2, round(settings.horizon_s / dt))
     duration = timeline.duration_s
@@ -134,7 +124,7 @@ def plan_com(timeline: Timeline, settings: CoMSettings, control_dt_s: float) -> 
         rows_a, rows_b = [], []
         for k, key in enumerate(keys):  # the ZMP in its support polygon: n·z ≤ offset for every edge
             if key not in polygons:
-                polygons[key] = _halfplanes(polygon_of(key, timeline.sole_length_m, timeline.sole_width_m,
+                polygons[key] = halfplanes(polygon_of(key, timeline.sole_length_m, timeline.sole_width_m,
                                                        settings.zmp_margin_m))
             normals, offsets = polygons[key]
             rows_a.append(normals @ model.zmp_A[2 * k:2 * k + 2])

@@ -14,13 +14,14 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from jethr1_plan.planning.yaw_mpc import yaw_mpc_step, yaw_step_state
+from jethr1_plan.control.yaw_mpc import yaw_mpc_step, yaw_step_state
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.walking.arm_swing import arm_rates
 from jethr1_plan.walking.com_mpc import CoMPlan, CoMSettings, plan_com
 from jethr1_plan.walking.ik import WalkIK
 from jethr1_plan.walking.pelvis_yaw import reference_yaw
-from jethr1_plan.walking.timeline import SIDES, Timeline
+from jethr1_plan.walking.timeline import Timeline
 
 __all__ = ["ArmSwing", "PelvisRotation", "Walk", "generalized_velocity", "generate", "yaw_bounds"]
 

@@ -14,12 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.io.yaml_input import build_with_robot, fill_dataclass, read_text
-from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.geometry import SIDES
+from jethr1_plan.io.yaml_input import fill_dataclass, read_text
+from jethr1_plan.robot.model import RobotModel, build_with_robot
 from jethr1_plan.walking.analysis import SuccessCriteria
 from jethr1_plan.walking.com_mpc import CoMSettings
 from jethr1_plan.walking.generator import ArmSwing, PelvisRotation
-from jethr1_plan.walking.timeline import SIDES, Timeline, repetitive_footsteps
+from jethr1_plan.walking.timeline import Timeline, repetitive_footsteps
 
 __all__ = ["MAX_ROWS", "ROTATION_MODES", "SCHEMA", "Footsteps", "SuccessCriteria", "WalkSpec", "WalkTiming",
            "load_walk", "load_walk_text"]

@@ -19,10 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SIDES", "Footstep", "Timeline", "polygon_margin", "polygon_of", "repetitive_footsteps"]
+from jethr1_plan.geometry import SIDES
 
-SIDES = ("left", "right")
-
+__all__ = [ "Footstep", "Timeline", "polygon_of", "repetitive_footsteps"]
 
 @dataclass(frozen=True)
 class Footstep:
@@ -185,8 +184,3 @@ def polygon_of(key: tuple, sole_length_m: float, sole_width_m: float, margin_m: 
     return pts[ConvexHull(pts).vertices]
 
 
-def polygon_margin(p: np.ndarray, polygon: np.ndarray) -> float:
-    """Signed distance [m] of ``p`` inside a counter-clockwise convex ``polygon`` (negative: outside)."""
-    edges = np.roll(polygon, -1, axis=0) - polygon
-    normals = np.column_stack([edges[:, 1], -edges[:, 0]]) / np.linalg.norm(edges, axis=1)[:, None]
-    return float(np.min(np.einsum("kd,kd->k", normals, polygon) - normals @ p))

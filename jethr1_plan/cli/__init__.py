@@ -1,0 +1,90 @@
+"""The ``jethr1`` command line: thin shells around the planner, one module per command.
+
+Exit codes: 0 done, 1 a bug, 2 bad input, 3 infeasible plan, 4 a batch expectation failed, 5 a
+verify finding, 6 a rehearsal that fell. Progress and messages go to stderr; ``--json`` prints one
+JSON document on stdout.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from jethr1_plan.cli.balance_space import balance_space
+from jethr1_plan.cli.batch import batch
+from jethr1_plan.cli.compare import compare_cmd
+from jethr1_plan.cli.ditch_curve import ditch_curve_cmd
+from jethr1_plan.cli.plan import plan
+from jethr1_plan.cli.reach import reach_cmd
+from jethr1_plan.cli.robot import robot
+from jethr1_plan.cli.simulate import simulate_cmd
+from jethr1_plan.cli.verify import verify
+from jethr1_plan.cli.walk import walk_cmd, walk_sweep_cmd
+from jethr1_plan.errors import Jethr1Error
+
+__all__ = ["entry", "main", "run"]
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="jethr1-plan")
+def main() -> None:
+    """Plan thrust-assisted steps over ditches for the Jet-HR1 biped (SI units throughout)."""
+
+
+
+for _command in (robot, plan, balance_space, batch, verify, compare_cmd, reach_cmd, ditch_curve_cmd, simulate_cmd,
+                 walk_cmd, walk_sweep_cmd):
+    main.add_command(_command)
+
+
+def run(argv: list[str] | None = None) -> int:
+    """Entry point: run the CLI and map expected failures to exit codes (no traceback)."""
+    try:
+        rv = main.main(args=argv, prog_name="jethr1", standalone_mode=False)
+        if isinstance(rv, int):  # click returns an Exit's code instead of raising it here
+            return rv
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.ClickException as exc:  # usage: one line, as every other bad input
+        ctx = getattr(exc, "ctx", None)
+        where = f"jethr1 {ctx.command_path.split(' ', 1)[1]}" if ctx is not None and " " in ctx.command_path \
+            else "jethr1"
+        print(f"{where}: {exc.format_message()}".replace("\n", " "), file=sys.stderr)
+        return 2
+    except (click.exceptions.Abort, KeyboardInterrupt):
+        if _TERMINATED:
+            print("jethr1: terminated (SIGTERM); workers stopped, nothing written", file=sys.stderr)
+            return 143
+        print("jethr1: interrupted; workers stopped, nothing written", file=sys.stderr)
+        return 130
+    except Jethr1Error as exc:
+        message = str(exc).replace("\n", " ")
+        print(f"jethr1: {message}", file=sys.stderr)
+        return exc.exit_code
+    return 0
+
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised as an interrupt so that it unwinds as Ctrl-C does: worker processes are ended,
+    staging folders removed, nothing half-written is left."""
+
+
+
+_TERMINATED: list[int] = []  # set by SIGTERM: joblib and click turn the interrupt into their own exceptions
+
+
+
+def _on_sigterm(signum, frame) -> None:
+    _TERMINATED.append(signum)
+    raise Terminated()
+
+
+
+def entry() -> None:
+    import signal
+
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    sys.exit(run())
+

@@ -1,0 +1,94 @@
+"""``jethr1 balance-space``: where the swing sole can be held, with and without thrust."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from jethr1_plan.cli.common import (
+    FiniteFloat,
+    Progress,
+    err_console,
+    pair_option,
+    require_dask,
+)
+from jethr1_plan.errors import InputError
+from jethr1_plan.io.json_text import json_text
+
+__all__ = ["balance_space"]
+
+
+@click.command("balance-space")
+@click.option("--robot", "robot_name", default="jethr1", show_default=True, help="Robot name or path.")
+@click.option("--support", type=click.Choice(["left", "right"]), default="right", show_default=True,
+              help="Which sole supports; the other one sweeps.")
+@click.option("--support-position", nargs=3, type=FiniteFloat(-100, 100), default=None, metavar="X Y Z",
+              help="Support sole centre [m] (default: where the robot stands, its stance width apart).")
+@click.option("--x-range", nargs=2, type=FiniteFloat(-100, 100), callback=pair_option, metavar="LOW HIGH",
+              help="Swing sole x bounds [m].")
+@click.option("--y-range", nargs=2, type=FiniteFloat(-100, 100), callback=pair_option, metavar="LOW HIGH",
+              help="Swing sole y bounds [m].")
+@click.option("--z-range", nargs=2, type=FiniteFloat(-100, 100), callback=pair_option, metavar="LOW HIGH",
+              help="Swing sole z bounds [m].")
+@click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 1.0), help="Grid step [m].")
+@click.option("--thrust-max", default=None, type=FiniteFloat(0.0, 1e4),
+              help="F_max of every fan [N] (default: each fan's own maximum).")
+@click.option("--method", type=click.Choice(["continuation", "exhaustive"]), default="continuation", show_default=True,
+              help="Inner search over P_body.")
+@click.option("--pbody-resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 0.1),
+              help="P_body grid step of the exhaustive method [m].")
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
+@click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
+@click.option("-o", "--output", "outdir", default="out/balance_space", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
+                  pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
+    """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
+    from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep, verify_members
+    from jethr1_plan.files.balance_space import balance_space_csv, balance_space_mcap, balance_space_png
+    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.robot.model import load_robot
+
+    robot = load_robot(robot_name)
+    check_writable(outdir.parent)
+    if support_position is None:
+        support_position = tuple(float(v) for v in robot.start_feet()[support])
+    fan_max = max(f.max_thrust_n for f in robot.fans)
+    if thrust_max is not None and thrust_max > fan_max:
+        raise InputError("--thrust-max", f"{thrust_max:g}", f"more than the robot's fans give ({fan_max:g} N)")
+    sx, sy, sz = support_position
+    sgn = 1.0 if support == "right" else -1.0  # the swing foot is on the +y side of a right support
+    spec = SweepSpec(robot=robot, support_side=support, support_xyz=tuple(support_position),
+                     x_range=x_range or (sx - 0.8, sx + 0.9),
+                     y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
+                     z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
+                     method=method, pbody_resolution_m=pbody_resolution)
+    require_dask(executor)
+    with Progress(not no_progress, "balance space") as progress:
+        result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    checked = verify_members(result)
+    doc = summary(result)
+    doc["verified_members"] = checked
+    with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
+                                             "summary.json"})) as staging:
+        tmp = staging.path
+        (tmp / "balance_space.csv").write_text(balance_space_csv(result))
+        (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
+        (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
+        (tmp / "summary.json").write_text(json_text(doc))
+    if as_json:
+        click.echo(json_text(doc), nl=False)
+    w, wo = doc["with_thrust"], doc["without_thrust"]
+
+    def metres(v: float | None) -> str:
+        return "-" if v is None else f"{v:.3f} m"
+
+    err_console.print(f"balance space: {w['cells']} cells with thrust (reach forward {metres(w['max_forward_m'])}, "
+                      f"sideways {metres(w['max_sideways_m'])}), {wo['cells']} without (forward "
+                      f"{metres(wo['max_forward_m'])}, sideways {metres(wo['max_sideways_m'])}) "
+                      f"in {doc['wall_s']:.1f} s; wrote {outdir}/")
+

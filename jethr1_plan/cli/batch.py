@@ -1,0 +1,75 @@
+"""``jethr1 batch``: many scenarios, one summary, an exit status a CI job can gate on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+from rich.table import Table
+
+from jethr1_plan.cli.common import (
+    Progress,
+    err_console,
+    require_dask,
+)
+from jethr1_plan.errors import InputError
+from jethr1_plan.io.json_text import json_text
+
+__all__ = ["batch"]
+
+
+@click.command()
+@click.argument("scenarios", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--manifest", type=click.Path(dir_okay=False, path_type=Path),
+              help="A YAML list of scenario paths (relative to the manifest).")
+@click.option("-o", "--output", "outdir", default="out/batch", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
+@click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
+@click.option("--json", "as_json", is_flag=True, help="Print the batch summary on stdout.")
+@click.option("--no-progress", is_flag=True)
+def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_progress) -> None:
+    """Plan many scenarios: one subdirectory each, a summary.json and a table; exit 0 when every
+    expectation holds, 3 when a plan is unexpectedly infeasible, 4 when an expectation fails."""
+    from jethr1_plan.io.atomic import write_text_atomic
+    from jethr1_plan.studies.batch import batch_exit_code, read_manifest, run_batch
+
+    paths = list(scenarios) + (read_manifest(manifest) if manifest else [])
+    if not paths:
+        raise InputError("batch", "SCENARIOS", "give scenario files or --manifest")
+    stems = [p.stem for p in paths]
+    if len(set(stems)) != len(stems):
+        raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
+    require_dask(executor)
+    from jethr1_plan.io.atomic import check_writable
+
+    check_writable(outdir)
+    with Progress(not no_progress, "batch") as progress:
+        records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    code = batch_exit_code(records)
+    doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
+        "max_thrust_n": (r.get("summary") or {}).get("max_thrust_n"),
+        "mean_thrust_n": (r.get("summary") or {}).get("mean_thrust_n"),
+        "feasible": (r.get("summary") or {}).get("feasible"),
+        "wall_s": (r.get("summary") or {}).get("wall_s")} for r in records]}
+    write_text_atomic(outdir / "summary.json", json_text(doc))
+    if as_json:
+        click.echo(json_text(doc), nl=False)
+    t = Table(title=f"batch: {len(records)} scenarios -> {outdir}")
+    for col in ("scenario", "status", "max thrust [N]", "mean [N]", "wall [s]", "expectations"):
+        t.add_column(col)
+    def fmt(v):
+        return "" if v is None else f"{v:.2f}"
+
+    for r in doc["scenarios"]:
+        t.add_row(r["name"], r["status"], fmt(r["max_thrust_n"]), fmt(r["mean_thrust_n"]), fmt(r["wall_s"]),
+                  "; ".join(r.get("expectations_failed") or []) or ("ok" if r.get("expect") else "-"))
+    err_console.print(t)
+    for r in records:
+        if r["exit_code"] and r.get("error"):
+            err_console.print(f"{r['name']}: {r['error']}", markup=False)
+    if code:
+        raise click.exceptions.Exit(code)
+

@@ -1,0 +1,75 @@
+"""``jethr1 ditch-curve``: the widest ditch crossable at each tolerance."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from jethr1_plan.cli.common import (
+    Progress,
+    err_console,
+    range_spec,
+)
+from jethr1_plan.errors import InputError
+from jethr1_plan.io.json_text import json_text
+from jethr1_plan.optimisers import METHODS
+
+__all__ = ["ditch_curve_cmd"]
+
+
+@click.command("ditch-curve")
+@click.option("--gaps", default="0.30:0.50:0.01", show_default=True, help="Ditch widths LO:HI:STEP [m].")
+@click.option("--scales", default="0,0.25,0.5,0.75,1", show_default=True,
+              help="Tolerances as multiples of the scenario's robust tolerance (0: Paper A's minimal thrust).")
+@click.option("--scenario", "base_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Take the robot, optimiser, timing and robust tolerance from this scenario (default: defaults).")
+@click.option("--optimiser", type=click.Choice(list(METHODS)), help="Override the optimiser.")
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
+@click.option("-o", "--output", "outdir", default="out/ditch_curve", show_default=True,
+              type=click.Path(file_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Print ditch_curve.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, no_progress) -> None:
+    """The widest ditch crossable at each tolerance, and the thrust it needs (Paper A's forward step)."""
+    from dataclasses import replace
+
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.scenario import load_scenario
+    from jethr1_plan.studies.ditch_curve import curve, curve_png, default_base
+
+    gap_values = np.array(range_spec(gaps, "--gaps"))
+    try:
+        scale_values = tuple(float(v) for v in scales.split(","))
+    except ValueError:
+        raise InputError("--scales", scales, "expected comma-separated numbers") from None
+    if not scale_values or any(not math.isfinite(v) or v < 0 or v > 5 for v in scale_values):
+        raise InputError("--scales", scales, "expected numbers in [0, 5]")
+    from jethr1_plan.io.atomic import check_writable
+
+    base = load_scenario(base_path) if base_path else default_base()
+    check_writable(outdir.parent)
+    if optimiser:
+        base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
+    robot = base.robot
+    with Progress(not no_progress, "ditch curve") as progress:
+        doc = curve(base, gap_values, scale_values, robot.sole_length_m, jobs=jobs, progress=progress)
+    with staged_directory(outdir, frozenset({"ditch_curve.json", "ditch_curve.png"})) as staging:
+        tmp = staging.path
+        (tmp / "ditch_curve.json").write_text(json_text(doc))
+        (tmp / "ditch_curve.png").write_bytes(curve_png(doc))
+    if as_json:
+        click.echo(json_text(doc), nl=False)
+    t = Table(title=f"widest ditch per tolerance ({doc['optimiser']}, F_max {doc['thrust_max_n']:g} N)")
+    for col in ("thrust error", "mass error", "CoM error [m]", "widest gap [m]", "max thrust there [N]"):
+        t.add_column(col, justify="right")
+    for row in doc["tolerances"]:
+        t.add_row(f"±{100 * row['thrust_error']:.1f} %", f"±{100 * row['mass_error']:.1f} %",
+                  f"{row['com_error_m']:.4f}", "-" if row["widest_gap_m"] is None else f"{row['widest_gap_m']:.3f}",
+                  "-" if row["thrust_at_widest_n"] is None else f"{row['thrust_at_widest_n']:.2f}")
+    err_console.print(t)
+    err_console.print(f"wrote {outdir}/ditch_curve.json, ditch_curve.png")
+

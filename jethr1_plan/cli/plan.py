@@ -1,0 +1,102 @@
+"""``jethr1 plan``: a scenario planned, re-checked and written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from jethr1_plan.cli.common import (
+    Progress,
+    err_console,
+    report_kept,
+)
+from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.io.json_text import json_text
+from jethr1_plan.optimisers import METHODS
+
+__all__ = ["LAYOUT", "plan"]
+
+
+LAYOUT = Path(__file__).resolve().parents[1] / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
+
+
+
+@click.command()
+@click.argument("scenario_path", metavar="SCENARIO.yaml", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "outdir", default="out", show_default=True, type=click.Path(file_okay=False,
+              path_type=Path), help="Output directory; files go to OUTDIR/<scenario stem>/.")
+@click.option("--optimiser", type=click.Choice(list(METHODS)), help="Override optimiser.method.")
+@click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
+@click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--write-infeasible", is_flag=True,
+              help="On an infeasible plan, still write the trajectory; infeasible rows say so.")
+@click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Processes optimising steps in parallel (output does not depend on it).")
+@click.option("--kinematics", type=click.Choice(["placo", "analytic"]), default="placo", show_default=True,
+              help="Leg IK: PlaCo's solver, or the closed form (same postures to 1e-9 m, faster).")
+@click.option("--strict-torque", is_flag=True, help="Rows whose static torque exceeds a servo limit are infeasible.")
+@click.option("--policy", type=click.Choice(["robust", "minimal"]),
+              help="Override balance.policy: robust (thrust that survives model errors) or minimal (Paper A).")
+def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
+         no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str, strict_torque: bool,
+         policy: str | None) -> None:
+    """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
+    from dataclasses import replace
+
+    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.pipeline.plan import plan_to_folder
+    from jethr1_plan.scenario import load_scenario
+
+    scenario = load_scenario(scenario_path)
+    if policy is not None:
+        scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
+    check_writable(outdir)
+    try:
+        with Progress(not no_progress, scenario.name) as progress:
+            result, summary, folder, kept = plan_to_folder(
+                scenario, outdir, strict_torque=strict_torque, write_infeasible=write_infeasible, method=optimiser,
+                seed=seed, progress=progress, jobs=jobs, kinematics=kinematics)
+    except InfeasiblePlan as exc:
+        if exc.written is not None:
+            report_kept(*exc.written)
+        raise
+    report_kept(folder, kept)
+    if as_json:
+        click.echo(json_text(summary), nl=False)
+    bad = result.first_infeasible
+    if bad is not None:
+        raise InfeasiblePlan(f"infeasible: {bad['reason']} (step {bad['step']} {bad['phase']} sample {bad['sample']}); "
+                             "trajectory written with infeasible rows marked")
+    _report_plan(summary, folder)
+
+
+
+def _report_plan(summary: dict, folder: Path) -> None:
+    c = err_console
+    c.print(f"[green]feasible[/] {summary['scenario']}: {summary['sample_count']} swing samples, "
+            f"max thrust {summary['max_thrust_n']:.2f} N, mean {summary['mean_thrust_n']:.2f} N, "
+            f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s")
+    b = summary["balance"]
+    tol = b["tolerance"]
+    policy = ("minimal thrust (Paper A: the ZMP on the sole's edge)" if b["policy"] == "minimal" else
+              f"robust to ±{100 * tol['thrust_error']:g} % thrust, ±{100 * tol['mass_error']:g} % mass, "
+              f"{1000 * tol['com_error_m']:g} mm of CoM error")
+    rob = summary.get("robustness", {})
+    c.print(f"balance: {policy}")
+    if rob.get("least_zmp_margin_m") is not None:
+        at = rob["least_zmp_margin_at"]
+        margin_mm = round(1000 * rob["least_zmp_margin_m"], 1) + 0.0  # no "-0.0"
+        line = (f"least ZMP margin {margin_mm:.1f} mm (step {at['step']} {at['phase']} row {at['row']}, "
+                f"t = {at['time_s']:.2f} s)")
+        if "narrowest_window_n" in rob:
+            lo, hi = rob["narrowest_window_n"]
+            at = rob["narrowest_window_at"]
+            line += (f"; narrowest thrust window [{lo:.2f}, {hi:.2f}] N (step {at['step']} {at['phase']} row "
+                     f"{at['row']}, t = {at['time_s']:.2f} s)")
+        c.print(line)
+    c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
+    c.print(f"Foxglove: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
+            "file's /robot_description; its rehearsal, simulation.mcap, plays beside it)", markup=False)
+

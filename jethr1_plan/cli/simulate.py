@@ -1,0 +1,95 @@
+"""``jethr1 simulate``: a written plan rehearsed in the MuJoCo twin."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.table import Table
+
+from jethr1_plan.cli.common import (
+    FiniteFloat,
+    Progress,
+    err_console,
+)
+from jethr1_plan.io.json_text import json_text
+
+__all__ = ["simulate_cmd"]
+
+
+@click.command("simulate")
+@click.argument("plan_dir", metavar="PLAN_DIR", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--controller", type=click.Choice(["feedforward", "feedback"]), default="feedforward", show_default=True,
+              help="The planned thrust alone, or corrected by the plan's feedback law on the centre of pressure.")
+@click.option("--mass-scale", type=FiniteFloat(0.5, 2.0), default=1.0, show_default=True,
+              help="Every link's mass and inertia times this.")
+@click.option("--thrust-scale", type=FiniteFloat(0.0, 2.0), default=1.0, show_default=True,
+              help="Every fan gives this times its command.")
+@click.option("--fan-lag-s", type=FiniteFloat(0.0, 1.0, lo_open=True), default=0.05, show_default=True,
+              help="Time constant of the fans' first-order lag [s].")
+@click.option("--trials", type=click.IntRange(1, 10000), default=None,
+              help="Randomised trials instead of one run: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, "
+                   "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the trials.")
+@click.option("--raw", is_flag=True,
+              help="Servos follow the joint columns and fans the thrust columns as written, without the plan's "
+                   "sag and lag compensation (what a replay reading only the CSV does).")
+@click.option("-j", "--jobs", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Processes for the trials (results do not depend on it).")
+@click.option("--json", "as_json", is_flag=True, help="Print simulation.json on stdout.")
+@click.option("--no-progress", is_flag=True)
+def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, seed, raw, jobs, as_json,
+                 no_progress) -> None:
+    """Rehearse a written plan in a MuJoCo twin of the robot and its cartons (physics, not the planner's model).
+
+    Writes PLAN_DIR/simulation.json and simulation.mcap. Exit 0 when every run succeeds (no fall,
+    both soles on carton tops at the end), 6 when any fails, 2 on bad input.
+    """
+
+    from jethr1_plan.files.simulation import simulation_mcap
+    from jethr1_plan.io.atomic import check_writable, write_bytes_atomic, write_text_atomic
+    from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
+
+    track = load_plan(plan_dir)
+    check_writable(plan_dir)
+    if trials is None:
+        perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
+    else:
+        perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
+    with Progress(not no_progress, f"simulate {plan_dir}") as progress:
+        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw)
+    from jethr1_plan.control.thrust_feedback import Gains
+
+    ok = sum(r.survived for r in runs)
+    simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)
+    doc = {"plan": str(plan_dir), "controller": controller, "compensated": not raw,
+           "gains": Gains.of(track.robot).__dict__,
+           "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
+           "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
+           "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
+    write_text_atomic(plan_dir / "simulation.json", json_text(doc))
+    if runs[0].record is not None:
+        write_bytes_atomic(plan_dir / "simulation.mcap", simulation_mcap(track.robot, runs[0].record, track.cartons))
+    if as_json:
+        click.echo(json_text(doc), nl=False)
+    t = Table(title=f"{plan_dir}: {controller} in the twin")
+    for col in ("run", "mass ×", "thrust ×", "lag [s]", "result", "max tilt [deg]", "landing [m]", "slip [m]",
+                "CoP margin [m]", "max thrust [N]"):
+        t.add_column(col, justify="right")
+    for k, r in enumerate(runs):
+        p = r.perturbation
+        land = max((e["xy_m"] for e in r.landing_errors_m), default=None)
+        verdict = "survived" if r.survived else (f"fell: {r.fell['reason']} at {r.fell['phase']} row "
+                                                 f"{r.fell['row']}" if r.fell else "off the cartons")
+        t.add_row(str(k), f"{p['mass_scale']:.3f}", f"{p['thrust_gain']:.3f}", f"{p['fan_lag_s']:.3f}", verdict,
+                  f"{r.max_trunk_tilt_deg:.2f}", "-" if land is None else f"{land:.4f}", f"{r.support_max_slip_m:.4f}",
+                  "-" if r.least_cop_margin_m is None else f"{r.least_cop_margin_m:.4f}", f"{r.max_thrust_n:.2f}")
+    err_console.print(t)
+    rtf = doc["timing"]["realtime_factor"]
+    line = (f"simulate: {ok}/{len(runs)} runs survived ({controller}); "
+            f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); wrote {plan_dir}/simulation.json")
+    err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
+    if ok < len(runs):
+        raise click.exceptions.Exit(6)
+

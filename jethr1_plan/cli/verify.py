@@ -1,0 +1,43 @@
+"""``jethr1 verify``: an independent re-check of a written plan or walk."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from jethr1_plan.cli.common import (
+    err_console,
+)
+from jethr1_plan.io.json_text import json_text
+
+__all__ = ["verify"]
+
+
+@click.command()
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option("--scenario", type=click.Path(dir_okay=False, path_type=Path),
+              help="Also check the feet against this scenario (default: the one named in summary.json).")
+@click.option("--json", "as_json", is_flag=True, help="Print the verdict as JSON on stdout.")
+def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
+    """Re-check a trajectory (CSV, MCAP or an output folder) with PlaCo, independently of the planner.
+
+    Exit 0 when every row holds, 5 when any fails (one line per failing row on stderr).
+    """
+    from jethr1_plan.verify.folder import verify_path
+
+    n, failures, what = verify_path(path, scenario)
+    if as_json:
+        click.echo(json_text({"file": what, "rows": n, "ok": not failures,
+                          "failures": [f.__dict__ for f in failures]}), nl=False)
+    by_row: dict[int, list] = {}
+    for f in failures:
+        by_row.setdefault(f.row, []).append(f)
+    for row, fs in by_row.items():
+        checks = "; ".join(f"{f.check}: {f.detail}" for f in fs)
+        err_console.print(f"{what}: row {row} (t = {fs[0].time_s:.3f} s): {checks}", markup=False, soft_wrap=True)
+    if failures:
+        err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
+        raise click.exceptions.Exit(5)
+    err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
+

@@ -1,0 +1,100 @@
+"""``jethr1 batch``: many scenarios, one subdirectory each, one summary, an exit status to gate on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from jethr1_plan.errors import InfeasiblePlan, InputError
+
+__all__ = ["batch_exit_code", "check_expectations", "read_manifest", "run_batch", "run_scenario"]
+
+
+def read_manifest(path: Path) -> list[Path]:
+    """Scenario paths listed in a manifest: a YAML list (or ``scenarios:`` list), relative to the manifest."""
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(str(path), "", f"cannot read the manifest: {exc}".splitlines()[0]) from None
+    if isinstance(doc, dict):
+        doc = doc.get("scenarios")
+    if not isinstance(doc, list) or not all(isinstance(p, str) for p in doc) or not doc:
+        raise InputError(str(path), "scenarios", "expected a non-empty list of scenario paths")
+    return [(Path(path).parent / p) for p in doc]
+
+
+def check_expectations(expect: dict, summary: dict) -> list[str]:
+    """The expectations of a scenario's ``expect:`` block that do not hold, as sentences."""
+    failed = []
+    if "feasible" in expect and bool(summary.get("feasible")) != expect["feasible"]:
+        failed.append(f"expected feasible={expect['feasible']}, got {summary.get('feasible')}")
+    if "max_thrust_n" in expect:
+        got = summary.get("max_thrust_n")
+        if got is None or got > expect["max_thrust_n"]:
+            failed.append(f"expected max thrust <= {expect['max_thrust_n']} N, got {got}")
+    return failed
+
+
+def run_scenario(path: str, outdir: str) -> dict:
+    """Plan one scenario into OUTDIR/<stem>/ (as ``jethr1 plan`` does); return its batch record."""
+    from jethr1_plan.errors import SelfCheckFailed
+    from jethr1_plan.pipeline.plan import plan_to_folder
+    from jethr1_plan.scenario import load_scenario
+
+    record: dict[str, Any] = {"scenario": str(path), "name": Path(path).stem}
+    try:
+        scenario = load_scenario(path)
+    except InputError as exc:
+        return {**record, "status": "bad input", "error": str(exc), "exit_code": 2}
+    infeasible: dict[str, Any] | None = None
+    try:
+        _, summary, _, _ = plan_to_folder(scenario, Path(outdir))
+    except InfeasiblePlan as exc:
+        summary = exc.summary or {}
+        infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
+    except (Exception, SelfCheckFailed) as exc:  # a bug in one scenario must not lose every other scenario's result
+        return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
+                "exit_code": 1}
+    failed = check_expectations(scenario.expect, summary)
+    out: dict[str, Any] = infeasible or {**record, "status": "feasible", "summary": summary}
+    out["expect"] = scenario.expect
+    out["expectations_failed"] = failed
+    if failed:
+        out["exit_code"] = 4
+    elif infeasible is not None and scenario.expect.get("feasible") is not False:
+        out["exit_code"] = 3
+    else:
+        out["exit_code"] = 0
+    return out
+
+
+def batch_exit_code(records: list[dict]) -> int:
+    """1 if a scenario hit a bug, else 2 if any input was bad, else 4 if any expectation failed, else 3
+    if any plan was unexpectedly infeasible, else 0."""
+    codes = {r["exit_code"] for r in records}
+    for code in (1, 2, 4, 3):
+        if code in codes:
+            return code
+    return 0
+
+
+def run_batch(paths: list[Path], outdir: Path, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
+              progress=None) -> list[dict]:
+    """Run every scenario (in parallel processes); records come back in the order given."""
+    from joblib import Parallel, delayed, parallel_config
+
+    tasks = [delayed(run_scenario)(str(p), str(outdir)) for p in paths]
+    if executor == "dask":
+        from distributed import Client
+
+        with Client(scheduler) if scheduler else Client(processes=True, n_workers=jobs, threads_per_worker=1), \
+                parallel_config(backend="dask"):
+            return list(Parallel()(tasks))
+    records = []
+    for k, rec in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):
+        records.append(rec)
+        if progress:
+            progress(rec["name"], k + 1, len(tasks))
+    return records

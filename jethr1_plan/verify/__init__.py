@@ -1,0 +1,1 @@
+"""``jethr1 verify``: independent re-checks of written plans and walks."""

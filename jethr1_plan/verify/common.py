@@ -1,0 +1,34 @@
+"""What every re-check shares: a failure of one row, and the tolerances of written numbers."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["TOL_M", "TOL_RAD", "TOL_T", "Failure", "csv_header"]
+
+TOL_M = 1e-6  # written against recomputed positions [m] (the IK tolerance; floats round-trip exactly)
+TOL_RAD = 1e-6  # written against recomputed angles [rad]
+TOL_T = 1e-9  # times are written rounded to 1e-9 s [s]
+
+
+@dataclass
+class Failure:
+    """One row that fails one check (``row`` counts from 0; ``time_s`` its time)."""
+
+    row: int
+    time_s: float
+    check: str
+    detail: str
+
+    def __str__(self) -> str:
+        return f"row {self.row} (t = {self.time_s:.3f} s): {self.check}: {self.detail}"
+
+
+def csv_header(path: Path) -> list[str] | None:
+    """The first line of a CSV split at commas (None: no such file or not text)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline(100_000).strip().split(",")
+    except (OSError, UnicodeDecodeError):
+        return None

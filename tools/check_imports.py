@@ -1,0 +1,148 @@
+"""The import graph of ``jethr1_plan``, checked (``make lint``): no circle between modules or between
+packages, and no layer importing a higher one.
+
+The layers, lowest first, are written down here once; the README and docs/architecture.md show them.
+A unit is a subpackage or a top-level module of ``jethr1_plan``. A unit may import units of its own
+layer or below. Every import counts, at module level or inside a function; ``if TYPE_CHECKING:``
+imports too.
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+LAYERS: list[tuple[str, ...]] = [
+    ("__init__", "errors", "reasons", "geometry"),  # the words everything uses
+    ("io",),  # YAML, JSON, CSV tables, atomic writes
+    ("robot",),  # the robot as data
+    ("physics",),  # balance with thrust, statics, the compiled per-candidate physics
+    ("kinematics",),  # P_body and yaw to joints and CoM
+    ("optimisers",),  # P_body along a swing path; the P_body search of one cell
+    ("scenario", "swing_path"),  # what a user asks for
+    ("control",),  # what is sent to the robot and the loops that run on it
+    ("planning", "walking", "balance_space"),  # Paper A's plan, Paper B's walk, the balance space
+    ("files",),  # every file format, written and read
+    ("sim",),  # the MuJoCo twin and rehearsals
+    ("verify",),  # independent re-checks of written files
+    ("pipeline",),  # input file to checked output folder
+    ("studies",),  # comparisons, curves, sweeps, batches
+    ("cli",),  # the command line
+]
+
+
+def modules(root: Path) -> dict[str, Path]:
+    """Dotted name → file of every module of the package under ``root``."""
+    out = {}
+    for p in sorted((root / "jethr1_plan").rglob("*.py")):
+        parts = p.relative_to(root).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = p
+    return out
+
+
+def imports(path: Path, name: str, known: set[str]) -> set[str]:
+    """The package's modules that ``name`` imports (resolved to the longest known module)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = set()
+    is_pkg = path.name == "__init__.py"
+    for node in ast.walk(tree):
+        targets: list[str] = []
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = name.split(".")
+                base = base if is_pkg else base[:-1]
+                base = base[: len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            targets = [mod] + [f"{mod}.{a.name}" for a in node.names]
+        for t in targets:
+            while t and t not in known:
+                t = t.rpartition(".")[0]
+            if t and t.startswith("jethr1_plan") and t != name:
+                found.add(t)
+    return found
+
+
+def unit(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one node (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+    counter = [0]
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    sys.setrecursionlimit(10_000)
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def main(root: Path) -> int:
+    mods = modules(root)
+    known = set(mods)
+    graph = {m: imports(p, m, known) for m, p in mods.items()}
+    layer_of = {u: k for k, layer in enumerate(LAYERS) for u in layer}
+    problems = []
+    units = {unit(m) for m in mods}
+    for u in sorted(units - set(layer_of)):
+        problems.append(f"jethr1_plan.{u} is in no layer (tools/check_imports.py LAYERS)")
+    # a package imports its own submodules: only edges between different modules count for circles
+    for comp in cycles(graph):
+        problems.append("modules import each other in a circle: " + " -> ".join(comp))
+    package_graph: dict[str, set[str]] = defaultdict(set)
+    for m, targets in graph.items():
+        for t in targets:
+            if unit(t) != unit(m):
+                package_graph[unit(m)].add(unit(t))
+    for comp in cycles(package_graph):
+        problems.append("packages import each other in a circle: " + " -> ".join(comp))
+    for m, targets in sorted(graph.items()):
+        for t in sorted(targets):
+            a, b = layer_of.get(unit(m)), layer_of.get(unit(t))
+            if a is not None and b is not None and b > a:
+                problems.append(f"{m} (layer {a}: {unit(m)}) imports {t} (layer {b}: {unit(t)}), a higher layer")
+    for p in problems:
+        print(p)
+    edges = sum(len(v) for v in graph.values())
+    print(f"import graph: {len(mods)} modules, {edges} imports, {len(LAYERS)} layers: "
+          + ("ok" if not problems else f"{len(problems)} problems"))
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(Path(__file__).resolve().parents[1]))
