@@ -15,7 +15,7 @@ from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tests.test_balance_kernel import numpy_objective  # the numpy path the test compares with
+from tests.physics.test_compiled import numpy_objective  # the numpy path the test compares with
 
 
 def kernel_speed(spec: SweepSpec, n: int = 200_000) -> None:

@@ -53,9 +53,13 @@ class Side(StrEnum):
 SIDES: tuple[str, str] = (Side.LEFT, Side.RIGHT)  # Side members, typed as the strings they are
 
 
-def other_side(side: str) -> Side:
-    """The side opposite ``side`` (``"left"`` or ``"right"``)."""
-    return Side(side).other
+def other_side(side: str) -> str:
+    """The side opposite ``side`` (``"left"`` or ``"right"``), as its plain string.
+
+    Raises:
+        ValueError: ``side`` is neither.
+    """
+    return Side(side).other.value
 
 
 # --- polygons ---------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.geometry import GRAVITY
+from jethr1_plan.geometry import GRAVITY, other_side
 from jethr1_plan.io.yaml_input import fill_dataclass, read_text
 from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
@@ -133,7 +133,7 @@ class Step:
 
     @property
     def support(self) -> str:
-        return "left" if self.swing == "right" else "right"
+        return other_side(self.swing)
 
     @property
     def landing_m(self) -> np.ndarray:
@@ -270,7 +270,7 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         if not on_terrain(landing):
             raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
                              "not lie fully on a carton top")
-        other = feet["left" if swing == "right" else "right"]
+        other = feet[other_side(swing)]
         if np.linalg.norm(landing[:2] - other[:2]) < sole_w:
             raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
         hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None

@@ -19,6 +19,6 @@ def robot():
 
 @pytest.fixture(scope="session")
 def reference(robot):
-    from tests.urdf_reference import UrdfReference
+    from tests.oracles.urdf_reference import UrdfReference
 
     return UrdfReference(robot.urdf_path)

@@ -9,7 +9,7 @@ import subprocess
 import sys
 import zipfile
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def test_a_wheel_plans_from_another_directory(tmp_path):

@@ -11,8 +11,7 @@ import yaml
 from jethr1_plan.cli import run
 from jethr1_plan.errors import InputError
 from jethr1_plan.scenario import load_scenario
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 CONFIGS = sorted((ROOT / "configs").glob("*.yaml"))
 BASE = yaml.safe_load((ROOT / "configs" / "forward_ditch_450.yaml").read_text())

@@ -43,6 +43,7 @@ from dataclasses import fields as dataclass_fields
 
 import numpy as np
 
+from jethr1_plan.geometry import other_side
 from jethr1_plan.kinematics.closed_form import solve_postures
 from jethr1_plan.optimisers.search import (
     DIRECTIONS,
@@ -141,7 +142,7 @@ class SweepSpec:
 
     @property
     def swing_side(self) -> str:
-        return "left" if self.support_side == "right" else "right"
+        return other_side(self.support_side)
 
     def support_stance(self) -> SupportStance:
         """What the searches hold fixed."""

@@ -18,7 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
-from jethr1_plan.geometry import pose_matrix
+from jethr1_plan.geometry import other_side, pose_matrix
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["PostureBatch", "PostureSolver", "Stance",]
@@ -37,11 +37,11 @@ class Stance:
 
     @property
     def swing_side(self) -> str:
-        return "left" if self.support_side == "right" else "right"
+        return other_side(self.support_side)
 
     @functools.cached_property
     def _foot_poses(self) -> dict[str, np.ndarray]:
-        swing = "left" if self.support_side == "right" else "right"
+        swing = other_side(self.support_side)
         return {self.support_side: pose_matrix(self.support_xyz, self.support_yaw),
                 swing: pose_matrix(self.swing_xyz, self.swing_yaw)}
 

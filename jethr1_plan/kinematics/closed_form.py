@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.geometry import SIDES, halfplanes
+from jethr1_plan.geometry import SIDES, halfplanes, other_side
 from jethr1_plan.kinematics.base import PostureBatch, Stance
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.reasons import Reason
@@ -271,7 +271,7 @@ def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray,
                   tolerance: Tolerance = NOMINAL) -> KernelParams:
     """Constants of ``physics.compiled.balance_objective`` from the robot model (URDF masses and placements)."""
     geom, trunk, joints, links, limits = closed_form_arrays(robot)
-    swing = "left" if support_side == "right" else "right"
+    swing = other_side(support_side)
     fans = [robot.fans[i] for i in robot.swing_fans(swing)]
     normals, offsets = halfplanes(polygon)
     return KernelParams(

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from jethr1_plan.geometry import GRAVITY, sole_polygon
+from jethr1_plan.geometry import GRAVITY, other_side, sole_polygon
 from jethr1_plan.kinematics.closed_form import check_structure, kernel_params
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4
 from jethr1_plan.physics.compiled import (
@@ -88,7 +88,7 @@ class SupportStance:
 
     @property
     def swing_side(self) -> str:
-        return "left" if self.support_side == "right" else "right"
+        return other_side(self.support_side)
 
 
 @dataclass
@@ -184,7 +184,7 @@ def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarr
     """
     a, b = thigh_m, shank_m
     out = np.empty((2, 14))
-    for row, side in enumerate((swing_side, "right" if swing_side == "left" else "left")):
+    for row, side in enumerate((swing_side, other_side(swing_side))):
         k = 0 if side == "left" else 6
         lo, hi = limits[0, k:k + 6] + 1e-9, limits[1, k:k + 6] - 1e-9
         roll_lo, roll_hi = max(lo[5], -hi[1]), min(hi[5], -lo[1])

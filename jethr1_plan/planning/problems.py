@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from jethr1_plan.geometry import sole_polygon
+from jethr1_plan.geometry import other_side, sole_polygon
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.optimisers.problem import SampleProblem
 from jethr1_plan.physics.balance import body_yaw_eq4, body_yaw_forward_axis
@@ -27,7 +27,7 @@ NOMINAL_HEIGHT_FRACTION = 0.8  # centre of the initial phase's box: pelvis heigh
 
 def yaw_function(scenario: Scenario, robot: RobotModel, support: str, support_xyz: np.ndarray):
     """Body yaw [rad] as a function of the swing sole position, per the scenario's mode."""
-    swing = "left" if support == "right" else "right"
+    swing = other_side(support)
     fan = robot.fan_for(swing)  # (A-4) turns the trunk towards the swing foot's fan (its sole without one)
     off = np.asarray(fan.offset_m[:2]) if fan is not None else np.zeros(2)
     if scenario.yaw_mode in ("eq4", "mpc"):  # mpc smooths this reference (yaw_mpc.build_schedule)
@@ -41,7 +41,7 @@ def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_
                    swing_xyz: np.ndarray, yaw: float) -> SampleProblem:
     """The optimisation problem at one swing sample: the fans that may thrust are the swing sole's
     and the trunk's (a trunk fan's row of ``fan_xy`` is its offset from P_body, turned by ``yaw``)."""
-    swing = "left" if support == "right" else "right"
+    swing = other_side(support)
     index = robot.swing_fans(swing)
     fans = [robot.fans[i] for i in index]
     soles = {support: support_xyz, swing: swing_xyz}

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
-from jethr1_plan.geometry import GRAVITY, convex_hull, polygon_margin, sole_polygon, wrap_angle
+from jethr1_plan.geometry import GRAVITY, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
@@ -207,7 +207,7 @@ class SequenceBuilder:
         the swing sole and the trunk carry the least thrust that balances the row's posture within
         the tolerance (``balance.thrust_window``; several fans: ``balance.least_thrust``).
         """
-        swing_side = "left" if support == "right" else "right"
+        swing_side = other_side(support)
         active = np.array(self.robot.swing_fans(swing_side), dtype=np.int64)
         poly = self._sole(feet[support], self.margin)
         sole = self._sole(feet[support])

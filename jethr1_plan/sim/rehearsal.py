@@ -387,7 +387,7 @@ def _landing_rows(track: PlanTrack) -> list[tuple[int, int, str]]:
             swing_rows = np.flatnonzero((track.phase == "swing") & (track.step == step))
             if len(swing_rows):
                 sup = track.support[swing_rows[0]]
-                out.append((i, step, "left" if sup == "right" else "right"))
+                out.append((i, step, other_side(sup)))
     return out
 
 

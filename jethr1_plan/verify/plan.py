@@ -30,7 +30,15 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.files.plan_folder import PlanFolder
-from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, inside_polygon, pose_from_quaternion, sole_polygon
+from jethr1_plan.geometry import (
+    GRAVITY,
+    SIDES,
+    convex_hull,
+    inside_polygon,
+    other_side,
+    pose_from_quaternion,
+    sole_polygon,
+)
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T, Failure
 
@@ -404,7 +412,7 @@ def _check_windows(c, robot, fk, pos, single, thrust, zmp, balance, found) -> No
         if total > 0:
             share = thrust[i] / total
         elif single[i] and c["support"][i] in SIDES:
-            usable = robot.swing_fans("left" if c["support"][i] == "right" else "right")
+            usable = robot.swing_fans(other_side(c["support"][i]))
             if usable:
                 share = np.isin(np.arange(len(fmax)), usable[:1]).astype(float)
         if share is not None and np.isfinite(lo_w[i]):

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.geometry import SIDES
+from jethr1_plan.geometry import SIDES, other_side
 from jethr1_plan.io.yaml_input import fill_dataclass, read_text
 from jethr1_plan.robot.model import RobotModel, build_with_robot
 from jethr1_plan.walking.analysis import SuccessCriteria
@@ -226,7 +226,7 @@ def check_walk(spec: WalkSpec, src: str) -> None:
         key = f"footsteps.landings[{k}].position_m" if spec.footsteps.kind == "explicit" else "footsteps"
         if abs(st.position_m[2]) > 1e-9:
             raise InputError(src, key, f"z = {st.position_m[2]:g} m: the walk is on flat ground (z = 0)")
-        other = feet["right" if st.side == "left" else "left"]
+        other = feet[other_side(st.side)]
         if (abs(st.position_m[0] - other[0]) < robot.sole_length_m
                 and abs(st.position_m[1] - other[1]) < robot.sole_width_m):
             raise InputError(src, key, f"step {k} lands the {st.side} sole on the other sole "

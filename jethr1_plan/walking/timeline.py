@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.geometry import SIDES
+from jethr1_plan.geometry import SIDES, other_side
 
 __all__ = [ "Footstep", "Timeline", "polygon_of", "repetitive_footsteps"]
 
@@ -42,7 +42,7 @@ def repetitive_footsteps(start: dict[str, np.ndarray], step_length_m: float, ste
     out = []
     side = first
     for k in range(steps):
-        other = "right" if side == "left" else "left"
+        other = other_side(side)
         x = feet[other][0] + (step_length_m if k < steps - 1 else 0.0)
         target = np.array([x, feet[side][1], feet[side][2]])
         out.append((side, target))
@@ -128,7 +128,7 @@ class Timeline:
             st = self.steps[k]
             step[t < st.t_land] = k
             swing = (t > st.t_lift) & (t < st.t_land)
-            support[swing] = "right" if st.side == "left" else "left"
+            support[swing] = other_side(st.side)
         return support, step
 
     def _centres(self) -> list[np.ndarray]:
@@ -136,7 +136,7 @@ class Timeline:
         feet = {k: v.copy() for k, v in self.start.items()}
         out = [0.5 * (feet["left"] + feet["right"])]
         for st in self.steps:
-            out.append(feet["right" if st.side == "left" else "left"].copy())
+            out.append(feet[other_side(st.side)].copy())
             feet[st.side] = st.position_m
         out.append(0.5 * (feet["left"] + feet["right"]))
         return out

@@ -17,8 +17,7 @@ from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.problems import feet_before_each_step, path_problems
 from jethr1_plan.scenario import load_scenario
 from jethr1_plan.studies.compare import step_evaluator
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 DITCH = ROOT / "configs" / "forward_ditch_450.yaml"
 

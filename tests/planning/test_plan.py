@@ -17,8 +17,7 @@ from jethr1_plan.files.plan_csv import columns, read_trajectory_csv
 from jethr1_plan.geometry import convex_hull, inside_polygon, sole_polygon
 from jethr1_plan.physics.balance import zmp_with_thrust
 from jethr1_plan.scenario import load_scenario
-
-from .conftest import JOINT_NAMES, ROOT
+from tests.conftest import JOINT_NAMES, ROOT
 
 FORWARD = ROOT / "configs" / "forward_ditch_450.yaml"
 

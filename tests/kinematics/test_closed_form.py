@@ -10,9 +10,8 @@ from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, check_structure, solve_postures
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.reasons import Reason
-
-from .conftest import JOINT_NAMES
-from .leg_oracle import com_batch, fast_com, leg_ik, link_poses
+from tests.conftest import JOINT_NAMES
+from tests.oracles.leg import com_batch, fast_com, leg_ik, link_poses
 
 
 def _random_stances(rng, n):

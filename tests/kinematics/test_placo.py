@@ -8,8 +8,7 @@ import pytest
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.reasons import Reason
-
-from .conftest import JOINT_NAMES
+from tests.conftest import JOINT_NAMES
 
 
 def _stance(swing, yaw):

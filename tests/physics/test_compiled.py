@@ -30,9 +30,8 @@ from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
 from jethr1_plan.physics.compiled import into_reach
 from jethr1_plan.reasons import Reason, balances
 from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
-
-from .leg_oracle import fast_com, leg_ik
-from .oracle import edge_angle_error, window_bounds
+from tests.oracles.balance import edge_angle_error, window_bounds
+from tests.oracles.leg import fast_com, leg_ik
 
 
 def numpy_objective(ev: Evaluator, cells, idx: np.ndarray, P: np.ndarray):

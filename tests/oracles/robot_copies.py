@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def renamed_jethr1(folder: Path, rename: Callable[[str], str], fan_names: dict[str, str] | None = None) -> Path:

@@ -10,8 +10,7 @@ import pytest
 from jethr1_plan.cli import run
 from jethr1_plan.files.plan_csv import columns
 from jethr1_plan.robot.model import load_robot
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 @pytest.fixture(scope="module")

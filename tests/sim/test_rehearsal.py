@@ -15,8 +15,7 @@ from jethr1_plan.files.mcap import mcap_schemas, read_mcap
 from jethr1_plan.geometry import polygon_margin, sole_polygon
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.twin import build_twin
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 @pytest.fixture(scope="module")

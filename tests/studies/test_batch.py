@@ -7,8 +7,7 @@ import json
 import yaml
 
 from jethr1_plan.cli import run
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def _small(tmp_path, name, **changes):

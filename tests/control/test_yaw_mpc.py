@@ -11,8 +11,7 @@ import yaml
 from jethr1_plan.cli import run
 from jethr1_plan.control.yaw_mpc import inverse_min_jerk, mpc_smooth
 from jethr1_plan.scenario import load_scenario
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def test_double_integrator_and_look_ahead():

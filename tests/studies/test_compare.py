@@ -8,8 +8,7 @@ import numpy as np
 import yaml
 
 from jethr1_plan.cli import run
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def test_compare_reports_and_reference(tmp_path, capsys):

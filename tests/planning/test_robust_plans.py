@@ -13,8 +13,7 @@ from jethr1_plan.control.commands import low_pass
 from jethr1_plan.files.plan_csv import read_trajectory_csv
 from jethr1_plan.geometry import polygon_margin, pose_from_quaternion, sole_polygon
 from jethr1_plan.physics.balance import thrust_window, zmp_with_thrust
-
-from .conftest import JOINT_NAMES, ROOT
+from tests.conftest import JOINT_NAMES, ROOT
 
 SIDE = ROOT / "configs" / "side_step.yaml"
 

@@ -12,8 +12,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,7 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.robot.model import load_robot, robot_summary
-
-from .conftest import JOINT_NAMES, ROOT
+from tests.conftest import JOINT_NAMES, ROOT
 
 
 def test_table1_figures_from_the_loaded_model(robot):

@@ -7,9 +7,8 @@ import pytest
 
 from jethr1_plan.geometry import GRAVITY
 from jethr1_plan.physics.statics import energy_consumption, leg_condition_numbers, static_torques
-
-from .conftest import JOINT_NAMES
-from .leg_oracle import link_poses
+from tests.conftest import JOINT_NAMES
+from tests.oracles.leg import link_poses
 
 
 def _potential(robot, reference, q, support, support_pose, thrust_side, thrust):

@@ -13,8 +13,7 @@ import time
 import pytest
 
 from jethr1_plan.cli import run
-
-from .conftest import ROOT
+from tests.conftest import ROOT
 
 
 def _group_alive(pgid: int) -> bool:
