@@ -10,7 +10,8 @@ Modules, one per concept of the papers:
 * :mod:`jethr1_plan.swing_path` — circular-arc and explicit swing paths, carton clearance.
 * :mod:`jethr1_plan.scenario` — scenario files.
 * :mod:`jethr1_plan.planning.sequence`, :mod:`jethr1_plan.planning.plan` — steps, transfers, resampling.
-* :mod:`jethr1_plan.files.plan_csv`, :mod:`jethr1_plan.files.mcap`, :mod:`jethr1_plan.io.atomic` — outputs.
+* :mod:`jethr1_plan.files.plan_csv`, :mod:`jethr1_plan.files.plan_mcap` (ROS 2 MCAP), :mod:`jethr1_plan.io.atomic` —
+  outputs.
 """
 
 __version__ = "0.1.0"

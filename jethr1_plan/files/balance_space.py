@@ -1,44 +1,32 @@
-"""Files of ``jethr1 balance-space``: CSV, MCAP point clouds, the Fig. 5 style PNG, summary."""
+"""Files of ``jethr1 balance-space``: CSV, MCAP (point clouds and cells), the Fig. 5 style PNG, summary."""
 
 from __future__ import annotations
 
-import base64
 import io
-import json
 
 import numpy as np
 
 from jethr1_plan.balance_space.sweep import SweepResult
-from jethr1_plan.files.mcap import SCHEMAS, pose_message, scene_entity, stamp, vector3
+from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import message
 
-__all__ = [
-    "FLOAT32",
-    "POINT_CLOUD_SCHEMA",
-    "balance_space_csv",
-    "balance_space_mcap",
-    "balance_space_png",
-    "point_cloud",
-]
+__all__ = ["BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap", "balance_space_png"]
 
-POINT_CLOUD_SCHEMA = {
-    "title": "foxglove.PointCloud", "type": "object",
-    "properties": {
-        "timestamp": SCHEMAS["foxglove.PoseInFrame"]["properties"]["timestamp"],
-        "frame_id": {"type": "string"},
-        "pose": SCHEMAS["foxglove.PoseInFrame"]["properties"]["pose"],
-        "point_stride": {"type": "integer", "minimum": 0},
-        "fields": {"type": "array", "items": {
-            "title": "foxglove.PackedElementField", "type": "object",
-            "properties": {"name": {"type": "string"}, "offset": {"type": "integer", "minimum": 0},
-                           "type": {"type": "integer", "minimum": 0, "maximum": 8}},
-            "required": ["name", "offset", "type"]}},
-        "data": {"type": "string", "contentEncoding": "base64"},
-    },
-    "required": ["timestamp", "frame_id", "pose", "point_stride", "fields", "data"],
+#: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
+BALANCE_SPACE_TOPICS: dict[str, Topic] = {
+    "/support_sole": Topic(MARKERS, True, "the support sole, a CUBE"),
+    "/balance_space/with_thrust": Topic("sensor_msgs/msg/PointCloud2", True,
+                                        "the cells the swing sole reaches in balance with thrust: float32 x, y, z "
+                                        "[m] and `min_thrust_n` [N]"),
+    "/balance_space/without_thrust": Topic("sensor_msgs/msg/PointCloud2", True,
+                                           "the cells it reaches without thrust (same fields)"),
+    "/balance_space/cells": Topic(MARKERS, True, "both spaces as CUBE_LISTs of the grid's cells, coloured by the "
+                                                 "least thrust (viridis, 0 to the fan limit)"),
 }
-FLOAT32 = 7
+#: least-thrust colours of the cells: viridis at 0, 1/4, 1/2, 3/4 and 1 of the fan limit
+_VIRIDIS = np.array([(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567, 0.551), (0.369, 0.789, 0.383),
+                     (0.993, 0.906, 0.144)])
 
 
 def balance_space_csv(r: SweepResult) -> str:
@@ -61,42 +49,31 @@ def balance_space_csv(r: SweepResult) -> str:
     return out.getvalue()
 
 
-def point_cloud(points: np.ndarray, thrust: np.ndarray) -> dict:
-    """A foxglove.PointCloud of float32 x, y, z, min_thrust_n."""
-    data = np.concatenate([points, thrust[:, None]], axis=1).astype("<f4").tobytes()
-    return {"timestamp": stamp(0.0), "frame_id": "world", "pose": pose_message((0, 0, 0)), "point_stride": 16,
-            "fields": [{"name": n, "offset": 4 * k, "type": FLOAT32}
-                       for k, n in enumerate(("x", "y", "z", "min_thrust_n"))],
-            "data": base64.b64encode(data).decode()}
+def _thrust_colors(thrust_n: np.ndarray, fmax_n: float) -> dict:
+    """``std_msgs/ColorRGBA`` per cell (as columns): viridis of ``thrust_n`` / ``fmax_n``."""
+    s = np.clip(np.asarray(thrust_n, dtype=float) / fmax_n if fmax_n > 0 else 0.0, 0.0, 1.0)
+    grid = np.linspace(0.0, 1.0, len(_VIRIDIS))
+    return {**{c: np.interp(s, grid, _VIRIDIS[:, k]) for k, c in enumerate("rgb")}, "a": np.ones(len(s))}
 
 
 def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:
-    """/balance_space/with_thrust and /without_thrust point clouds, and /support_sole."""
-    from mcap.writer import CompressionType, Writer
-
-    buf = io.BytesIO()
-    w = Writer(buf, compression=CompressionType.ZSTD)
-    w.start(profile="", library="jethr1-plan")
-    pc = w.register_schema(name="foxglove.PointCloud", encoding="jsonschema",
-                           data=json.dumps(POINT_CLOUD_SCHEMA, sort_keys=True).encode())
-    su = w.register_schema(name="foxglove.SceneUpdate", encoding="jsonschema",
-                           data=json.dumps(SCHEMAS["foxglove.SceneUpdate"], sort_keys=True).encode())
-    chans = {t: w.register_channel(topic=t, message_encoding="json", schema_id=pc)
-             for t in ("/balance_space/with_thrust", "/balance_space/without_thrust")}
-    sole = w.register_channel(topic="/support_sole", message_encoding="json", schema_id=su)
-    for seq, (topic, mask) in enumerate((("/balance_space/with_thrust", r.with_thrust),
-                                         ("/balance_space/without_thrust", r.without_thrust))):
-        msg = point_cloud(r.swing[mask], r.thrust[mask])
-        w.add_message(channel_id=chans[topic], log_time=0, publish_time=0, sequence=seq,
-                      data=json.dumps(msg, separators=(",", ":")).encode())
+    """The MCAP bytes of a balance-space sweep (topics :data:`BALANCE_SPACE_TOPICS`): the support
+    sole; the cells of each space as a point cloud and as cubes coloured by the least thrust."""
+    out = Ros2Mcap(BALANCE_SPACE_TOPICS)
     x, y, z = r.spec.support
-    cube = {"pose": pose_message((x, y, z - 0.005)), "size": vector3((sole_length_m, sole_width_m, 0.01)),
-            "color": {"r": 0.2, "g": 0.2, "b": 0.9, "a": 1.0}}
-    w.add_message(channel_id=sole, log_time=0, publish_time=0, sequence=2,
-                  data=json.dumps({"deletions": [],
-                                   "entities": [scene_entity(0.0, "support_sole", cubes=[cube])]}).encode())
-    w.finish()
-    return buf.getvalue()
+    out.write("/support_sole", 0.0, {"markers": [cube_marker("support_sole", 0, (x, y, z - 0.005),
+                                                              (sole_length_m, sole_width_m, 0.01),
+                                                              (0.2, 0.2, 0.9, 1.0))]})
+    cells, res = [], float(r.spec.resolution_m)
+    for k, (topic, mask) in enumerate((("/balance_space/with_thrust", r.with_thrust),
+                                       ("/balance_space/without_thrust", r.without_thrust))):
+        pts, thrust = np.asarray(r.swing, dtype=float)[mask], np.asarray(r.thrust, dtype=float)[mask]
+        out.write(topic, 0.0, point_cloud2(pts, {"min_thrust_n": thrust}))
+        cells.append({**cube_marker(topic.rsplit("/", 1)[1], k, (0.0, 0.0, 0.0), (res, res, res), (1, 1, 1, 1)),
+                      "type": 6, "points": {"x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2]},
+                      "colors": _thrust_colors(thrust, float(r.spec.fan_limit_n))})
+    out.write("/balance_space/cells", 0.0, {"markers": cells})
+    return out.finish()
 
 
 def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:

@@ -1,184 +1,232 @@
-"""``trajectory.mcap``: JSON messages with jsonschema schemas, Foxglove schema names where one exists.
+"""MCAP files in the ROS 2 profile, written and read: what Foxglove/Lichtblick, Rerun, ``rosbags``,
+``mcap_ros2`` and ``ros2 bag play`` all read.
 
-Topics (CONTRACT.md): ``/robot_description`` (the URDF as a ``std_msgs/String``-shaped message, the
-form Foxglove's URDF layer reads from a topic: the file alone shows the robot), ``/tf``
-(foxglove.FrameTransforms: world→trunk and every URDF joint's parent→child link, so the URDF layer
-plays the motion), ``/joint_states``, ``/thrust``, ``/p_body``, ``/com``, ``/zmp``
-(foxglove.PoseInFrame), ``/terrain`` and ``/swing_path`` (foxglove.SceneUpdate), ``/analysis``.
+Profile ``ros2``; messages CDR-encoded (:mod:`.cdr`); each channel's schema the ``ros2msg``
+definition of its type with its dependencies appended (:mod:`.ros2_msgs`); each channel's metadata
+the ``offered_qos_profiles`` ``ros2 bag play`` publishes it with (reliable, keep last; transient
+local for what is published once: the URDF, ``/tf_static``, the scenery).
 
-Times: every message is logged at ``EPOCH_NS`` + its time from the scenario's start, the epoch being
-2000-01-01T00:00:00Z (a fixed date, so that the same plan gives the same bytes; Foxglove's timeline
-shows the plan starting at midnight on 1 January 2000). Message timestamps carry the same time.
+Every kind of file declares its topics once, as data (a :class:`Topic` per topic name):
+``plan_mcap.PLAN_TOPICS``, ``simulation.SIMULATION_TOPICS``, ``walk_folder.WALK_TOPICS``,
+``balance_space.BALANCE_SPACE_TOPICS``; the writer registers exactly these channels, in that order.
+
+Times: every message is logged at :data:`EPOCH_NS` + its time from the start of the scenario, the
+epoch being 2000-01-01T00:00:00Z (a fixed date: the same input gives the same bytes; viewers show
+the plan starting at midnight on 1 January 2000), and its header stamp is the same time. Messages
+are written in log-time order (at equal times in the order of the file's topics). The header
+records no library version.
 """
 
 from __future__ import annotations
 
 import io
-import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from jethr1_plan.files.cdr import CdrEncoder, parse_schema
+from jethr1_plan.files.ros2_msgs import MSGDEFS, schema_text
 from jethr1_plan.geometry import quat_rpy
 from jethr1_plan.robot.model import RobotModel, urdf_joints
-from jethr1_plan.swing_path import Carton
 
 __all__ = [
-    "COLOR",
-    "CUBE",
-    "DURATION",
-    "ENTITY",
     "EPOCH_NS",
-    "LINE",
-    "NUMBER",
+    "MARKERS",
     "POSE",
-    "QUATERNION",
-    "ROBOT_DESCRIPTION_SCHEMA",
-    "SCHEMAS",
-    "SPHERE",
-    "TIME",
-    "TOPICS",
-    "VECTOR3",
-    "JsonMcap",
-    "frame_transforms",
+    "STRING",
+    "TF",
+    "Ros2Mcap",
+    "Topic",
+    "carton_markers",
+    "cube_marker",
+    "header",
     "joint_rotations",
-    "log_time",
-    "mcap_schemas",
-    "pose_message",
-    "quaternion_message",
+    "joint_state",
+    "joint_trajectory",
+    "log_times",
+    "point_cloud2",
+    "pose_stamped",
+    "prefixed_urdf",
+    "qos_profile",
     "read_mcap",
-    "scene_entity",
-    "stamp",
-    "swing_path_update",
-    "terrain_update",
-    "thrust_schema",
-    "vector3",
+    "robot_transforms",
+    "seconds",
+    "stamps",
+    "swing_path_markers",
+    "topics_markdown",
+    "urdf_message",
+    "yaw_quaternions",
 ]
 
 EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
-ROBOT_DESCRIPTION_SCHEMA = "std_msgs/String"  # a name Foxglove's URDF layer accepts for a topic source
 
-# --- JSON schemas (every field required, as in Foxglove's current schemas) ------------------
-
-
-def _object(props: dict) -> dict:
-    return {"type": "object", "properties": props, "required": list(props)}
+STRING, TF, POSE = "std_msgs/msg/String", "tf2_msgs/msg/TFMessage", "geometry_msgs/msg/PoseStamped"
+MARKERS = "visualization_msgs/msg/MarkerArray"
 
 
-NUMBER = {"type": "number"}
-TIME = {"type": "object", "title": "time", "properties": {"sec": {"type": "integer", "minimum": 0},
-                                                           "nsec": {"type": "integer", "minimum": 0,
-                                                                    "maximum": 999999999}},
-        "required": ["sec", "nsec"]}
-VECTOR3 = {"title": "foxglove.Vector3", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER})}
-QUATERNION = {"title": "foxglove.Quaternion", **_object({"x": NUMBER, "y": NUMBER, "z": NUMBER, "w": NUMBER})}
-POSE = {"title": "foxglove.Pose", **_object({"position": VECTOR3, "orientation": QUATERNION})}
-COLOR = {"title": "foxglove.Color", **_object({"r": NUMBER, "g": NUMBER, "b": NUMBER, "a": NUMBER})}
-DURATION = {"type": "object", "title": "duration", "properties": {"sec": {"type": "integer"},
-                                                                  "nsec": {"type": "integer", "minimum": 0}},
-            "required": ["sec", "nsec"]}
-LINE = {"title": "foxglove.LinePrimitive", **_object({
-    "type": {"type": "integer", "enum": [0, 1, 2]}, "pose": POSE, "thickness": NUMBER,
-    "scale_invariant": {"type": "boolean"}, "points": {"type": "array", "items": VECTOR3}, "color": COLOR,
-    "colors": {"type": "array", "items": COLOR}, "indices": {"type": "array", "items": {"type": "integer"}}})}
-CUBE = {"title": "foxglove.CubePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
-SPHERE = {"title": "foxglove.SpherePrimitive", **_object({"pose": POSE, "size": VECTOR3, "color": COLOR})}
-ENTITY = {"title": "foxglove.SceneEntity", **_object({
-    "timestamp": TIME, "frame_id": {"type": "string"}, "id": {"type": "string"}, "lifetime": DURATION,
-    "frame_locked": {"type": "boolean"}, "metadata": {"type": "array"}, "arrows": {"type": "array"},
-    "cubes": {"type": "array", "items": CUBE}, "spheres": {"type": "array", "items": SPHERE},
-    "cylinders": {"type": "array"}, "lines": {"type": "array", "items": LINE}, "triangles": {"type": "array"},
-    "texts": {"type": "array"}, "models": {"type": "array"}})}
+class Topic(NamedTuple):
+    """A channel of a file: its ROS 2 message type, whether it is published once and kept for late
+    subscribers (transient local), and what it carries (for the docs)."""
 
-SCHEMAS: dict[str, dict] = {
-    "foxglove.FrameTransforms": _object({"transforms": {"type": "array", "items": {
-        "title": "foxglove.FrameTransform", **_object({
-            "timestamp": TIME, "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
-            "translation": VECTOR3, "rotation": QUATERNION})}}}),
-    "foxglove.PoseInFrame": _object({"timestamp": TIME, "frame_id": {"type": "string"}, "pose": POSE}),
-    "foxglove.SceneUpdate": _object({"deletions": {"type": "array"}, "entities": {"type": "array", "items": ENTITY}}),
-    "jethr1.JointState": _object({"timestamp": TIME, "name": {"type": "array", "items": {"type": "string"}},
-                                  "position_rad": {"type": "array", "items": NUMBER},
-                                  "command_rad": {"type": "array", "items": NUMBER},
-                                  "effort_nm": {"type": "array", "items": NUMBER}}),
-    ROBOT_DESCRIPTION_SCHEMA: _object({"data": {"type": "string"}}),
-    "jethr1.LegAnalysis": _object({"timestamp": TIME, "kappa_left": NUMBER, "kappa_right": NUMBER,
-                                   "yaw_momentum_nms": NUMBER}),
-}
+    type: str
+    latched: bool
+    what: str
 
 
-def thrust_schema(fans: list[str]) -> dict:
-    """``jethr1.Thrust`` for a robot whose fans are named ``fans``: ``<fan>_n`` and ``<fan>_cmd_n`` per fan [N]."""
-    schema = _object({"timestamp": TIME, **{f"{f}_n": NUMBER for f in fans}, "phase": {"type": "string"},
-                      "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
-                      "sample": {"type": "integer"}, "feasible": {"type": "boolean"},
-                      "reason": {"type": "string"}, **{f"{f}_cmd_n": NUMBER for f in fans},
-                      "window_lo_n": {"type": ["number", "null"]}, "window_hi_n": {"type": ["number", "null"]},
-                      "zmp_margin_m": NUMBER})
-    schema["title"] = "jethr1.Thrust"
-    return schema
+def qos_profile(transient_local: bool) -> str:
+    """``offered_qos_profiles`` as rosbag2 stores it (its integer form, which Humble and later read):
+    reliable, keep last (depth 1 when transient local, else 10), durations left at the default."""
+    zero = "\n    sec: 0\n    nsec: 0"
+    return (f"- history: 1\n  depth: {1 if transient_local else 10}\n  reliability: 1\n"
+            f"  durability: {1 if transient_local else 2}\n  deadline:{zero}\n  lifespan:{zero}\n  liveliness: 1\n"
+            f"  liveliness_lease_duration:{zero}\n  avoid_ros_namespace_conventions: false\n")
 
 
-SCHEMAS["jethr1.Thrust"] = thrust_schema(["left", "right"])  # Jet-HR1's; a plan's MCAP holds its robot's
-for _name, _schema in SCHEMAS.items():
-    _schema.setdefault("title", _name)
-
-TOPICS = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
-          "/joint_states": "jethr1.JointState", "/thrust": "jethr1.Thrust",
-          "/p_body": "foxglove.PoseInFrame", "/com": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
-          "/terrain": "foxglove.SceneUpdate", "/swing_path": "foxglove.SceneUpdate", "/analysis": "jethr1.LegAnalysis"}
-
-# --- helpers ------------------------------------------------------------------------------
+def topics_markdown(topics: Mapping[str, Topic]) -> str:
+    """A Markdown table of a file's topics (the docs print it; a test holds it to the declaration)."""
+    lines = ["| topic | type | QoS durability | carries |", "| --- | --- | --- | --- |"]
+    lines += [f"| `{name}` | `{t.type}` | {'transient local' if t.latched else 'volatile'} | {t.what} |"
+              for name, t in topics.items()]
+    return "\n".join(lines) + "\n"
 
 
-def log_time(t_s: float) -> int:
-    """Log time [ns] of a message at ``t_s`` [s] from the scenario's start."""
-    return EPOCH_NS + round(t_s * 1e9)
+class Ros2Mcap:
+    """An MCAP in the ROS 2 profile being written: one channel per declared topic, registered in
+    order; messages kept until :meth:`finish` writes them in log-time order (zstd-compressed
+    chunks, one sequence number per message)."""
+
+    def __init__(self, topics: Mapping[str, Topic], msgdefs: Mapping[str, str] = MSGDEFS):
+        from mcap.writer import CompressionType, Writer
+
+        self._buf = io.BytesIO()
+        self._w = Writer(self._buf, compression=CompressionType.ZSTD)
+        self._w.start(profile="ros2", library="jethr1-plan")
+        self.types = {name: t.type for name, t in topics.items()}
+        schemas: dict[str, int] = {}
+        types: dict = {}
+        for name in dict.fromkeys(self.types.values()):
+            text = schema_text(name, msgdefs)
+            types.update(parse_schema(name, text))
+            schemas[name] = self._w.register_schema(name=name, encoding="ros2msg", data=text.encode())
+        self._encoder = CdrEncoder(types)
+        self._channels = {name: self._w.register_channel(
+            topic=name, message_encoding="cdr", schema_id=schemas[t.type],
+            metadata={"offered_qos_profiles": qos_profile(t.latched)}) for name, t in topics.items()}
+        self._rank = {name: k for k, name in enumerate(topics)}
+        self._pending: list[tuple[np.ndarray, str, list[bytes]]] = []  # log times [ns], topic, messages
+
+    def write(self, topic: str, t_s: float, msg: Mapping) -> None:
+        """Log one message on ``topic`` at ``t_s`` [s] from the start."""
+        self.write_rows(topic, np.array([t_s]), msg)
+
+    def write_rows(self, topic: str, t_s: Sequence[float] | np.ndarray, msg: Mapping) -> None:
+        """Log ``len(t_s)`` messages on ``topic``, message i at ``t_s[i]`` [s], given as one value tree
+        whose per-message fields have one value per message (:mod:`.cdr`)."""
+        t = np.asarray(t_s, dtype=float)
+        if len(t) == 0:
+            return
+        data = self._encoder.encode(self.types[topic], msg, len(t))
+        self._pending.append((log_times(t), topic, data))
+
+    def finish(self) -> bytes:
+        """Write every message, in log-time order, and return the file's bytes."""
+        if self._pending:
+            times = np.concatenate([t for t, _, _ in self._pending])
+            ranks = np.concatenate([np.full(len(t), self._rank[topic]) for t, topic, _ in self._pending])
+            channels = [self._channels[topic] for t, topic, _ in self._pending for _ in range(len(t))]
+            data = [d for _, _, messages in self._pending for d in messages]
+            add = self._w.add_message
+            # by log time, then topic order; np.lexsort is stable, so a topic's messages keep their order
+            for seq, k in enumerate(np.lexsort((ranks, times)).tolist()):
+                ns = int(times[k])
+                add(channel_id=channels[k], log_time=ns, publish_time=ns, sequence=seq, data=data[k])
+        self._w.finish()
+        return self._buf.getvalue()
 
 
-def stamp(t_s: float) -> dict:
-    ns = log_time(t_s)
-    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+def read_mcap(data: bytes, topics: Iterable[str] | None = None, ordered: bool = True) -> list[tuple[str, str, Any, int]]:
+    """The messages of a ROS 2 MCAP (of ``topics``, else all), in log-time order (``ordered``; else in
+    the file's order, which the writer makes the same, and a third faster): (topic, type name,
+    the message decoded by ``mcap_ros2`` from the definitions stored in the file, log time [ns]);
+    the chunks' CRCs checked. Fields are attributes (``msg.header.stamp.sec``), sequences lists.
+
+    Raises:
+        Exception: of many kinds on a corrupt file or one not in the ROS 2 profile (the callers turn
+            them into bad input).
+    """
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    reader = make_reader(io.BytesIO(data), validate_crcs=True, decoder_factories=[DecoderFactory()])
+    wanted = None if topics is None else list(topics)
+    return [(channel.topic, schema.name if schema is not None else "", msg, message.log_time)
+            for schema, channel, message, msg in reader.iter_decoded_messages(topics=wanted, log_time_order=ordered)]
 
 
-def vector3(v) -> dict:
-    return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+# --- message builders (value trees, one value per message where they vary) -----------------------------
 
 
-def quaternion_message(q) -> dict:
-    return {"x": float(q[0]), "y": float(q[1]), "z": float(q[2]), "w": float(q[3])}
+def log_times(t_s: np.ndarray) -> np.ndarray:
+    """Log times [ns since 1970] of times ``t_s`` [s] from the start."""
+    return EPOCH_NS + np.round(np.asarray(t_s, dtype=float) * 1e9).astype(np.int64)
 
 
-def pose_message(pos, quat=(0.0, 0.0, 0.0, 1.0)) -> dict:
-    return {"position": vector3(pos), "orientation": quaternion_message(quat)}
+def seconds(log_time_ns: int | np.ndarray) -> np.ndarray:
+    """Times [s] from the start of log times [ns], to 1e-9 s (as trajectory.csv writes them)."""
+    return np.round((np.asarray(log_time_ns, dtype=np.int64) - EPOCH_NS) / 1e9, 9)
 
 
-def scene_entity(t: float, ident: str, cubes=(), lines=(), spheres=()) -> dict:
-    return {"timestamp": stamp(t), "frame_id": "world", "id": ident, "lifetime": {"sec": 0, "nsec": 0},
-            "frame_locked": False, "metadata": [], "arrows": [], "cubes": list(cubes), "spheres": list(spheres),
-            "cylinders": [], "lines": list(lines), "triangles": [], "texts": [], "models": []}
+def stamps(t_s: np.ndarray | float) -> dict:
+    """``builtin_interfaces/Time`` of times ``t_s`` [s] from the start (the log times)."""
+    ns = log_times(np.atleast_1d(t_s))
+    sec, nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+    if np.ndim(t_s) == 0:
+        return {"sec": int(sec[0]), "nanosec": int(nanosec[0])}
+    return {"sec": sec.astype(np.int32), "nanosec": nanosec.astype(np.uint32)}
 
 
-def terrain_update(cartons: Iterable[Carton], t: float = 0.0) -> dict:
-    """/terrain: one cube per carton (brown)."""
-    cubes = []
-    for c in cartons:
-        x, y, ztop = c.top_centre_m
-        cubes.append({"pose": pose_message((x, y, ztop - c.size_m[2] / 2)), "size": vector3(c.size_m),
-                      "color": {"r": 0.72, "g": 0.53, "b": 0.32, "a": 0.9}})
-    return {"deletions": [], "entities": [scene_entity(t, "cartons", cubes=cubes)]}
+def header(t_s: np.ndarray | float, frame_id: str = "") -> dict:
+    """``std_msgs/Header`` of times ``t_s`` [s] from the start."""
+    return {"stamp": stamps(t_s), "frame_id": frame_id}
 
 
-def swing_path_update(paths: Iterable[np.ndarray], t: float = 0.0) -> dict:
-    """/swing_path: one line strip per step through its swing samples."""
-    lines = [{"type": 0, "pose": pose_message((0, 0, 0)), "thickness": 0.005, "scale_invariant": False,
-              "points": [vector3(p) for p in path], "color": {"r": 0.1, "g": 0.6, "b": 1.0, "a": 1.0}, "colors": [],
-              "indices": []} for path in paths]
-    return {"deletions": [], "entities": [scene_entity(t, "swing_paths", lines=lines)]}
+def _xyz(v) -> dict:
+    """``geometry_msgs/Point`` or ``Vector3``: one (3,), or columns of an (N, 3) array."""
+    v = np.asarray(v, dtype=float)
+    if v.ndim == 2:
+        return {"x": v[:, 0], "y": v[:, 1], "z": v[:, 2]}
+    return dict(zip("xyz", map(float, v), strict=True))
+
+
+def _xyzw(q) -> dict:
+    """``geometry_msgs/Quaternion``: one (4,) x, y, z, w, or columns of an (N, 4) array."""
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 2:
+        return {"x": q[:, 0], "y": q[:, 1], "z": q[:, 2], "w": q[:, 3]}
+    return dict(zip("xyzw", map(float, q), strict=True))
+
+
+def yaw_quaternions(yaw_rad: np.ndarray) -> np.ndarray:
+    """(N, 4) x, y, z, w quaternions of rotations by ``yaw_rad`` about z."""
+    half = 0.5 * np.asarray(yaw_rad, dtype=float)
+    z = np.zeros_like(half)
+    return np.stack([z, z, np.sin(half), np.cos(half)], axis=1)
+
+
+def pose_stamped(t_s: np.ndarray, frame_id: str, position, orientation_xyzw=(0.0, 0.0, 0.0, 1.0)) -> dict:
+    """``geometry_msgs/PoseStamped`` per time: ``position`` (N, 3) [m], orientation (N, 4) or one quaternion."""
+    return {"header": header(t_s, frame_id),
+            "pose": {"position": _xyz(position), "orientation": _xyzw(orientation_xyzw)}}
+
+
+def _transform(stamp_t, parent: str, child: str, translation, rotation) -> dict:
+    return {"header": header(stamp_t, parent), "child_frame_id": child,
+            "transform": {"translation": _xyz(translation), "rotation": _xyzw(rotation)}}
 
 
 def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
-    """Per URDF joint, the parent→child rotation quaternions (N, 4) for joint angles ``q`` (N, 12)."""
+    """Per URDF joint, the parent→child rotation quaternions (N, 4) x, y, z, w for joint angles ``q`` (N, J)."""
     q = np.atleast_2d(q)
     index = {name: k for k, name in enumerate(robot.joint_names)}
     out = []
@@ -197,70 +245,96 @@ def joint_rotations(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def frame_transforms(robot: RobotModel, t: float, p_body, trunk_quat_xyzw, q: np.ndarray,
-                     rotations: list[np.ndarray] | None = None, prefix: str = "") -> dict:
-    """/tf at one instant: world→trunk and each joint's parent→child (``rotations``: precomputed rows).
-
-    ``prefix`` goes before every frame of the robot (``sim/`` for a rehearsal), so two robots can
-    play in one scene; Foxglove's URDF layer takes the same prefix.
-    """
-    ts = stamp(t)
-    tfs = [{"timestamp": ts, "parent_frame_id": "world", "child_frame_id": prefix + robot.trunk,
-            "translation": vector3(p_body), "rotation": quaternion_message(trunk_quat_xyzw)}]
-    if rotations is None:
-        rotations = [r[0] for r in joint_rotations(robot, q)]
-    for j, rot in zip(urdf_joints(robot.urdf_path), rotations, strict=True):
-        tfs.append({"timestamp": ts, "parent_frame_id": prefix + j.parent, "child_frame_id": prefix + j.child,
-                    "translation": vector3(j.xyz), "rotation": quaternion_message(rot)})
-    return {"transforms": tfs}
+def robot_transforms(robot: RobotModel, t_s: np.ndarray, p_body: np.ndarray, trunk_xyzw: np.ndarray, q: np.ndarray,
+                     prefix: str = "") -> tuple[dict, dict]:
+    """(``/tf``, ``/tf_static``) of the robot: per time, world→trunk (``p_body`` (N, 3) [m],
+    ``trunk_xyzw`` (N, 4)) and every moving joint's parent→child link for joint angles ``q`` (N, J)
+    [rad]; once (at time 0), every fixed joint's. ``prefix`` goes before every robot frame."""
+    t = np.asarray(t_s, dtype=float)
+    moving = [_transform(t, "world", prefix + robot.trunk, p_body, trunk_xyzw)]
+    static = []
+    for j, rot in zip(urdf_joints(robot.urdf_path), joint_rotations(robot, np.asarray(q, dtype=float)), strict=True):
+        if j.kind == "fixed":
+            static.append(_transform(0.0, prefix + j.parent, prefix + j.child, j.xyz, quat_rpy(j.rpy)))
+        else:
+            moving.append(_transform(t, prefix + j.parent, prefix + j.child, j.xyz, rot))
+    return {"transforms": moving}, {"transforms": static}
 
 
-class JsonMcap:
-    """An MCAP being written: JSON messages on channels whose JSON schemas are registered up front
-    (zstd-compressed chunks, one sequence number per message, logged at :func:`log_time`)."""
-
-    def __init__(self, schemas: dict[str, dict], topics: dict[str, str]):
-        from mcap.writer import CompressionType, Writer
-
-        self._buf = io.BytesIO()
-        self._w = Writer(self._buf, compression=CompressionType.ZSTD)
-        self._w.start(profile="", library="jethr1-plan")
-        ids = {name: self._w.register_schema(name=name, encoding="jsonschema",
-                                             data=json.dumps(schema, sort_keys=True).encode())
-               for name, schema in schemas.items()}
-        self._channels = {topic: self._w.register_channel(topic=topic, message_encoding="json", schema_id=ids[name])
-                          for topic, name in topics.items()}
-        self._seq = 0
-
-    def put(self, topic: str, t: float, msg: dict) -> None:
-        """Log ``msg`` on ``topic`` at ``t`` [s] from the start."""
-        ns = log_time(t)
-        self._w.add_message(channel_id=self._channels[topic], log_time=ns, publish_time=ns, sequence=self._seq,
-                            data=json.dumps(msg, separators=(",", ":"), check_circular=False).encode())
-        self._seq += 1
-
-    def finish(self) -> bytes:
-        """The file's bytes."""
-        self._w.finish()
-        return self._buf.getvalue()
+def urdf_message(robot: RobotModel, prefix: str = "") -> dict:
+    """``std_msgs/String`` of the robot's URDF (every link prefixed ``prefix``)."""
+    return {"data": prefixed_urdf(robot, prefix) if prefix else robot.urdf_path.read_text(encoding="utf-8")}
 
 
-def read_mcap(data: bytes) -> list[tuple[str, str, dict, int]]:
-    """Every message of an MCAP file: (topic, schema name, decoded JSON, log_time [ns]), the chunks'
-    CRCs checked."""
-    from mcap.reader import make_reader
+def prefixed_urdf(robot: RobotModel, prefix: str) -> str:
+    """The robot's URDF with every link name (and every joint's parent and child) prefixed."""
+    import xml.etree.ElementTree as ET
 
-    out = []
-    reader = make_reader(io.BytesIO(data), validate_crcs=True)
-    for schema, channel, message in reader.iter_messages():
-        out.append((channel.topic, schema.name if schema is not None else "", json.loads(message.data),
-                    message.log_time))
-    return out
+    root = ET.parse(robot.urdf_path).getroot()
+    for link in root.iter("link"):
+        link.set("name", prefix + link.get("name", ""))
+    for joint in root.iter("joint"):
+        for tag in ("parent", "child"):
+            el = joint.find(tag)
+            if el is not None:
+                el.set("link", prefix + el.get("link", ""))
+    return ET.tostring(root, encoding="unicode")
 
 
-def mcap_schemas(data: bytes) -> dict[str, dict]:
-    """Schema name → the JSON schema stored in the file."""
-    from mcap.reader import make_reader
+def joint_state(t_s: np.ndarray, names: Sequence[str], position_rad: np.ndarray, effort_nm: np.ndarray) -> dict:
+    """``sensor_msgs/JointState`` per time: positions (N, J) [rad] and efforts (N, J) [N·m]."""
+    return {"header": header(t_s), "name": list(names), "position": np.asarray(position_rad, dtype=float),
+            "effort": np.asarray(effort_nm, dtype=float)}
 
-    summary = make_reader(io.BytesIO(data)).get_summary()
-    return {} if summary is None else {s.name: json.loads(s.data) for s in summary.schemas.values()}
+
+def joint_trajectory(names: Sequence[str], t_s: np.ndarray, positions_rad: np.ndarray) -> dict:
+    """One ``trajectory_msgs/JointTrajectory`` as a JointTrajectoryController executes it: a point
+    per row, ``time_from_start`` its time [s], ``positions`` its servo commands (N, J) [rad]. The
+    header's stamp is zero: the controller starts it when it arrives."""
+    ns = np.round(np.asarray(t_s, dtype=float) * 1e9).astype(np.int64)
+    points = {"positions": np.asarray(positions_rad, dtype=float).reshape(len(ns), -1),
+              "time_from_start": {"sec": (ns // 1_000_000_000).astype(np.int32),
+                                  "nanosec": (ns % 1_000_000_000).astype(np.uint32)}}
+    return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}, "joint_names": list(names),
+            "points": points}
+
+
+def _color(rgba) -> dict:
+    return dict(zip("rgba", map(float, rgba), strict=True))
+
+
+def cube_marker(ns: str, ident: int, centre, size, rgba, frame_id: str = "world") -> dict:
+    """A ``visualization_msgs/Marker`` CUBE (axis-aligned) of ``size`` [m] at ``centre`` [m]."""
+    return {"header": header(0.0, frame_id), "ns": ns, "id": ident, "type": 1, "action": 0,
+            "pose": {"position": _xyz(centre), "orientation": _xyzw((0.0, 0.0, 0.0, 1.0))},
+            "scale": _xyz(size), "color": _color(rgba)}
+
+
+def carton_markers(cartons: Iterable) -> dict:
+    """``/terrain``: a brown CUBE per carton, its top face where the carton's is."""
+    markers = []
+    for k, c in enumerate(cartons):
+        x, y, ztop = c.top_centre_m
+        markers.append(cube_marker("cartons", k, (x, y, ztop - c.size_m[2] / 2), c.size_m, (0.72, 0.53, 0.32, 0.9)))
+    return {"markers": markers}
+
+
+def swing_path_markers(paths: Iterable[np.ndarray]) -> dict:
+    """``/swing_path``: a LINE_STRIP (5 mm wide) per step through its swing samples [m]."""
+    return {"markers": [{"header": header(0.0, "world"), "ns": "swing_paths", "id": k, "type": 4, "action": 0,
+                         "pose": {"orientation": _xyzw((0.0, 0.0, 0.0, 1.0))}, "scale": {"x": 0.005},
+                         "color": _color((0.1, 0.6, 1.0, 1.0)),
+                         "points": _xyz(np.asarray(path, dtype=float).reshape(-1, 3))}
+                        for k, path in enumerate(paths)]}
+
+
+def point_cloud2(points_m: np.ndarray, values: Mapping[str, np.ndarray], frame_id: str = "world") -> dict:
+    """A ``sensor_msgs/PointCloud2`` of float32 x, y, z [m] and the named ``values`` per point."""
+    cols = [np.asarray(points_m, dtype=float).reshape(-1, 3), *(np.asarray(v, dtype=float)[:, None]
+                                                                 for v in values.values())]
+    data = np.concatenate(cols, axis=1).astype("<f4")
+    names = ["x", "y", "z", *values]
+    return {"header": header(0.0, frame_id), "height": 1, "width": len(data),
+            "fields": [{"name": n, "offset": 4 * k, "datatype": 7, "count": 1} for k, n in enumerate(names)],
+            "is_bigendian": False, "point_step": 4 * len(names), "row_step": 4 * len(names) * len(data),
+            "data": data.tobytes(), "is_dense": True}

@@ -1,77 +1,67 @@
-"""A rehearsal's ``simulation.mcap``: the twin's robot (frames prefixed ``sim/``), its thrust, CoP and
-CoM, and the cartons."""
+"""A rehearsal's ``simulation.mcap`` (ROS 2 profile, :mod:`.mcap`): the twin's robot with every frame
+prefixed ``sim/`` (in ``/tf``, ``/tf_static`` and the URDF on ``/sim/robot_description``), so the
+plan's ``trajectory.mcap`` (bare frame names) and its rehearsal play side by side in one scene; the
+thrust each fan applied, the CoP and CoM, and the cartons. Times as in ``trajectory.mcap``: seconds
+from the plan's start after the fixed epoch.
+
+Topics: :data:`SIMULATION_TOPICS`.
+"""
 
 from __future__ import annotations
-
-import io
-import json
 
 import numpy as np
 
 from jethr1_plan.files.mcap import (
-    NUMBER,
-    ROBOT_DESCRIPTION_SCHEMA,
-    SCHEMAS,
-    TIME,
-    _object,
-    frame_transforms,
-    joint_rotations,
-    log_time,
-    pose_message,
-    stamp,
-    terrain_update,
+    MARKERS,
+    POSE,
+    STRING,
+    TF,
+    Ros2Mcap,
+    Topic,
+    carton_markers,
+    header,
+    pose_stamped,
+    robot_transforms,
+    urdf_message,
 )
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["simulation_mcap"]
+__all__ = ["PREFIX", "SIMULATION_TOPICS", "simulation_mcap"]
+
+PREFIX = "sim/"  # before every robot frame of a rehearsal
+
+#: the topics of a rehearsal's ``simulation.mcap``, in the order the file registers them
+SIMULATION_TOPICS: dict[str, Topic] = {
+    "/sim/robot_description": Topic(STRING, True, "the robot's URDF, every link prefixed `sim/`"),
+    "/tf_static": Topic(TF, True, "every fixed joint's parent → child link (`sim/` frames)"),
+    "/tf": Topic(TF, False, "at 50 Hz: world → `sim/trunk` and every moving joint's link (`sim/` frames)"),
+    "/terrain": Topic(MARKERS, True, "a CUBE per carton"),
+    "/sim/thrust": Topic("jethr1_msgs/msg/FanThrust", False,
+                         "at 50 Hz: the thrust each fan applied [N] and the frame it acts at (`sim/left_fan` …)"),
+    "/sim/com": Topic(POSE, False, "at 50 Hz: the twin's centre of mass"),
+    "/sim/cop": Topic(POSE, False, "at 50 Hz while a sole bears weight: the centre of pressure"),
+}
 
 
 def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
-    """The MCAP bytes of a rehearsal: ``/tf`` with every robot frame prefixed ``sim/`` (the plan's
-    ``trajectory.mcap`` uses the bare names, so both files play side by side in one scene),
-    ``/sim/thrust`` (applied per fan [N]), ``/sim/cop`` and ``/sim/com`` (foxglove.PoseInFrame),
-    ``/terrain``. Times as in ``trajectory.mcap``: seconds from the plan's start."""
-    from mcap.writer import CompressionType, Writer
-
-    schemas = {ROBOT_DESCRIPTION_SCHEMA: SCHEMAS[ROBOT_DESCRIPTION_SCHEMA],
-               "foxglove.FrameTransforms": SCHEMAS["foxglove.FrameTransforms"],
-               "foxglove.PoseInFrame": SCHEMAS["foxglove.PoseInFrame"],
-               "foxglove.SceneUpdate": SCHEMAS["foxglove.SceneUpdate"],
-               "jethr1.SimThrust": _object({"timestamp": TIME, "frame": {"type": "array", "items": {"type": "string"}},
-                                            "thrust_n": {"type": "array", "items": NUMBER}})}
-    schemas["jethr1.SimThrust"].setdefault("title", "jethr1.SimThrust")
-    topics = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
-              "/sim/thrust": "jethr1.SimThrust", "/sim/cop": "foxglove.PoseInFrame",
-              "/sim/com": "foxglove.PoseInFrame", "/terrain": "foxglove.SceneUpdate"}
-    buf = io.BytesIO()
-    w = Writer(buf, compression=CompressionType.ZSTD)
-    w.start(profile="", library="jethr1-plan")
-    ids = {name: w.register_schema(name=name, encoding="jsonschema", data=json.dumps(s, sort_keys=True).encode())
-           for name, s in schemas.items()}
-    channels = {topic: w.register_channel(topic=topic, message_encoding="json", schema_id=ids[name])
-                for topic, name in topics.items()}
-    seq = 0
-
-    def put(topic: str, t: float, msg: dict) -> None:
-        nonlocal seq
-        ns = log_time(max(t, 0.0))
-        w.add_message(channel_id=channels[topic], log_time=ns, publish_time=ns, sequence=seq,
-                      data=json.dumps(msg, separators=(",", ":")).encode())
-        seq += 1
-
-    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
-    put("/terrain", 0.0, terrain_update(cartons))
-    qpos = np.asarray(record["qpos"], dtype=float).reshape(-1, 19)
-    rotations = joint_rotations(robot, qpos[:, 7:]) if len(qpos) else []
-    frames = [f.frame for f in robot.fans]
-    for i, t in enumerate(record["t"]):
-        w_, x, y, z = qpos[i, 3:7]
-        put("/tf", t, frame_transforms(robot, t, qpos[i, :3], (x, y, z, w_), qpos[i, 7:], [r[i] for r in rotations],
-                                       prefix="sim/"))
-        put("/sim/thrust", t, {"timestamp": stamp(t), "frame": frames, "thrust_n": record["thrust"][i]})
-        put("/sim/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(record["com"][i])})
-        cop = record["cop"][i]
-        if cop is not None:
-            put("/sim/cop", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(cop)})
-    w.finish()
-    return buf.getvalue()
+    """The MCAP bytes of a rehearsal's ``record`` (``t`` [s], ``qpos`` (N, 7 + J): position, w-x-y-z
+    quaternion and joints, ``thrust`` (N, F) [N], ``com`` (N, 3) [m], ``cop`` per sample (3,) [m] or
+    None)."""
+    out = Ros2Mcap(SIMULATION_TOPICS)
+    out.write("/sim/robot_description", 0.0, urdf_message(robot, PREFIX))
+    out.write("/terrain", 0.0, carton_markers(cartons))
+    t = np.maximum(np.asarray(record["t"], dtype=float), 0.0)
+    n = len(t)
+    if n:
+        qpos = np.asarray(record["qpos"], dtype=float).reshape(n, -1)
+        tf, tf_static = robot_transforms(robot, t, qpos[:, :3], qpos[:, [4, 5, 6, 3]], qpos[:, 7:], prefix=PREFIX)
+        out.write("/tf_static", 0.0, tf_static)
+        out.write_rows("/tf", t, tf)
+        out.write_rows("/sim/thrust", t, {"header": header(t), "frame": [PREFIX + f.frame for f in robot.fans],
+                                          "thrust_n": np.asarray(record["thrust"], dtype=float).reshape(n, -1)})
+        out.write_rows("/sim/com", t, pose_stamped(t, "world", np.asarray(record["com"], dtype=float)))
+        has = np.array([c is not None for c in record["cop"]], dtype=bool)
+        if has.any():
+            cop = np.array([c for c in record["cop"] if c is not None], dtype=float)
+            out.write_rows("/sim/cop", t[has], pose_stamped(t[has], "world", cop))
+    return out.finish()

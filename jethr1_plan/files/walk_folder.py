@@ -21,17 +21,22 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.files.mcap import (
-    ROBOT_DESCRIPTION_SCHEMA,
-    SCHEMAS,
-    TIME,
-    JsonMcap,
-    frame_transforms,
-    joint_rotations,
-    pose_message,
-    scene_entity,
-    stamp,
+    MARKERS,
+    POSE,
+    STRING,
+    TF,
+    Ros2Mcap,
+    Topic,
+    cube_marker,
+    header,
+    joint_state,
+    joint_trajectory,
+    pose_stamped,
+    robot_transforms,
+    urdf_message,
+    yaw_quaternions,
 )
-from jethr1_plan.geometry import SIDES, quat_axis_angle, quaternion_from_matrix
+from jethr1_plan.geometry import SIDES, quaternion_from_matrix
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
@@ -92,82 +97,84 @@ def read_walk_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.nda
     return read_csv_table(text, source, _walk_column, ("support",))
 
 
-# --- MCAP -------------------------------------------------------------------------------------
+# --- MCAP ---------------------------------------------------------------------------------------
 
-_ARRAY = {"type": "array", "items": {"type": "number"}}
-_WALK_SCHEMAS = {
-    "jethr1.YawHorizon": {"title": "jethr1.YawHorizon", "type": "object", "properties": {
-        "timestamp": TIME, "dt_s": {"type": "number"}, "time_s": _ARRAY, "yaw_ref_rad": _ARRAY,
-        "yaw_rad": {"type": "number"}, "yaw_rate_rad_s": {"type": "number"}},
-        "required": ["timestamp", "dt_s", "time_s", "yaw_ref_rad", "yaw_rad", "yaw_rate_rad_s"]},
-    "jethr1.WalkAnalysis": {"title": "jethr1.WalkAnalysis", "type": "object", "properties": {
-        "timestamp": TIME, "support": {"enum": ["left", "right", "both"]}, "step": {"type": "integer"},
-        "kappa": {"type": "number"}, "h_lower_nms": {"type": "number"}, "h_upper_nms": {"type": "number"},
-        "zmp_margin_m": {"type": "number"}, "yaw_ref_rad": {"type": "number"}, "yaw_rad": {"type": "number"}},
-        "required": ["timestamp", "support", "step", "kappa", "h_lower_nms", "h_upper_nms", "zmp_margin_m",
-                     "yaw_ref_rad", "yaw_rad"]},
+#: the topics of a walk's ``trajectory.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
+WALK_TOPICS: dict[str, Topic] = {
+    "/robot_description": Topic(STRING, True, "the robot's URDF (viewers build the robot from it)"),
+    "/tf_static": Topic(TF, True, "every fixed joint's parent → child link"),
+    "/tf": Topic(TF, False, "per control period: world → trunk and every moving joint's parent → child link"),
+    "/footsteps": Topic(MARKERS, True, "a thin CUBE per sole: the start (grey), the footholds (left blue, "
+                                       "right orange)"),
+    "/joint_trajectory": Topic("trajectory_msgs/msg/JointTrajectory", False,
+                               "once, at the start: the servo commands `<joint>_cmd_rad`, a point per period"),
+    "/joint_states": Topic("sensor_msgs/msg/JointState", False,
+                           "per period: joint angles (position) and torques by inverse dynamics (effort)"),
+    "/com": Topic(POSE, False, "per period: the posture's centre of mass, turned by the pelvic yaw"),
+    "/com_ref": Topic(POSE, False, "per period: the LIPM's centre of mass"),
+    "/zmp": Topic(POSE, False, "per period: the multibody ZMP (from the joints' motion), on the ground"),
+    "/zmp_ref": Topic(POSE, False, "per period: the ZMP reference (B-18), on the ground"),
+    "/yaw_horizon": Topic("jethr1_msgs/msg/YawHorizon", False,
+                          "per MPC update: the pelvic yaw reference over the horizon (Fig. 7)"),
+    "/walk_analysis": Topic("jethr1_msgs/msg/WalkAnalysis", False,
+                            "per period: support, step, κ, yaw momentum of the lower body and the arms, ZMP "
+                            "margin, pelvic yaw and its reference"),
 }
-#: topics of a walk's ``trajectory.mcap`` and their schema names
-WALK_TOPICS = {"/robot_description": ROBOT_DESCRIPTION_SCHEMA, "/tf": "foxglove.FrameTransforms",
-               "/joint_states": "jethr1.JointState", "/footsteps": "foxglove.SceneUpdate",
-               "/com": "foxglove.PoseInFrame", "/com_ref": "foxglove.PoseInFrame", "/zmp": "foxglove.PoseInFrame",
-               "/zmp_ref": "foxglove.PoseInFrame", "/yaw_horizon": "jethr1.YawHorizon",
-               "/walk_analysis": "jethr1.WalkAnalysis"}
 
 
-def _footstep_cubes(robot: RobotModel, result: WalkResult) -> list[dict]:
-    """The start soles (grey) and the footholds (blue: left, orange: right) as thin boxes."""
+def _footstep_markers(robot: RobotModel, result: WalkResult) -> dict:
+    """The start soles (grey) and the footholds (blue: left, orange: right) as thin boxes on the ground."""
     tl = result.walk.timeline
-    colors = {"left": {"r": 0.2, "g": 0.5, "b": 1.0, "a": 0.6}, "right": {"r": 1.0, "g": 0.55, "b": 0.1, "a": 0.6}}
-    size = {"x": robot.sole_length_m, "y": robot.sole_width_m, "z": 0.004}
-    cubes = [{"pose": pose_message(np.asarray(p) - [0, 0, 0.002]), "size": size,
-              "color": {"r": 0.6, "g": 0.6, "b": 0.6, "a": 0.6}} for p in tl.start.values()]
-    cubes += [{"pose": pose_message(np.asarray(st.position_m) - [0, 0, 0.002]), "size": size,
-               "color": colors[st.side]} for st in tl.steps]
-    return cubes
+    size = (robot.sole_length_m, robot.sole_width_m, 0.004)
+    colors = {"left": (0.2, 0.5, 1.0, 0.6), "right": (1.0, 0.55, 0.1, 0.6)}
+    feet = [cube_marker("start", k, np.asarray(p) - [0, 0, 0.002], size, (0.6, 0.6, 0.6, 0.6))
+            for k, p in enumerate(tl.start.values())]
+    feet += [cube_marker(f"footholds_{st.side}", k, np.asarray(st.position_m) - [0, 0, 0.002], size, colors[st.side])
+             for k, st in enumerate(tl.steps)]
+    return {"markers": feet}
 
 
 def walk_mcap(result: WalkResult) -> bytes:
-    """The MCAP bytes of a walk: the robot moving, its footsteps, CoM and ZMP (planned and reached),
-    and at every MPC update the yaw reference over the horizon (Fig. 7)."""
+    """The MCAP bytes of a walk (topics :data:`WALK_TOPICS`): the robot moving, its servo commands as
+    one JointTrajectory, its footsteps, CoM and ZMP (planned and reached), the walk's figures, and at
+    every MPC update the yaw reference over the horizon. Built from the walk's arrays, a message per row."""
     walk, a = result.walk, result.analysis
     robot = walk.robot
-    schemas = {**SCHEMAS, **_WALK_SCHEMAS}
-    out = JsonMcap({name: schemas[name] for name in sorted(set(WALK_TOPICS.values()))}, WALK_TOPICS)
-    put = out.put
-    put("/robot_description", 0.0, {"data": robot.urdf_path.read_text(encoding="utf-8")})
-    put("/footsteps", 0.0, {"deletions": [], "entities": [scene_entity(0.0, "footsteps",
-                                                                       cubes=_footstep_cubes(robot, result))]})
+    out = Ros2Mcap(WALK_TOPICS)
+    out.write("/robot_description", 0.0, urdf_message(robot))
+    out.write("/footsteps", 0.0, _footstep_markers(robot, result))
+    t = np.asarray(walk.t, dtype=float)
+    n = len(t)
+    if not n:
+        return out.finish()
     names = list(robot.joint_names)
-    rotations = joint_rotations(robot, walk.q)
+    base = np.asarray(walk.base, dtype=float).reshape(n, 4, 4)
+    trunk_q = np.array([quaternion_from_matrix(T[:3, :3]) for T in base]).reshape(n, 4)
+    tf, tf_static = robot_transforms(robot, t, base[:, :3, 3], trunk_q, walk.q)
+    out.write("/tf_static", 0.0, tf_static)
+    out.write_rows("/tf", t, tf)
+    out.write("/joint_trajectory", 0.0, joint_trajectory(names, t, result.commands_rad))
+    out.write_rows("/joint_states", t, joint_state(t, names, walk.q, a.tau))
+    out.write_rows("/com", t, pose_stamped(t, "world", walk.com, yaw_quaternions(walk.yaw)))
+    out.write_rows("/com_ref", t, pose_stamped(t, "world", np.asarray(walk.com_ref, dtype=float)[:, :3]))
+    ground = np.zeros((n, 1))
+    out.write_rows("/zmp", t, pose_stamped(t, "world", np.hstack([np.asarray(a.zmp, dtype=float), ground])))
+    out.write_rows("/zmp_ref", t, pose_stamped(t, "world", np.hstack([np.asarray(walk.zmp_ref, dtype=float), ground])))
+    out.write_rows("/walk_analysis", t, {
+        "header": header(t), "support": [str(s) for s in walk.support], "step": np.asarray(walk.step, dtype=np.int32),
+        "kappa": np.asarray(a.kappa, dtype=float), "h_lower_nms": np.asarray(walk.h_low, dtype=float),
+        "h_upper_nms": np.asarray(walk.h_up, dtype=float), "zmp_margin_m": np.asarray(a.zmp_margin, dtype=float),
+        "yaw_ref_rad": np.asarray(walk.yaw_ref, dtype=float), "yaw_rad": np.asarray(walk.yaw, dtype=float)})
     dt_mpc = result.spec.com.dt_s
     per_update = max(1, round(dt_mpc * result.spec.timing.control_hz))
-    for i in range(len(walk.t)):
-        t = float(walk.t[i])
-        T = walk.base[i]
-        put("/tf", t, frame_transforms(robot, t, T[:3, 3], quaternion_from_matrix(T[:3, :3]), walk.q[i],
-                                       [r[i] for r in rotations]))
-        put("/joint_states", t, {"timestamp": stamp(t), "name": names,
-                                 "position_rad": [float(v) for v in walk.q[i]],
-                                 "command_rad": [float(v) for v in result.commands_rad[i]],
-                                 "effort_nm": [float(v) for v in a.tau[i]]})
-        yaw_q = quat_axis_angle((0, 0, 1), float(walk.yaw[i]))
-        put("/com", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(walk.com[i], yaw_q)})
-        put("/com_ref", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message(walk.com_ref[i])})
-        put("/zmp", t, {"timestamp": stamp(t), "frame_id": "world", "pose": pose_message((*a.zmp[i], 0.0))})
-        put("/zmp_ref", t, {"timestamp": stamp(t), "frame_id": "world",
-                            "pose": pose_message((*walk.zmp_ref[i], 0.0))})
-        put("/walk_analysis", t, {"timestamp": stamp(t), "support": str(walk.support[i]), "step": int(walk.step[i]),
-                                  "kappa": float(a.kappa[i]), "h_lower_nms": float(walk.h_low[i]),
-                                  "h_upper_nms": float(walk.h_up[i]), "zmp_margin_m": float(a.zmp_margin[i]),
-                                  "yaw_ref_rad": float(walk.yaw_ref[i]), "yaw_rad": float(walk.yaw[i])})
-        u = i // per_update
-        if i % per_update == 0 and u < len(walk.yaw_horizon):
-            ref = walk.yaw_horizon[u]
-            put("/yaw_horizon", t, {"timestamp": stamp(t), "dt_s": dt_mpc,
-                                    "time_s": [t + dt_mpc * (k + 1) for k in range(len(ref))],
-                                    "yaw_ref_rad": [float(v) for v in ref], "yaw_rad": float(walk.yaw[i]),
-                                    "yaw_rate_rad_s": float(walk.yaw_rate[i])})
+    at = np.arange(0, n, per_update)[:len(walk.yaw_horizon)]
+    if len(at):
+        refs = [np.asarray(walk.yaw_horizon[u], dtype=float) for u in range(len(at))]
+        out.write_rows("/yaw_horizon", t[at], {
+            "header": header(t[at]), "dt_s": float(dt_mpc),
+            "time_s": [t[i] + dt_mpc * np.arange(1, len(r) + 1) for i, r in zip(at, refs, strict=True)],
+            "yaw_ref_rad": refs, "yaw_rad": np.asarray(walk.yaw, dtype=float)[at],
+            "yaw_rate_rad_s": np.asarray(walk.yaw_rate, dtype=float)[at]})
     return out.finish()
 
 

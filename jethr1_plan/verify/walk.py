@@ -221,23 +221,25 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
 
 
 def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fail) -> None:
-    from jethr1_plan.files.mcap import log_time, read_mcap
+    """The MCAP's ``/joint_states`` (decoded from the definitions it carries) against the CSV's rows."""
+    from jethr1_plan.files.mcap import log_times, read_mcap
 
     try:
         data = path.read_bytes()
-        messages = read_mcap(data)
+        messages = read_mcap(data, ["/joint_states"])
     except Exception as exc:  # any corrupt MCAP is bad input, not a bug
         raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__})") from None
-    states = [(m, ns) for topic, _, m, ns in messages if topic == "/joint_states"]
+    states = [(m, ns) for _, _, m, ns in messages]
     if len(states) != len(q):
         fail([min(len(states), len(q)) - 1 if min(len(states), len(q)) else 0], "MCAP",
              f"{len(states)} /joint_states messages, trajectory.csv has {len(q)} rows")
+    expected_ns = log_times(np.asarray(t, dtype=float))
     for i, (m, ns) in enumerate(states[:len(q)]):
         try:
-            pos = np.asarray(m["position_rad"], dtype=float)
-            names = list(m["name"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError(str(path), "/joint_states", "a message without name / position_rad") from None
+            pos = np.asarray(m.position, dtype=float)
+            names = list(m.name)
+        except (AttributeError, TypeError, ValueError):
+            raise InputError(str(path), "/joint_states", "a message without name / position") from None
         if names != list(robot.joint_names) or pos.shape != q[i].shape or np.any(pos != q[i]) \
-                or ns != log_time(float(t[i])):
+                or ns != expected_ns[i]:
             fail([i], "MCAP", "/joint_states differs from trajectory.csv's row")

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-import base64
 import json
 
-import jsonschema
 import numpy as np
 import pytest
 
 from jethr1_plan.balance_space.sweep import SweepSpec, sweep_layers
 from jethr1_plan.cli import run
-from jethr1_plan.files.mcap import mcap_schemas, read_mcap
+from jethr1_plan.files.balance_space import BALANCE_SPACE_TOPICS
+from jethr1_plan.files.mcap import read_mcap
 from jethr1_plan.geometry import inside_polygon, sole_polygon
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
@@ -88,21 +87,23 @@ def test_members_rebalance_with_placo(swept, robot):
 
 
 def test_mcap_point_clouds(swept):
-    data = (swept / "j1" / "balance_space.mcap").read_bytes()
-    schemas = mcap_schemas(data)
+    msgs = read_mcap((swept / "j1" / "balance_space.mcap").read_bytes())
     s = json.loads((swept / "j1" / "summary.json").read_text())
+    assert {(m[0], m[1]) for m in msgs} == {(name, t.type) for name, t in BALANCE_SPACE_TOPICS.items()}
     counts = {}
-    for topic, schema, msg, _ in read_mcap(data):
-        jsonschema.validate(msg, schemas[schema])
-        if schema == "foxglove.PointCloud":
-            raw = base64.b64decode(msg["data"])
-            assert len(raw) % msg["point_stride"] == 0
+    for topic, schema, msg, _ in msgs:
+        if schema == "sensor_msgs/msg/PointCloud2":
+            raw = bytes(msg.data)
+            assert len(raw) == msg.point_step * msg.width
             pts = np.frombuffer(raw, dtype="<f4").reshape(-1, 4)
             counts[topic] = len(pts)
-            assert [f["name"] for f in msg["fields"]] == ["x", "y", "z", "min_thrust_n"]
+            assert [f.name for f in msg.fields] == ["x", "y", "z", "min_thrust_n"]
             assert np.all(pts[:, 3] <= 23.0 + 1e-4)
     assert counts == {"/balance_space/with_thrust": s["with_thrust"]["cells"],
                       "/balance_space/without_thrust": s["without_thrust"]["cells"]}
+    (cells,) = [m[2] for m in msgs if m[0] == "/balance_space/cells"]
+    assert [len(m.points) for m in cells.markers] == [counts["/balance_space/with_thrust"],
+                                                       counts["/balance_space/without_thrust"]]
     png = (swept / "j1" / "balance_space.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20000
 
