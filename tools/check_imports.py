@@ -29,6 +29,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("verify",),  # independent re-checks of written files
     ("pipeline",),  # input file to checked output folder
     ("studies",),  # comparisons, curves, sweeps, batches
+    ("viewer",),  # written folders shown in Rerun (jethr1 view)
     ("cli",),  # the command line
 ]
 

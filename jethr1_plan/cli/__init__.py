@@ -20,6 +20,7 @@ from jethr1_plan.cli.reach import reach_cmd
 from jethr1_plan.cli.robot import robot
 from jethr1_plan.cli.simulate import simulate_cmd
 from jethr1_plan.cli.verify import verify
+from jethr1_plan.cli.view import view_cmd
 from jethr1_plan.cli.walk import walk_cmd, walk_sweep_cmd
 from jethr1_plan.errors import Jethr1Error
 
@@ -34,7 +35,7 @@ def main() -> None:
 
 
 for _command in (robot, plan, balance_space, batch, verify, compare_cmd, reach_cmd, ditch_curve_cmd, simulate_cmd,
-                 walk_cmd, walk_sweep_cmd):
+                 walk_cmd, walk_sweep_cmd, view_cmd):
     main.add_command(_command)
 
 

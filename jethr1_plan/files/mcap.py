@@ -145,7 +145,8 @@ class Ros2Mcap:
         return self._buf.getvalue()
 
 
-def read_mcap(data: bytes, topics: Iterable[str] | None = None, ordered: bool = True) -> list[tuple[str, str, Any, int]]:
+def read_mcap(data: bytes, topics: Iterable[str] | None = None,
+              ordered: bool = True) -> list[tuple[str, str, Any, int]]:
     """The messages of a ROS 2 MCAP (of ``topics``, else all), in log-time order (``ordered``; else in
     the file's order, which the writer makes the same, and a third faster): (topic, type name,
     the message decoded by ``mcap_ros2`` from the definitions stored in the file, log time [ns]);
