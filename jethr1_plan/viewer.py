@@ -152,8 +152,9 @@ def record(rec: Any, found: ViewFiles) -> None:
     rec.send_blueprint(_blueprint(found.kind, scene))
 
 
-def _seconds(log_ns: list[int]) -> np.ndarray:
-    return (np.asarray(log_ns, dtype=np.int64) - EPOCH_NS) / 1e9
+def _since_start(log_ns: list[int]) -> np.ndarray:
+    """Times from the start of log times [ns], exactly (as numpy durations)."""
+    return (np.asarray(log_ns, dtype=np.int64) - EPOCH_NS).astype("timedelta64[ns]")
 
 
 def _log_file(rec: Any, messages: list, prefix: str, scene: _Scene) -> None:
@@ -224,7 +225,7 @@ def _transforms(rec: Any, path: str, times: list[int], msgs: list, prefix: str, 
             rec.log(entity, rr.Transform3D(translation=s["translation"][-1], quaternion=s["quaternion"][-1],
                                            parent_frame=s["parent"][-1], child_frame=child), static=True)
             continue
-        rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=_seconds(s["t"]))],
+        rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=_since_start(s["t"]))],
                          columns=rr.Transform3D.columns(translation=s["translation"], quaternion=s["quaternion"],
                                                         parent_frame=s["parent"], child_frame=[child] * len(s["t"])))
 
@@ -242,7 +243,7 @@ def _poses(rec: Any, path: str, times: list[int], msgs: list, prefix: str, scene
     color = _POINT_COLORS.get(topic, (200, 200, 200))
     scene.points.append(xyz)
     rec.log(path, _world(rr), rr.Points3D.from_fields(radii=0.012, colors=[color]), static=True)
-    rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=_seconds(times))],
+    rec.send_columns(path, indexes=[rr.TimeColumn(TIMELINE, duration=_since_start(times))],
                      columns=rr.Points3D.columns(positions=xyz))
     if len(xyz) > 1:
         rec.log(f"{path}_path", _world(rr), rr.LineStrips3D([xyz], radii=0.002, colors=[(*color, 110)]), static=True)
@@ -286,7 +287,7 @@ def _plot(rec: Any, entity: str, times: list[int], values: np.ndarray, name: str
           scene: _Scene, width: float = 1.5) -> None:
     rr = _rerun()
     rec.log(entity, rr.SeriesLines(names=name, colors=[color], widths=width), static=True)
-    rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=_seconds(times))],
+    rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=_since_start(times))],
                      columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=float)))
     scene.plots.add(entity.split("/")[2])
 

@@ -22,3 +22,26 @@ def reference(robot):
     from tests.oracles.urdf_reference import UrdfReference
 
     return UrdfReference(robot.urdf_path)
+
+
+@pytest.fixture(scope="session")
+def written(tmp_path_factory) -> dict[str, Path]:
+    """One folder of each kind jethr1 writes MCAP files into, written by the commands themselves:
+    ``plan`` (the side step, with its feed-forward rehearsal's simulation.mcap), ``walk`` (two steps
+    of the DYROS walk, not rehearsed) and ``balance_space`` (Jet-HR1's right support, 10 cm grid)."""
+    import yaml
+
+    from jethr1_plan.cli import run
+
+    out = tmp_path_factory.mktemp("written")
+    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
+    assert run(["simulate", str(out / "side_step"), "--no-progress"]) == 0
+    doc = yaml.safe_load((ROOT / "configs" / "walks" / "dyros_walk.yaml").read_text())
+    doc["footsteps"]["count"] = 2
+    doc["name"] = "two_steps"
+    walk = out / "two_steps.yaml"
+    walk.write_text(yaml.safe_dump(doc))
+    assert run(["walk", str(walk), "-o", str(out), "--no-rehearse"]) == 0
+    assert run(["balance-space", "--resolution", "0.1", "-j", "1", "-o", str(out / "balance_space"),
+                "--no-progress"]) == 0
+    return {"plan": out / "side_step", "walk": out / "two_steps", "balance_space": out / "balance_space"}
