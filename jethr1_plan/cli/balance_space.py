@@ -91,4 +91,8 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                       f"sideways {metres(w['max_sideways_m'])}), {wo['cells']} without (forward "
                       f"{metres(wo['max_forward_m'])}, sideways {metres(wo['max_sideways_m'])}) "
                       f"in {doc['wall_s']:.1f} s; wrote {outdir}/")
+    from jethr1_plan.cli.plan import BALANCE_SPACE_LAYOUT
+
+    err_console.print(f"Foxglove/Lichtblick: open balance_space.mcap and import the layout {BALANCE_SPACE_LAYOUT}; "
+                      f"Rerun: jethr1 view {outdir}", markup=False)
 

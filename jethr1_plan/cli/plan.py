@@ -15,10 +15,12 @@ from jethr1_plan.errors import InfeasiblePlan
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
 
-__all__ = ["LAYOUT", "plan"]
+__all__ = ["BALANCE_SPACE_LAYOUT", "LAYOUT", "WALK_LAYOUT", "plan"]
 
 
 LAYOUT = Path(__file__).resolve().parents[1] / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
+WALK_LAYOUT = LAYOUT.with_name("foxglove_walk_layout.json")  # a walk: robot, footsteps, yaw, momentum, ZMP margin
+BALANCE_SPACE_LAYOUT = LAYOUT.with_name("foxglove_balance_space_layout.json")  # cells coloured by least thrust
 
 
 
@@ -97,6 +99,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
                      f"{at['row']}, t = {at['time_s']:.2f} s)")
         c.print(line)
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
-    c.print(f"Foxglove: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
-            "file's /robot_description; its rehearsal, simulation.mcap, plays beside it)", markup=False)
+    c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
+            "file's /robot_description; its rehearsal, simulation.mcap, plays beside it); Rerun: jethr1 view "
+            f"{folder}", markup=False)
 

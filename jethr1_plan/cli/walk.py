@@ -83,6 +83,10 @@ def _report_walk(s: dict, folder: Path) -> None:
         c.print(f"MuJoCo twin: survived, trunk tilt at most {r['max_trunk_tilt_deg']:.2f} deg, soles "
                 f"{1000 * r['landing_error_m']:.1f} mm from their last footholds")
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json, yaw.png, momentum.png, kappa.png")
+    from jethr1_plan.cli.plan import WALK_LAYOUT
+
+    c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {WALK_LAYOUT}; Rerun: jethr1 view "
+            f"{folder}", markup=False)
 
 
 @click.command("walk-sweep")
