@@ -27,7 +27,7 @@ demo: install
 	$(BIN)/jethr1 plan configs/jet_hr1_trial_robust.yaml -o out
 	$(BIN)/jethr1 simulate out/jet_hr1_trial_robust --controller feedback
 	@echo "Foxglove/Lichtblick: open out/jet_hr1_trial_robust/trajectory.mcap and simulation.mcap together, and import the layout"
-	@$(BIN)/python -c "import importlib; print(importlib.import_module('jethr1_plan.cli.plan').LAYOUT)"
+	@$(BIN)/python -c "from jethr1_plan.cli.plan import LAYOUT; print(LAYOUT)"
 	@echo "Rerun (pip install '.[view]'): $(BIN)/jethr1 view out/jet_hr1_trial_robust [--save plan.rrd]"
 	@echo "ROS 2: ros2 bag play out/jet_hr1_trial_robust/trajectory.mcap (docs/files_and_viewers.md)"
 

@@ -126,14 +126,14 @@ def test_the_docs_print_the_declared_topics():
 def test_the_shipped_layouts_read_what_the_files_have(files, layout, kinds, urdf_topics):
     """Every plot path of a layout (``/topic.field[index]``) resolves to a number on a message of its
     files; its URDF layers and 3D topics are topics the files carry."""
-    import importlib
+    from jethr1_plan.cli.plan import BALANCE_SPACE_LAYOUT, LAYOUT, WALK_LAYOUT
 
-    cli_plan = importlib.import_module("jethr1_plan.cli.plan")  # the module (the package exports the command)
+    shipped = {"LAYOUT": LAYOUT, "WALK_LAYOUT": WALK_LAYOUT, "BALANCE_SPACE_LAYOUT": BALANCE_SPACE_LAYOUT}
     first = {}
     for kind in kinds:
         for topic, _, msg, _ in read_mcap(files[kind].read_bytes()):
             first.setdefault(topic, msg)
-    panels = json.loads(getattr(cli_plan, layout).read_text())["configById"]
+    panels = json.loads(shipped[layout].read_text())["configById"]
     urdf = [v for p in panels.values() for v in p.get("layers", {}).values() if v["layerId"] == "foxglove.Urdf"]
     assert {layer["topic"] for layer in urdf} == urdf_topics
     paths = [p["value"] for name, panel in panels.items() if name.startswith("Plot!") for p in panel["paths"]]
