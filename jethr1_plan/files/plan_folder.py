@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_csv import read_trajectory_csv, trajectory_csv
+from jethr1_plan.files.plan_csv import read_trajectory_csv, table_csv
 from jethr1_plan.files.plan_mcap import read_trajectory_mcap, trajectory_mcap
+from jethr1_plan.files.plan_table import columns, plan_table
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.planning.results import PlanResult
@@ -47,12 +48,13 @@ def write_plan(result: PlanResult, outdir: Path, summary: dict, trajectory: bool
     with staged_directory(final, PLAN_FILES) as staging:
         tmp = staging.path
         if trajectory and result.rows is not None:
-            text = trajectory_csv(result.robot, result.rows)
+            table = plan_table(result.robot, result.rows)  # both files carry this very table
+            text = table_csv(table, columns(result.robot))
             if result.feasible and check is not None:
                 check(text)
             (tmp / "trajectory.csv").write_text(text)
             (tmp / "trajectory.mcap").write_bytes(trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
-                                                                  [st.path_m for st in result.steps]))
+                                                                  [st.path_m for st in result.steps], table))
         (tmp / "summary.json").write_text(json_text(summary))
     return final, staging.kept
 

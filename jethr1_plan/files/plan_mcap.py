@@ -62,10 +62,11 @@ PLAN_TOPICS: dict[str, Topic] = {
 _PER_ROW = ("/joint_states", "/thrust", "/analysis", "/p_body", "/com", "/zmp")
 
 
-def trajectory_mcap(robot: RobotModel, rows: Rows, cartons, paths) -> bytes:
-    """The MCAP bytes of a planned trajectory: the plan's table (the CSV's numbers) with the ZMP at
-    the support sole's height, the cartons and the swing paths."""
-    table = plan_table(robot, rows)
+def trajectory_mcap(robot: RobotModel, rows: Rows, cartons, paths, table: dict[str, np.ndarray] | None = None) -> bytes:
+    """The MCAP bytes of a planned trajectory: the plan's table (the CSV's numbers; ``table`` if the
+    caller has it already) with the ZMP at the support sole's height, the cartons and the swing paths."""
+    if table is None:
+        table = plan_table(robot, rows)
     c = rows.columns
     ground = np.asarray(c["ground_z"], dtype=float) if "ground_z" in c and len(rows) else None
     return table_mcap(robot, table, cartons, paths, ground)
