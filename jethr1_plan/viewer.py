@@ -123,6 +123,7 @@ def view(path: Path, save: Path | None = None) -> str:
     """
     rr = _rerun()
     found = view_files(path)
+    messages = [_read(f) for f, _ in found.files]  # every file decoded before anything is written
     if save is None and not has_display():
         raise InputError(str(path), "", "no display to open a viewer on: save the recording with --save FILE.rrd "
                          "and open it with `rerun FILE.rrd` where there is one")
@@ -131,7 +132,7 @@ def view(path: Path, save: Path | None = None) -> str:
         rec.save(str(save))
     else:
         rec.spawn()
-    record(rec, found)
+    record(rec, found, messages)
     rec.flush()
     if save is not None:
         rec.disconnect()
@@ -142,13 +143,28 @@ def view(path: Path, save: Path | None = None) -> str:
 # --- the recording --------------------------------------------------------------------------------
 
 
-def record(rec: Any, found: ViewFiles) -> None:
-    """Log every file of ``found`` into the recording ``rec``, with a blueprint for its kind."""
+def _read(path: Path) -> list:
+    """Every message of one file (:func:`~jethr1_plan.files.mcap.read_mcap`).
+
+    Raises:
+        InputError: not a ROS 2 MCAP file.
+    """
+    try:
+        return read_mcap(path.read_bytes())
+    except Exception as exc:  # the mcap readers raise many kinds on a corrupt or foreign file
+        raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
+
+
+def record(rec: Any, found: ViewFiles, messages: list[list] | None = None) -> None:
+    """Log every file of ``found`` (its ``messages`` if already read) into the recording ``rec``, with a
+    blueprint for its kind."""
     rr = _rerun()
     rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     scene = _Scene()
-    for path, prefix in found.files:
-        _log_file(rec, read_mcap(path.read_bytes()), prefix, scene)
+    if messages is None:
+        messages = [_read(f) for f, _ in found.files]
+    for (_, prefix), file_messages in zip(found.files, messages, strict=True):
+        _log_file(rec, file_messages, prefix, scene)
     rec.send_blueprint(_blueprint(found.kind, scene))
 
 

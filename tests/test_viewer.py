@@ -102,12 +102,30 @@ def test_without_rerun_without_a_display_or_on_a_wrong_path_one_line_exit_2(writ
         assert run(args) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert not list(tmp_path.iterdir())  # nothing written
+    old = tmp_path / "old"  # a JSON MCAP, as jethr1 wrote before its files were ROS 2 bags
+    old.mkdir()
+    _json_mcap(old / "trajectory.mcap")
+    assert run(["view", str(old), "--save", str(tmp_path / "old.rrd")]) == 2
+    err = capsys.readouterr().err
+    assert "not 'ros2'" in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old"]  # nothing written
     monkeypatch.setitem(sys.modules, "rerun", None)  # as if the extra were not installed
     assert run(["view", str(written["plan"]), "--save", str(tmp_path / "x.rrd")]) == 2
     assert capsys.readouterr().err.strip() == VIEW_EXTRA == \
         "jethr1 view needs the optional extra: pip install 'jethr1-plan[view]'"
     assert not (tmp_path / "x.rrd").exists()
+
+
+def _json_mcap(path) -> None:
+    from mcap.writer import Writer
+
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("jethr1.Thrust", "jsonschema", b'{"type": "object"}')
+        channel = w.register_channel("/thrust", "json", sid)
+        w.add_message(channel, 0, b"{}", 0)
+        w.finish()
 
 
 def test_planning_does_not_import_rerun():

@@ -160,6 +160,9 @@ def read_mcap(data: bytes, topics: Iterable[str] | None = None,
     from mcap_ros2.decoder import DecoderFactory
 
     reader = make_reader(io.BytesIO(data), validate_crcs=True, decoder_factories=[DecoderFactory()])
+    profile = reader.get_header().profile
+    if profile != "ros2":
+        raise ValueError(f"profile {profile!r}, not 'ros2' (written by an older jethr1? write it again)")
     wanted = None if topics is None else list(topics)
     return [(channel.topic, schema.name if schema is not None else "", msg, message.log_time)
             for schema, channel, message, msg in reader.iter_decoded_messages(topics=wanted, log_time_order=ordered)]

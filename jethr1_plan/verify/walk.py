@@ -228,7 +228,7 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
         data = path.read_bytes()
         messages = read_mcap(data, ["/joint_states"])
     except Exception as exc:  # any corrupt MCAP is bad input, not a bug
-        raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__})") from None
+        raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
     states = [(m, ns) for _, _, m, ns in messages]
     if len(states) != len(q):
         fail([min(len(states), len(q)) - 1 if min(len(states), len(q)) else 0], "MCAP",
