@@ -22,3 +22,13 @@ def reference(robot):
     from tests.oracles.urdf_reference import UrdfReference
 
     return UrdfReference(robot.urdf_path)
+
+
+@pytest.fixture(scope="session")
+def side_step_plan(tmp_path_factory):
+    """configs/side_step.yaml planned once (a plan folder to copy and tamper with; do not edit it)."""
+    from jethr1_plan.cli import run
+
+    out = tmp_path_factory.mktemp("side_step_plan")
+    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
+    return out / "side_step"

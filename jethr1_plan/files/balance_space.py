@@ -10,10 +10,12 @@ import numpy as np
 
 from jethr1_plan.balance_space.sweep import SweepResult
 from jethr1_plan.files.mcap import SCHEMAS, pose_message, scene_entity, stamp, vector3
+from jethr1_plan.io.csv_table import csv_text
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import message
 
 __all__ = [
+    "BALANCE_SPACE_COLUMNS",
     "FLOAT32",
     "POINT_CLOUD_SCHEMA",
     "balance_space_csv",
@@ -41,24 +43,26 @@ POINT_CLOUD_SCHEMA = {
 FLOAT32 = 7
 
 
+#: the columns of balance_space.csv
+BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
+                         "pelvis_yaw_rad", "reason")
+
+
 def balance_space_csv(r: SweepResult) -> str:
     """x_m, y_m, z_m, min_thrust_n (empty outside the space with thrust), best pelvis, reason."""
-    out = io.StringIO()
-    out.write("x_m,y_m,z_m,min_thrust_n,pelvis_x_m,pelvis_y_m,pelvis_z_m,pelvis_yaw_rad,reason\n")
     member = r.with_thrust
-    for i in range(len(r.swing)):
+
+    def row(i: int) -> list[str]:
         x, y, z = r.swing[i]
         if member[i]:
             p = r.p_body[i]
-            vals = [num(r.thrust[i]), num(p[0]), num(p[1]), num(p[2]), num(r.yaw[i])]
-            reason = ""
-        else:
-            vals = ["", "", "", "", ""]
-            reason = message(r.reason[i])
-            if np.isfinite(r.thrust[i]):
-                reason += f" ({r.thrust[i]:.2f} N needed)"
-        out.write(f"{num(x)},{num(y)},{num(z)},{','.join(vals)},{reason}\n")
-    return out.getvalue()
+            return [num(x), num(y), num(z), num(r.thrust[i]), num(p[0]), num(p[1]), num(p[2]), num(r.yaw[i]), ""]
+        reason = message(r.reason[i])
+        if np.isfinite(r.thrust[i]):
+            reason += f" ({r.thrust[i]:.2f} N needed)"
+        return [num(x), num(y), num(z), "", "", "", "", "", reason]
+
+    return csv_text(BALANCE_SPACE_COLUMNS, (row(i) for i in range(len(r.swing))))
 
 
 def point_cloud(points: np.ndarray, thrust: np.ndarray) -> dict:
