@@ -16,7 +16,7 @@ Every command writes its output through :func:`staged_directory` (a set of files
   folder is left where it is and named in :attr:`Staging.kept`.
 * **No half set.** SIGINT and SIGTERM that arrive during the commit are held until it ends; a run that
   fails or is interrupted before it removes its staging folder. Staging folders of runs that were
-  killed (their process is gone) are cleared by the next run into the same place: jethr1's own
+  killed (their process on this machine is gone) are cleared by the next run into the same place: jethr1's own
   files in them are removed, anything else is left (and reported) rather than deleted.
 * **Usual modes.** Files are written ``0666 & ~umask`` (``0644`` under the usual umask), folders
   ``0777 & ~umask``.
@@ -27,9 +27,11 @@ Every command writes its output through :func:`staged_directory` (a set of files
 from __future__ import annotations
 
 import errno
+import hashlib
 import os
 import shutil
 import signal
+import socket
 import tempfile
 import threading
 from collections.abc import Iterator
@@ -43,7 +45,7 @@ from jethr1_plan.errors import InputError
 __all__ = ["STAGING_PREFIX", "Staging", "check_writable", "clean_stale", "committed", "deferred_signals",
            "nearest_existing", "note_committed", "staged_directory", "write_bytes_atomic", "write_text_atomic"]
 
-STAGING_PREFIX = ".jethr1-tmp-"  # + "<pid>-<random>": a staging folder of the process <pid>
+STAGING_PREFIX = ".jethr1-tmp-"  # + "<pid>-<host>-<random>": a staging folder of process <pid> on machine <host>
 _OLD_PREFIXES = (".tmp-", ".old-")  # staging folders of earlier versions: ".<name>.tmp-<pid>-…", ".<name>.old-<pid>-…"
 _COMMITTED: list[Path] = []  # every output committed by this process, in order (the interrupt message names them)
 
@@ -153,10 +155,19 @@ class Staging:
     kept: list[str] = field(default_factory=list)
 
 
-def _pid_of(rest: str) -> int | None:
-    """The process id at the start of a staging folder's name after its prefix, or None."""
-    pid = rest.split("-", 1)[0]
-    return int(pid) if pid.isdigit() else None
+def _host() -> str:
+    """This machine, as 8 hex digits (a shared folder may hold the staging folders of other machines,
+    whose processes this one cannot see)."""
+    return hashlib.sha1(socket.gethostname().encode()).hexdigest()[:8]
+
+
+def _pid_of(rest: str, host: bool) -> int | None:
+    """The process id at the start of a staging folder's name after its prefix (and, with ``host``,
+    only where this machine made it), or None."""
+    parts = rest.split("-", 2)
+    if host and (len(parts) < 3 or parts[1] != _host()):
+        return None
+    return int(parts[0]) if parts[0].isdigit() else None
 
 
 def _alive(pid: int) -> bool:
@@ -205,7 +216,7 @@ def clean_stale(places: list[Path], own: frozenset[str] = frozenset(), final_nam
                 (p for p in old if name.startswith(p)), None)
             if prefix is None or not entry.is_dir() or entry.is_symlink():
                 continue
-            pid = _pid_of(name[len(prefix):])
+            pid = _pid_of(name[len(prefix):], host=prefix == STAGING_PREFIX)
             if pid is None or pid == os.getpid() or _alive(pid):
                 continue
             if prefix == STAGING_PREFIX:
@@ -232,7 +243,7 @@ def staged_directory(final: Path, own: frozenset[str] = frozenset()) -> Iterator
         raise InputError(str(final), "", f"{base} is not a folder")
     left = clean_stale([base, final.parent, final], own, final.name)
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-", dir=base))
+        tmp = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-{_host()}-", dir=base))
         os.chmod(tmp, 0o777 & ~_umask())
     except OSError as exc:
         raise InputError(str(final), "", f"cannot write in {base}: {_os_problem(exc)}") from None

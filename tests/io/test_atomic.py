@@ -152,21 +152,24 @@ def test_stale_staging_folders_are_cleared_but_never_a_users_file(tmp_path):
     final = tmp_path / "plan"
     final.mkdir()
     dead = 2**22 + 12345  # above the usual pid_max: no such process
-    mine = tmp_path / f"{STAGING_PREFIX}{dead}-abc"  # this version's: only jethr1's files, removed whole
+    host = atomic._host()
+    mine = tmp_path / f"{STAGING_PREFIX}{dead}-{host}-abc"  # this version's: only jethr1's files, removed whole
     (mine / "plan").mkdir(parents=True)
     (mine / "plan" / "a.csv").write_text("half")
-    inside = final / f"{STAGING_PREFIX}{dead}-def"
+    inside = final / f"{STAGING_PREFIX}{dead}-{host}-def"
+    elsewhere = final / f"{STAGING_PREFIX}{dead}-0000beef-xyz"  # another machine's (a shared folder): not touched
+    elsewhere.mkdir()
     inside.mkdir()
     (inside / "a.csv").write_text("half")
     old = tmp_path / f".plan.tmp-{dead}-ghi"  # an earlier version moved the user's notes into its staging folder
     old.mkdir()
     (old / "a.csv").write_text("half")
     (old / "notes.txt").write_text("mine")
-    alive = tmp_path / f"{STAGING_PREFIX}{os.getppid()}-jkl"  # a live process's: not touched
+    alive = tmp_path / f"{STAGING_PREFIX}{os.getppid()}-{host}-jkl"  # a live process's: not touched
     alive.mkdir()
     left = clean_stale([tmp_path, final], OWN, "plan")
     assert left == [old]
-    assert not mine.exists() and not inside.exists() and alive.exists()
+    assert not mine.exists() and not inside.exists() and alive.exists() and elsewhere.exists()
     assert sorted(p.name for p in old.iterdir()) == ["notes.txt"]
     with staged_directory(final, OWN) as staging:  # a run reports what it left
         (staging.path / "a.csv").write_text("1")
