@@ -56,7 +56,7 @@ def _in_mount(tmp_path, args: list[str], size: str = "20m", readonly: bool = Fal
                           timeout=300)
     err = proc.stderr
     codes = [int(line.split("=")[1]) for line in err.splitlines() if line.startswith("__exit=")]
-    left = [line.split("=", 1)[1].split() for line in err.splitlines() if line.startswith("__left=")][0]
+    left = next(line.split("=", 1)[1].split() for line in err.splitlines() if line.startswith("__left="))
     text = "\n".join(ln for ln in err.splitlines() if not ln.startswith(("__", "mine")))
     return codes, text, sorted(left), "mine" in err.splitlines()
 
@@ -97,7 +97,8 @@ def test_a_full_stdout_is_one_line(tmp_path):
 def test_a_closed_stdout_is_one_line():
     r, w = os.pipe()
     os.close(r)
-    proc = subprocess.run([*JETHR1, "robot", "show", "--json"], stdout=w, stderr=subprocess.PIPE, text=True, timeout=120)
+    proc = subprocess.run([*JETHR1, "robot", "show", "--json"], stdout=w, stderr=subprocess.PIPE, text=True,
+                          timeout=120)
     os.close(w)
     assert proc.returncode == 2 and _one_line(proc.stderr) == "jethr1: cannot write to stdout: Broken pipe"
 
