@@ -41,13 +41,13 @@ def _load(walk_path: Path, rehearse: bool | None):
 def walk_cmd(walk_path: Path, outdir: Path, as_json: bool, rehearse: bool | None, write_infeasible: bool) -> None:
     """Walk WALK.yaml (Paper B): CoM by MPC, pelvic rotation by look-ahead MPC, QP IK, arm swing; write
     trajectory.csv, trajectory.mcap, summary.json and the yaw, momentum and κ figures."""
-    from jethr1_plan.files.walk_folder import write_walk_outputs
+    from jethr1_plan.files.walk_folder import walk_folder, write_walk_outputs
     from jethr1_plan.io.atomic import check_writable
     from jethr1_plan.pipeline.walk import run_walk
     from jethr1_plan.walking.result import walk_summary
 
     spec = _load(walk_path, rehearse)
-    check_writable(outdir)
+    check_writable(walk_folder(outdir, spec.source))
     with err_console.status(f"walking {spec.name}", spinner="dots") if err_console.is_terminal else nullcontext():
         result = run_walk(spec)
     summary = walk_summary(result)

@@ -56,6 +56,8 @@ def run_scenario(path: str, outdir: str) -> dict:
     except InfeasiblePlan as exc:
         summary = exc.summary or {}
         infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
+    except InputError as exc:  # its folder cannot be written (a file in the way, a full disk)
+        return {**record, "status": "bad input", "error": str(exc), "exit_code": 2}
     except (Exception, SelfCheckFailed) as exc:  # a bug in one scenario must not lose every other scenario's result
         return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
                 "exit_code": 1}
