@@ -230,10 +230,14 @@ def load_scenario_text(text: str, src: str) -> Scenario:
 
 
 def _build(doc: dict, src: str, robot) -> Scenario:
+    if not robot.fans:
+        raise InputError(src, "robot", f"{robot.name} has no fans: a plan steps with thrust (Paper A); walks without "
+                         "fans are jethr1 walk's")
     sole_l, sole_w = robot.sole_length_m, robot.sole_width_m
     terrain = doc.get("terrain", {})
     size = tuple(terrain.get("carton_size_m", DEFAULT_CARTON_M))
     cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c.get("size_m", size))) for c in terrain.get("cartons", []))
+    _check_overlaps(cartons, src)
 
     def on_terrain(p: np.ndarray) -> bool:
         if not cartons:
@@ -273,6 +277,14 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         other = feet[other_side(swing)]
         if np.linalg.norm(landing[:2] - other[:2]) < sole_w:
             raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
+        span = 2 * (robot.leg_length_m + robot.hip_offset_m)  # both legs straight, hips side by side
+        far = np.flatnonzero(np.linalg.norm(pts - other, axis=1) > span)
+        if len(far):
+            k = len(pts) - 1 if far[-1] == len(pts) - 1 else int(far[0])  # the landing first: that is what was typed
+            raise InputError(src, f"{key}.{'landing_m' if k == len(pts) - 1 else 'path'}", "out of reach: the swing "
+                             f"sole at {np.round(pts[k], 4).tolist()} m is {np.linalg.norm(pts[k] - other):.3f} m from "
+                             f"the support sole; {robot.name}'s legs span at most {span:.3f} m (2 x (leg "
+                             f"{robot.leg_length_m:g} m + hip offset {robot.hip_offset_m:g} m))")
         hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None
         if hit is not None:
             seg, pos, k = hit
@@ -299,7 +311,7 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         raise InputError(src, "optimiser.gaex", "more than 50 steps per half width (a cube of over 1 million postures "
                          "per sample)")
     bal = dict(doc.get("balance", {}))
-    fan_max = max(f.max_thrust_n for f in robot.fans)  # the limit caps every fan; by default none is capped
+    fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)  # the limit caps every fan; by default none
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")
@@ -318,6 +330,20 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
         body_yaw=fill_dataclass(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
         nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
+
+
+def _check_overlaps(cartons: tuple[Carton, ...], src: str) -> None:
+    """Refuse two cartons that share space (touching faces are fine: a stack, a row)."""
+    lo = np.array([[c.top_centre_m[0] - c.size_m[0] / 2, c.top_centre_m[1] - c.size_m[1] / 2,
+                    c.top_centre_m[2] - c.size_m[2]] for c in cartons]).reshape(-1, 3)
+    hi = np.array([[c.top_centre_m[0] + c.size_m[0] / 2, c.top_centre_m[1] + c.size_m[1] / 2, c.top_centre_m[2]]
+                   for c in cartons]).reshape(-1, 3)
+    for k in range(1, len(cartons)):
+        depth = np.minimum(hi[k], hi[:k]) - np.maximum(lo[k], lo[:k])  # (k, 3) overlap along each axis
+        clash = np.flatnonzero(np.all(depth > 1e-9, axis=1))
+        if len(clash):
+            raise InputError(src, f"terrain.cartons[{k}]", f"overlaps carton {clash[0]} "
+                             f"({1000 * float(np.min(depth[clash[0]])):.1f} mm deep): two cartons cannot share space")
 
 
 #: the YAML's names of a Tolerance's fields (``balance.robust``)

@@ -45,3 +45,13 @@ def written(tmp_path_factory) -> dict[str, Path]:
     assert run(["balance-space", "--resolution", "0.1", "-j", "1", "-o", str(out / "balance_space"),
                 "--no-progress"]) == 0
     return {"plan": out / "side_step", "walk": out / "two_steps", "balance_space": out / "balance_space"}
+
+
+@pytest.fixture(scope="session")
+def side_step_plan(tmp_path_factory):
+    """configs/side_step.yaml planned once (a plan folder to copy and tamper with; do not edit it)."""
+    from jethr1_plan.cli import run
+
+    out = tmp_path_factory.mktemp("side_step_plan")
+    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
+    return out / "side_step"

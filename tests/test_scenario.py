@@ -77,6 +77,18 @@ BAD = {
     "margin eats the sole": (lambda d: d["balance"].update(sole_margin_m=0.05), "balance.sole_margin_m",
                              "no support polygon"),
     "missing steps": (lambda d: d.pop("steps"), "steps", "missing"),
+    "a rate of 0": (lambda d: d["timing"].update(rate_hz=0), "timing.rate_hz", "0: must be more than 0"),
+    "a landing 1.5 m ahead": (lambda d: (d["terrain"]["cartons"].append({"top_centre_m": [1.5, -0.1125, 0.0]}),
+                                         d["steps"][0].update(landing_m=[1.5, -0.1125, 0.0])),
+                              "steps[0].landing_m", "out of reach: the swing sole at [1.5, -0.1125, 0.0] m is 1.500 m "
+                              "from the support sole; jethr1's legs span at most 1.120 m"),
+    "a path beyond the legs": (lambda d: d["steps"][0].update(path={"kind": "points", "points_m": [
+        [0.0, 0.1125, 0.0], [0.3, 0.0, 1.2], [0.615, -0.1125, 0.0]]}), "steps[0].path", "out of reach"),
+    "two cartons in one place": (lambda d: d["terrain"]["cartons"].append({"top_centre_m": [0.6, -0.1, 0.0]}),
+                                 "terrain.cartons[3]", "overlaps carton 2 (97.5 mm deep)"),
+    "a carton inside another": (lambda d: d["terrain"]["cartons"].append({"top_centre_m": [0.635, -0.1125, -0.05],
+                                                                          "size_m": [0.05, 0.05, 0.05]}),
+                                "terrain.cartons[3]", "overlaps carton 2"),
     "swing foot name": (lambda d: d["steps"][0].update(swing="middle"), "steps[0].swing", "middle"),
 }
 
@@ -166,6 +178,14 @@ def test_a_long_value_is_not_printed(tmp_path, capsys):
                                     lambda d: d["timing"].update(rate_hz=1e9)], ids=["samples", "rate"])
 def test_absurd_numbers_are_quick(tmp_path, capsys, mutate):
     _timed_exit_2(["plan", str(_variant(tmp_path, mutate)), "-o", str(tmp_path / "o"), "--no-progress"], capsys)
+
+
+def test_cartons_that_touch_are_fine(tmp_path):
+    """A row of cartons side by side and a stack share faces, not space."""
+    path = _variant(tmp_path, lambda d: d["terrain"]["cartons"].extend([
+        {"top_centre_m": [0.635, 0.0025, 0.0]},  # beside carton B (0.11 m wide): faces touch
+        {"top_centre_m": [0.635, -0.1125, -0.14]}]))  # under carton B (0.14 m high): a stack
+    assert len(load_scenario(path).cartons) == 5
 
 
 def test_schema_and_dataclasses_state_the_same_keys():

@@ -120,7 +120,7 @@ class SweepSpec:
         if self.support_xyz is None:
             object.__setattr__(self, "support_xyz", tuple(float(v) for v in self.model.start_feet()[self.support_side]))
         if self.thrust_max_n is None:
-            object.__setattr__(self, "thrust_max_n", max(f.max_thrust_n for f in self.model.fans))
+            object.__setattr__(self, "thrust_max_n", max((f.max_thrust_n for f in self.model.fans), default=0.0))
 
     @property
     def model(self) -> RobotModel:
@@ -365,10 +365,9 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
     chunks = [tuple(float(z) for z in zs[k:k + LAYERS_PER_TASK]) for k in range(0, len(zs), LAYERS_PER_TASK)]
     tasks = [delayed(sweep_layers)(spec, chunk) for chunk in chunks]
     if executor == "dask":
-        from distributed import Client
+        from jethr1_plan.io.cluster import dask_client
 
-        with Client(scheduler) if scheduler else Client(processes=True, n_workers=jobs, threads_per_worker=1) as _c, \
-                parallel_config(backend="dask"):
+        with dask_client(scheduler, jobs), parallel_config(backend="dask"):
             layers = list(Parallel()(tasks))
     elif jobs == 1:
         layers = []

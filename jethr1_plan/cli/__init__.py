@@ -7,12 +7,15 @@ JSON document on stdout.
 
 from __future__ import annotations
 
+import errno
+import os
 import sys
 
 import click
 
 from jethr1_plan.cli.balance_space import balance_space
 from jethr1_plan.cli.batch import batch
+from jethr1_plan.cli.common import StdoutError
 from jethr1_plan.cli.compare import compare_cmd
 from jethr1_plan.cli.ditch_curve import ditch_curve_cmd
 from jethr1_plan.cli.plan import plan
@@ -43,10 +46,11 @@ def run(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map expected failures to exit codes (no traceback)."""
     try:
         rv = main.main(args=argv, prog_name="jethr1", standalone_mode=False)
+        sys.stdout.flush()
         if isinstance(rv, int):  # click returns an Exit's code instead of raising it here
             return rv
     except click.exceptions.Exit as exc:
-        return int(exc.exit_code)
+        return _flushed(int(exc.exit_code))
     except click.ClickException as exc:  # usage: one line, as every other bad input
         ctx = getattr(exc, "ctx", None)
         where = f"jethr1 {ctx.command_path.split(' ', 1)[1]}" if ctx is not None and " " in ctx.command_path \
@@ -54,17 +58,65 @@ def run(argv: list[str] | None = None) -> int:
         print(f"{where}: {exc.format_message()}".replace("\n", " "), file=sys.stderr)
         return 2
     except (click.exceptions.Abort, KeyboardInterrupt):
+        done = _written()
         if _TERMINATED:
-            print("jethr1: terminated (SIGTERM); workers stopped, nothing written", file=sys.stderr)
+            print(f"jethr1: terminated (SIGTERM); workers stopped, {done}", file=sys.stderr)
             return 143
-        print("jethr1: interrupted; workers stopped, nothing written", file=sys.stderr)
+        print(f"jethr1: interrupted; workers stopped, {done}", file=sys.stderr)
         return 130
+    except StdoutError as exc:
+        return _stdout_failed(exc.error)
     except Jethr1Error as exc:
         message = str(exc).replace("\n", " ")
         print(f"jethr1: {message}", file=sys.stderr)
-        return exc.exit_code
+        return _flushed(exc.exit_code)
+    except OSError as exc:
+        if not _stdout_error(exc):
+            raise
+        return _stdout_failed(exc)
     return 0
 
+
+def _written() -> str:
+    """What an interrupted run leaves: the outputs it completed, else nothing."""
+    from jethr1_plan.io.atomic import committed
+
+    done = list(dict.fromkeys(str(p) for p in committed()))
+    if not done:
+        return "nothing written"
+    return f"complete before the interrupt: {', '.join(done[:5])}{' and more' if len(done) > 5 else ''}; " \
+           "nothing half-written"
+
+
+def _stdout_error(exc: OSError) -> bool:
+    """An error writing stdout (a closed pipe, a full device), not one of a file."""
+    return isinstance(exc, BrokenPipeError) or (exc.errno in (errno.ENOSPC, errno.EIO, errno.EPIPE)
+                                                and exc.filename is None)
+
+
+def _stdout_failed(exc: OSError) -> int:
+    """One line on stderr for a stdout that cannot be written; exit 2. Python's own flush at exit is
+    sent to /dev/null so that it does not print a second message."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    from jethr1_plan.io.atomic import committed
+
+    done = committed()
+    files = f" (the files are written: {', '.join(dict.fromkeys(map(str, done)))})" if done else ""
+    print(f"jethr1: cannot write to stdout: {exc.strerror or exc}{files}", file=sys.stderr)
+    return 2
+
+
+def _flushed(code: int) -> int:
+    """``code``, or 2 where stdout cannot take what was printed."""
+    try:
+        sys.stdout.flush()
+    except OSError as exc:
+        return _stdout_failed(exc)
+    return code
 
 
 class Terminated(KeyboardInterrupt):
@@ -87,5 +139,9 @@ def entry() -> None:
     import signal
 
     signal.signal(signal.SIGTERM, _on_sigterm)
+    # the worker pools' resource tracker (a process of its own) warns of "leaked semlock objects" when
+    # an interrupt ends the pool; it cleans them up all the same: keep its warning off the terminal
+    os.environ["PYTHONWARNINGS"] = ",".join(filter(None, (os.environ.get("PYTHONWARNINGS"),
+                                                          "ignore:resource_tracker:UserWarning")))
     sys.exit(run())
 

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
 
 import click
 from rich.table import Table
 
-from jethr1_plan.cli.common import (
-    Progress,
-    err_console,
-    require_dask,
-)
+from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, require_dask
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.json_text import json_text
 
@@ -42,12 +39,19 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     stems = [p.stem for p in paths]
     if len(set(stems)) != len(stems):
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
-    require_dask(executor)
+    require_dask(executor, scheduler)
     from jethr1_plan.io.atomic import check_writable
 
     check_writable(outdir)
-    with Progress(not no_progress, "batch") as progress:
-        records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    jobs = cap_jobs(jobs)
+    started = time.time()
+    try:
+        with Progress(not no_progress, "batch") as progress:
+            records = run_batch(paths, outdir, jobs=jobs, executor=executor, scheduler=scheduler,
+                                progress=progress)
+    except KeyboardInterrupt:
+        _note_written(outdir, stems, started)
+        raise
     code = batch_exit_code(records)
     doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
         "max_thrust_n": (r.get("summary") or {}).get("max_thrust_n"),
@@ -56,7 +60,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
         "wall_s": (r.get("summary") or {}).get("wall_s")} for r in records]}
     write_text_atomic(outdir / "summary.json", json_text(doc))
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
     t = Table(title=f"batch: {len(records)} scenarios -> {outdir}")
     for col in ("scenario", "status", "max thrust [N]", "mean [N]", "wall [s]", "expectations"):
         t.add_column(col)
@@ -73,3 +77,17 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     if code:
         raise click.exceptions.Exit(code)
 
+
+
+def _note_written(outdir: Path, stems: list[str], since: float) -> None:
+    """Name, for the interrupt message, the scenario folders this batch completed (their worker
+    processes wrote them) before it was interrupted; the batch's summary.json is not written."""
+    from jethr1_plan.io.atomic import note_committed
+
+    for stem in stems:
+        summary = Path(outdir) / stem / "summary.json"
+        try:
+            if summary.stat().st_mtime >= since:
+                note_committed(summary.parent)
+        except OSError:
+            pass

@@ -7,11 +7,8 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from jethr1_plan.cli.common import (
-    Progress,
-    err_console,
-)
-from jethr1_plan.errors import InputError
+from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_json
+from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
 
@@ -24,7 +21,7 @@ __all__ = ["compare_cmd"]
               help="Write compare.json and the figures here (default: out/compare/<scenario stem>).")
 @click.option("--methods", default=None,
               help="Comma-separated optimisers [default: gas,ga,gaex,sqp; with --pareto gas,sqp].")
-@click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
+@click.option("--seed", type=SEED, help="Override the scenario's seed.")
 @click.option("--reference", is_flag=True, help="Also solve every sample exhaustively and report optimality gaps.")
 @click.option("--yaw-modes", default="eq4", show_default=True,
               help="Comma-separated body-yaw modes (eq4, mpc, ...); later ones are reported as method+mode.")
@@ -42,11 +39,13 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     from jethr1_plan.scenario import load_scenario
     from jethr1_plan.studies.compare import compare, comparison_pngs
 
-    methods = methods or ("gas,sqp" if pareto else "gas,ga,gaex,sqp")
+    methods = ("gas,sqp" if pareto else "gas,ga,gaex,sqp") if methods is None else methods
     names = tuple(m.strip() for m in methods.split(",") if m.strip())
     unknown = [m for m in names if m not in METHODS]
-    if unknown or not names:
-        raise InputError("--methods", ",".join(unknown) or methods, f"unknown optimiser (known: {', '.join(METHODS)})")
+    if unknown:
+        raise InputError("--methods", ",".join(unknown), f"unknown optimiser (known: {', '.join(METHODS)})")
+    if not names or len(set(names)) != len(names):
+        raise InputError("--methods", repr(methods), f"expected distinct optimisers among {', '.join(METHODS)}")
     from jethr1_plan.scenario import YAW_MODES
 
     modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
@@ -56,7 +55,8 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
     from jethr1_plan.io.atomic import check_writable
 
-    check_writable(outdir.parent)
+    check_writable(outdir)
+    jobs = cap_jobs(jobs)
     if pareto:
         _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress)
         return
@@ -69,7 +69,8 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
         for name, data in comparison_pngs(doc).items():
             (tmp / name).write_bytes(data)
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
+
     def fmt(v, digits):
         return "" if v is None else f"{v:.{digits}f}"
 
@@ -88,6 +89,10 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
         t.add_row(*row)
     err_console.print(t)
     err_console.print(f"wrote {outdir}/compare.json, compare_trajectories.png, compare_time.png")
+    infeasible = [name for name, m in doc["methods"].items() if not m["feasible"]]
+    if infeasible:
+        raise InfeasiblePlan(f"{scenario.name}: no feasible plan from {', '.join(infeasible)} (compare.json written "
+                             f"to {outdir}/)")
 
 
 
@@ -102,7 +107,7 @@ def _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress) -> None:
         (staging.path / "pareto.json").write_text(json_text(doc))
         (staging.path / "pareto.png").write_bytes(pareto_png(doc))
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
     t = Table(title=f"{scenario.name}: thrust against smoothness ({doc['policy']} policy, seed {doc['seed']})")
     for col in ("method", "weight", "max F [N]", "mean F [N]", "Σ‖ΔP‖² [m²]", "evaluations", "wall [s]", "front"):
         t.add_column(col, justify="right")
@@ -122,4 +127,8 @@ def _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress) -> None:
                           f"{v['smoothness_m2'][0]:.2e} vs {v['smoothness_m2'][1]:.2e} m², "
                           f"{v['evaluation_factor']:.1f}x fewer evaluations", markup=False)
     err_console.print(f"wrote {outdir}/pareto.json, pareto.png")
+    none = [m for m, pts in doc["fronts"].items() if not any(p["feasible"] for p in pts)]
+    if none:
+        raise InfeasiblePlan(f"{scenario.name}: no weight gives a feasible plan from {', '.join(none)} "
+                             f"(pareto.json written to {outdir}/)")
 

@@ -9,11 +9,7 @@ import click
 import numpy as np
 from rich.table import Table
 
-from jethr1_plan.cli.common import (
-    Progress,
-    err_console,
-    range_spec,
-)
+from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, range_spec
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
@@ -51,7 +47,8 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     from jethr1_plan.io.atomic import check_writable
 
     base = load_scenario(base_path) if base_path else default_base()
-    check_writable(outdir.parent)
+    check_writable(outdir)
+    jobs = cap_jobs(jobs)
     if optimiser:
         base = replace(base, optimiser=replace(base.optimiser, method=optimiser))
     robot = base.robot
@@ -62,7 +59,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
         (tmp / "ditch_curve.json").write_text(json_text(doc))
         (tmp / "ditch_curve.png").write_bytes(curve_png(doc))
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
     t = Table(title=f"widest ditch per tolerance ({doc['optimiser']}, F_max {doc['thrust_max_n']:g} N)")
     for col in ("thrust error", "mass error", "CoM error [m]", "widest gap [m]", "max thrust there [N]"):
         t.add_column(col, justify="right")

@@ -6,13 +6,8 @@ from pathlib import Path
 
 import click
 
-from jethr1_plan.cli.common import (
-    Progress,
-    err_console,
-    report_kept,
-)
+from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_json, report_kept
 from jethr1_plan.errors import InfeasiblePlan
-from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
 
 __all__ = ["BALANCE_SPACE_LAYOUT", "LAYOUT", "WALK_LAYOUT", "plan"]
@@ -29,7 +24,7 @@ BALANCE_SPACE_LAYOUT = LAYOUT.with_name("foxglove_balance_space_layout.json")  #
 @click.option("-o", "--output", "outdir", default="out", show_default=True, type=click.Path(file_okay=False,
               path_type=Path), help="Output directory; files go to OUTDIR/<scenario stem>/.")
 @click.option("--optimiser", type=click.Choice(list(METHODS)), help="Override optimiser.method.")
-@click.option("--seed", type=click.IntRange(min=0), help="Override the scenario's seed.")
+@click.option("--seed", type=SEED, help="Override the scenario's seed.")
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--write-infeasible", is_flag=True,
@@ -47,6 +42,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from dataclasses import replace
 
+    from jethr1_plan.files.plan_folder import plan_folder
     from jethr1_plan.io.atomic import check_writable
     from jethr1_plan.pipeline.plan import plan_to_folder
     from jethr1_plan.scenario import load_scenario
@@ -54,7 +50,8 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     scenario = load_scenario(scenario_path)
     if policy is not None:
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
-    check_writable(outdir)
+    check_writable(plan_folder(outdir, scenario), need_bytes=plan_bytes(scenario))
+    jobs = cap_jobs(jobs)
     try:
         with Progress(not no_progress, scenario.name) as progress:
             result, summary, folder, kept = plan_to_folder(
@@ -66,13 +63,20 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         raise
     report_kept(folder, kept)
     if as_json:
-        click.echo(json_text(summary), nl=False)
+        print_json(summary)
     bad = result.first_infeasible
     if bad is not None:
         raise InfeasiblePlan(f"infeasible: {bad['reason']} (step {bad['step']} {bad['phase']} sample {bad['sample']}); "
                              "trajectory written with infeasible rows marked")
     _report_plan(summary, folder)
 
+
+
+def plan_bytes(scenario) -> int:
+    """A low estimate of the bytes a plan folder takes (its CSV and MCAP hold ~1 kB a row each)."""
+    t = scenario.timing
+    rows = (len(scenario.steps) * (t.swing_s + t.transfer_s) + t.transfer_s) * t.rate_hz
+    return int(1500 * rows)
 
 
 def _report_plan(summary: dict, folder: Path) -> None:

@@ -7,11 +7,8 @@ import math
 import click
 from rich.console import Console
 
-from jethr1_plan.cli.common import (
-    FiniteFloat,
-)
+from jethr1_plan.cli.common import FiniteFloat, print_json, stdout_errors
 from jethr1_plan.errors import InputError
-from jethr1_plan.io.json_text import json_text
 
 __all__ = ["reach_cmd"]
 
@@ -50,8 +47,13 @@ def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as
     if numeric is not None:
         out["numerical"] = numeric
     if as_json:
-        click.echo(json_text(out), nl=False)
+        print_json(out)
         return
+    with stdout_errors():
+        _print_reach(out, fig, numeric)
+
+
+def _print_reach(out: dict, fig, numeric: dict | None) -> None:
     c = Console()
     c.print(f"(B-1) standing, pelvis fixed:    {out['standing_fixed_m']:.4f} m")
     c.print(f"(B-3) kinematic limit:           {out['kinematic_limit_m']:.4f} m")

@@ -6,7 +6,7 @@ import click
 from rich.console import Console
 from rich.table import Table
 
-from jethr1_plan.io.json_text import json_text
+from jethr1_plan.cli.common import print_json, stdout_errors
 
 __all__ = ["robot"]
 
@@ -22,12 +22,18 @@ def robot() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the model summary as JSON on stdout.")
 def robot_show(name: str, as_json: bool) -> None:
     """Mass, height, leg length, joints, fans and sole of robot NAME (a name, folder or YAML path)."""
-    from jethr1_plan.robot.model import load_robot, robot_summary
+    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.summary import robot_summary
 
     summary = robot_summary(load_robot(name))
     if as_json:
-        click.echo(json_text(summary), nl=False)
+        print_json(summary)
         return
+    with stdout_errors():
+        _print_robot(summary)
+
+
+def _print_robot(summary: dict) -> None:
     out = Console()
     out.print(f"[bold]{summary['name']}[/]  {summary['urdf']}")
     out.print(f"mass {summary['mass_kg']:.3f} kg   height {summary['height_m']:.3f} m   "

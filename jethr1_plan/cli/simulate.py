@@ -8,14 +8,12 @@ import click
 import numpy as np
 from rich.table import Table
 
-from jethr1_plan.cli.common import (
-    FiniteFloat,
-    Progress,
-    err_console,
-)
+from jethr1_plan.cli.common import SEED, FiniteFloat, Progress, cap_jobs, check_memory, err_console, print_json
 from jethr1_plan.io.json_text import json_text
 
 __all__ = ["simulate_cmd"]
+
+TRIAL_BYTES = 20_000  # a trial's result held until the end (its measurements, landing errors) [bytes]
 
 
 @click.command("simulate")
@@ -31,7 +29,7 @@ __all__ = ["simulate_cmd"]
 @click.option("--trials", type=click.IntRange(1, 10000), default=None,
               help="Randomised trials instead of one run: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, "
                    "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used).")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed of the trials.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the trials.")
 @click.option("--raw", is_flag=True,
               help="Servos follow the joint columns and fans the thrust columns as written, without the plan's "
                    "sag and lag compensation (what a replay reading only the CSV does).")
@@ -47,12 +45,16 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     both soles on carton tops at the end), 6 when any fails, 2 on bad input.
     """
 
+    from jethr1_plan.files.plan_folder import SIMULATION_FILES
     from jethr1_plan.files.simulation import simulation_mcap
-    from jethr1_plan.io.atomic import check_writable, write_bytes_atomic, write_text_atomic
+    from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
 
     track = load_plan(plan_dir)
-    check_writable(plan_dir)
+    check_writable(plan_dir, need_bytes=len(track) * 600)
+    if trials is not None:
+        check_memory("--trials", str(trials), trials * TRIAL_BYTES, f"{trials} trials' results")
+    jobs = cap_jobs(jobs)
     if trials is None:
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
     else:
@@ -68,11 +70,13 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
-    write_text_atomic(plan_dir / "simulation.json", json_text(doc))
-    if runs[0].record is not None:
-        write_bytes_atomic(plan_dir / "simulation.mcap", simulation_mcap(track.robot, runs[0].record, track.cartons))
+    with staged_directory(plan_dir, SIMULATION_FILES) as staging:  # both files or neither
+        (staging.path / "simulation.json").write_text(json_text(doc))
+        if runs[0].record is not None:
+            (staging.path / "simulation.mcap").write_bytes(simulation_mcap(track.robot, runs[0].record,
+                                                                           track.cartons))
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
     t = Table(title=f"{plan_dir}: {controller} in the twin")
     for col in ("run", "mass ×", "thrust ×", "lag [s]", "result", "max tilt [deg]", "landing [m]", "slip [m]",
                 "CoP margin [m]", "max thrust [N]"):

@@ -6,10 +6,7 @@ from pathlib import Path
 
 import click
 
-from jethr1_plan.cli.common import (
-    err_console,
-)
-from jethr1_plan.io.json_text import json_text
+from jethr1_plan.cli.common import err_console, print_json
 
 __all__ = ["verify"]
 
@@ -26,18 +23,26 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
     """
     from jethr1_plan.verify.folder import verify_path
 
-    n, failures, what = verify_path(path, scenario)
+    n, failures, what, checked = verify_path(path, scenario)
     if as_json:
-        click.echo(json_text({"file": what, "rows": n, "ok": not failures,
-                          "failures": [f.__dict__ for f in failures]}), nl=False)
+        print_json({"file": what, "rows": n, "ok": not failures, "checked": [str(p) for p in checked],
+                    "failures": [f.__dict__ for f in failures]})
     by_row: dict[int, list] = {}
     for f in failures:
         by_row.setdefault(f.row, []).append(f)
     for row, fs in by_row.items():
         checks = "; ".join(f"{f.check}: {f.detail}" for f in fs)
         err_console.print(f"{what}: row {row} (t = {fs[0].time_s:.3f} s): {checks}", markup=False, soft_wrap=True)
+    err_console.print(f"checked {_names(checked)}", markup=False, highlight=False)
     if failures:
         err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
         raise click.exceptions.Exit(5)
     err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
 
+
+def _names(paths: list[Path]) -> str:
+    """The files read: those of the first one's folder by name, the others (a scenario) by path."""
+    folder = paths[0].parent
+    here = [p.name for p in paths if p.parent == folder]
+    others = [str(p) for p in paths if p.parent != folder]
+    return f"{', '.join(here)} in {folder}/" + (f"; and {', '.join(others)}" if others else "")

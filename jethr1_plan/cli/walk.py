@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from jethr1_plan.cli.common import Progress, err_console, range_spec, report_kept
+from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, range_spec, report_kept
 from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.io.json_text import json_text
 
@@ -41,13 +41,13 @@ def _load(walk_path: Path, rehearse: bool | None):
 def walk_cmd(walk_path: Path, outdir: Path, as_json: bool, rehearse: bool | None, write_infeasible: bool) -> None:
     """Walk WALK.yaml (Paper B): CoM by MPC, pelvic rotation by look-ahead MPC, QP IK, arm swing; write
     trajectory.csv, trajectory.mcap, summary.json and the yaw, momentum and κ figures."""
-    from jethr1_plan.files.walk_folder import write_walk_outputs
+    from jethr1_plan.files.walk_folder import walk_folder, write_walk_outputs
     from jethr1_plan.io.atomic import check_writable
     from jethr1_plan.pipeline.walk import run_walk
     from jethr1_plan.walking.result import walk_summary
 
     spec = _load(walk_path, rehearse)
-    check_writable(outdir)
+    check_writable(walk_folder(outdir, spec.source))
     with err_console.status(f"walking {spec.name}", spinner="dots") if err_console.is_terminal else nullcontext():
         result = run_walk(spec)
     summary = walk_summary(result)
@@ -55,7 +55,7 @@ def walk_cmd(walk_path: Path, outdir: Path, as_json: bool, rehearse: bool | None
                                       trajectory=result.ok or write_infeasible)
     report_kept(folder, kept)
     if as_json:
-        click.echo(json_text(summary), nl=False)
+        print_json(summary)
     failure = result.failure
     if failure is not None:
         at = "" if failure[0] is None else f" at t = {failure[0]:.2f} s"
@@ -121,7 +121,8 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
     for length in lengths:  # every length must make a valid walk (soles apart, rows bounded)
         check_walk(spec.varied(step_length_m=length), spec.source)
     outdir = outdir if outdir is not None else Path("out/walk_sweep") / Path(spec.source).stem
-    check_writable(outdir.parent)
+    check_writable(outdir)
+    jobs = cap_jobs(jobs)
     with Progress(not no_progress, f"walk-sweep {spec.name}") as progress:
         doc = sweep(spec, lengths, modes, jobs=jobs, progress=progress)
     with staged_directory(outdir, frozenset({"walk_sweep.json", "walk_sweep.csv", "walk_sweep.png"})) as staging:
@@ -130,7 +131,7 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
         (staging.path / "walk_sweep.png").write_bytes(sweep_png(doc))
     report_kept(outdir, staging.kept)
     if as_json:
-        click.echo(json_text(doc), nl=False)
+        print_json(doc)
     _report_sweep(doc, outdir)
 
 
@@ -139,21 +140,16 @@ _SWEEP_COLUMNS = ("step_m", "mode", "ok", "energy_two_steps_j", "peak_kappa", "p
 
 
 def _sweep_csv(doc: dict) -> str:
-    from jethr1_plan.io.csv_table import number_text
+    from jethr1_plan.io.csv_table import csv_text, number_text
 
-    lines = [",".join(_SWEEP_COLUMNS)]
-    for r in doc["rows"]:
-        cells = []
-        for k in _SWEEP_COLUMNS:
-            v = r.get(k)
-            if k == "ok":
-                cells.append("true" if v else "false")
-            elif k in ("mode", "reason"):
-                cells.append("" if v is None else str(v).replace(",", ";"))
-            else:
-                cells.append("" if v is None else number_text(v))
-        lines.append(",".join(cells))
-    return "\n".join(lines) + "\n"
+    def cell(k: str, v) -> str:
+        if k == "ok":
+            return "true" if v else "false"
+        if k in ("mode", "reason"):
+            return "" if v is None else str(v)
+        return "" if v is None else number_text(v)
+
+    return csv_text(_SWEEP_COLUMNS, ([cell(k, r.get(k)) for k in _SWEEP_COLUMNS] for r in doc["rows"]))
 
 
 def _cell(row: dict, key: str, fmt: str) -> str:

@@ -51,7 +51,7 @@ class Gains:
     @classmethod
     def of(cls, robot) -> Gains:
         """The robot YAML's ``controller:`` settings over the defaults."""
-        return cls(**{k: float(v) for k, v in robot.controller.items() if k in cls.__dataclass_fields__})
+        return cls(**robot.controller.given())
 
 
 def law(gains: Gains, thrust_error: float, mass_error: float, thrust_max_n: float) -> dict:

@@ -8,10 +8,12 @@ import numpy as np
 
 from jethr1_plan.balance_space.sweep import SweepResult
 from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
+from jethr1_plan.io.csv_table import csv_text
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import message
 
-__all__ = ["BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap", "balance_space_png"]
+__all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap",
+           "balance_space_png"]
 
 #: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 BALANCE_SPACE_TOPICS: dict[str, Topic] = {
@@ -29,24 +31,26 @@ _VIRIDIS = np.array([(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567
                      (0.993, 0.906, 0.144)])
 
 
+#: the columns of balance_space.csv
+BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
+                         "pelvis_yaw_rad", "reason")
+
+
 def balance_space_csv(r: SweepResult) -> str:
     """x_m, y_m, z_m, min_thrust_n (empty outside the space with thrust), best pelvis, reason."""
-    out = io.StringIO()
-    out.write("x_m,y_m,z_m,min_thrust_n,pelvis_x_m,pelvis_y_m,pelvis_z_m,pelvis_yaw_rad,reason\n")
     member = r.with_thrust
-    for i in range(len(r.swing)):
+
+    def row(i: int) -> list[str]:
         x, y, z = r.swing[i]
         if member[i]:
             p = r.p_body[i]
-            vals = [num(r.thrust[i]), num(p[0]), num(p[1]), num(p[2]), num(r.yaw[i])]
-            reason = ""
-        else:
-            vals = ["", "", "", "", ""]
-            reason = message(r.reason[i])
-            if np.isfinite(r.thrust[i]):
-                reason += f" ({r.thrust[i]:.2f} N needed)"
-        out.write(f"{num(x)},{num(y)},{num(z)},{','.join(vals)},{reason}\n")
-    return out.getvalue()
+            return [num(x), num(y), num(z), num(r.thrust[i]), num(p[0]), num(p[1]), num(p[2]), num(r.yaw[i]), ""]
+        reason = message(r.reason[i])
+        if np.isfinite(r.thrust[i]):
+            reason += f" ({r.thrust[i]:.2f} N needed)"
+        return [num(x), num(y), num(z), "", "", "", "", "", reason]
+
+    return csv_text(BALANCE_SPACE_COLUMNS, (row(i) for i in range(len(r.swing))))
 
 
 def _thrust_colors(thrust_n: np.ndarray, fmax_n: float) -> dict:

@@ -38,7 +38,7 @@ from jethr1_plan.files.mcap import (
 )
 from jethr1_plan.geometry import SIDES, quaternion_from_matrix
 from jethr1_plan.io.atomic import staged_directory
-from jethr1_plan.io.csv_table import number_text, read_csv_table
+from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.walking.result import WalkResult
@@ -68,9 +68,8 @@ def walk_csv(result: WalkResult) -> str:
     """The CSV text of a walk (shortest round-tripping numbers)."""
     walk, a = result.walk, result.analysis
     num = number_text
-    out = io.StringIO()
-    out.write(",".join(walk_columns(walk.robot)) + "\n")
-    for i in range(len(walk.t)):
+
+    def row(i: int) -> list[str]:
         T = walk.base[i]
         vals = [num(round(float(walk.t[i]), 9)), str(int(walk.step[i])), str(walk.support[i]),
                 *map(num, T[:3, 3]), *map(num, quaternion_from_matrix(T[:3, :3])), *map(num, walk.q[i]),
@@ -79,8 +78,9 @@ def walk_csv(result: WalkResult) -> str:
                 *map(num, walk.zmp_lipm[i]), num(a.zmp_margin[i]), num(walk.yaw_ref[i]), num(walk.yaw[i]),
                 num(walk.yaw_rate[i]), num(a.kappa[i]), num(walk.h_low[i]), num(walk.h_up[i]), *map(num, a.tau[i]),
                 *map(num, result.commands_rad[i])]
-        out.write(",".join(vals) + "\n")
-    return out.getvalue()
+        return vals
+
+    return csv_text(walk_columns(walk.robot), (row(i) for i in range(len(walk.t))))
 
 
 def _walk_column(name: str) -> bool:

@@ -22,7 +22,24 @@ __all__ = ["YamlLoader", "check_finite", "check_schema", "count_values", "descri
 
 
 class YamlLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string."""
+    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string, and
+    refusing a key given twice in one mapping (YAML forbids it; PyYAML would keep the last)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value if isinstance(node, yaml.MappingNode) else ():
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = self.construct_object(key_node, deep=True)
+            try:
+                duplicate = key in seen
+            except TypeError:  # an unhashable key: the schema refuses it
+                continue
+            if duplicate:
+                raise yaml.constructor.ConstructorError(None, None, f"the key {short(key)} appears twice in one "
+                                                        "mapping", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
 
 
 YamlLoader.add_implicit_resolver(
@@ -93,10 +110,14 @@ def describe(err) -> str:
     kind, bound, value = err.validator, err.validator_value, err.instance
     if kind == "type":
         return f"expected {bound if isinstance(bound, str) else ' or '.join(bound)}, got {short(value)}"
-    if kind in ("minimum", "exclusiveMinimum"):
-        return f"{short(value)} is below the {'smallest' if kind == 'minimum' else 'bound'} allowed, {bound:g}"
-    if kind in ("maximum", "exclusiveMaximum"):
+    if kind == "minimum":
+        return f"{short(value)} is below the smallest allowed, {bound:g}"
+    if kind == "exclusiveMinimum":
+        return f"{short(value)}: must be more than {bound:g}"
+    if kind == "maximum":
         return f"{short(value)} is above the largest allowed, {bound:g}"
+    if kind == "exclusiveMaximum":
+        return f"{short(value)}: must be less than {bound:g}"
     if kind == "enum":
         return f"{short(value)}: expected one of {', '.join(map(str, bound))}"
     if kind == "const":

@@ -1,4 +1,5 @@
-"""The robot model: URDF (through PlaCo) plus the robot YAML beside it.
+"""The robot model: the URDF (checked by :mod:`.urdf`, loaded by PlaCo) and the robot YAML beside it
+(checked by :mod:`.schema`), as typed dataclasses.
 
 Everything reported about a robot (mass, height, leg length, joints, fans) is computed from the
 loaded model, never copied from the YAML. Frames and joint names follow CONTRACT.md.
@@ -8,33 +9,34 @@ from __future__ import annotations
 
 import functools
 import math
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-import yaml
 
 from jethr1_plan.errors import InputError, RobotModelError
-from jethr1_plan.geometry import GRAVITY, SIDES
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.io.yaml_input import read_document
+from jethr1_plan.robot.schema import LEG_ROLES, read_robot_yaml
+from jethr1_plan.robot.urdf import UrdfJoint, check_urdf, geometry_boxes, quiet_stderr, urdf_joints
 
 __all__ = [
     "LEG_ROLES",
     "ROBOTS_DIR",
+    "ControllerSettings",
     "Fan",
     "Leg",
     "RobotModel",
+    "TwinSettings",
     "UrdfJoint",
     "WalkingStructure",
     "build_with_robot",
     "fan_ground_xy",
     "load_robot",
     "reach_centre",
-    "robot_summary",
     "urdf_joints",
 ]
+
 
 def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray:
     """Centre [m] of the ball of trunk positions from which the ``side`` leg reaches its ankle.
@@ -53,8 +55,6 @@ def reach_centre(legs, side: str, foot_xyz: np.ndarray, trunk_yaw) -> np.ndarray
     yaw = np.asarray(trunk_yaw, dtype=float)
     offset = np.stack([-np.sin(yaw), np.cos(yaw), np.zeros_like(yaw)], axis=-1) * (sgn * legs.hip_offset_m)
     return np.asarray(foot_xyz, dtype=float) + np.array([0.0, 0.0, legs.ankle_height_m]) - offset
-#: a leg's six joints by role, hip to ankle: the closed-form IK's structure (kinematics.closed_form)
-LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 
 
 def fan_ground_xy(fan: Fan, soles: dict[str, np.ndarray], p_body: np.ndarray, yaw_rad: np.ndarray | float
@@ -88,6 +88,8 @@ def _robots_dir() -> Path:
 
 
 ROBOTS_DIR = _robots_dir()
+
+
 @dataclass(frozen=True)
 class Leg:
     """One leg as the robot YAML names it: its sole frame and its six joints by role (:data:`LEG_ROLES`)."""
@@ -135,6 +137,36 @@ class WalkingStructure:
     com_height_m: float | None = None  # the LIPM's z_c a walk uses unless it states its own [m]
 
 
+@dataclass(frozen=True)
+class ControllerSettings:
+    """The robot YAML's ``controller:``: the thrust feedback law's settings (SI units); None where the
+    YAML leaves the law's default (``control.thrust_feedback.Gains``)."""
+
+    rate_hz: float | None = None  # loop rate [Hz]
+    band_margin_m: float | None = None  # how close to the sole's edge the CoP may come [m]
+    kp_n_per_m: float | None = None  # proportional gain [N/m]
+    ki_n_per_m_s: float | None = None  # integral gain [N/(m·s)]
+    leak_time_s: float | None = None  # the integral's decay time inside the band [s]
+
+    def given(self) -> dict[str, float]:
+        """The settings the YAML gives."""
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
+class TwinSettings:
+    """The robot YAML's ``twin:``: contact settings of the MuJoCo twin (SI units); None where the YAML
+    leaves the twin's default (``sim.twin.TwinParams``)."""
+
+    timestep_s: float | None = None  # [s]
+    sole_friction: float | None = None  # Coulomb friction of the soles
+    sole_thickness_m: float | None = None  # [m]
+
+    def given(self) -> dict[str, float]:
+        """The settings the YAML gives."""
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
 @dataclass(frozen=True, eq=False)  # identity hash: models are cached by load_robot
 class RobotModel:
     """A loaded robot: the URDF path and what the YAML adds, with figures read from PlaCo.
@@ -166,8 +198,8 @@ class RobotModel:
     servo_stiffness_nm_per_rad: np.ndarray  # (J,) the twin's position servos: servos × stiffness × gear²
     servo_damping_nms_per_rad: np.ndarray  # (J,) stiffness × derivative time
     armature_kgm2: float  # rotor inertia reflected through each joint's gearbox
-    controller: dict  # the thrust feedback law's settings (sim.controller.Gains); {} for the defaults
-    twin: dict  # contact settings of the twin (sim.twin.TwinParams); {} for the defaults
+    controller: ControllerSettings  # the thrust feedback law's settings (control.thrust_feedback.Gains)
+    twin: TwinSettings  # contact settings of the twin (sim.twin.TwinParams)
     walking: WalkingStructure = WalkingStructure()
 
     @property
@@ -222,67 +254,17 @@ def _resolve(name_or_path: str | Path) -> Path:
     raise RobotModelError(str(name_or_path), "robot", f"unknown robot (known: {known or 'none'})")
 
 
-def _require(doc: dict, key: str, src: str, kind: type) -> Any:
-    """The value at the dotted ``key``, of type ``kind`` (a finite float for float).
-
-    Raises:
-        RobotModelError: missing or of another type.
-    """
-    cur: Any = doc
-    for part in key.split("."):
-        if not isinstance(cur, dict) or part not in cur:
-            raise RobotModelError(src, key, "missing")
-        cur = cur[part]
-    if kind is float and isinstance(cur, int) and not isinstance(cur, bool):
-        cur = float(cur)
-    if not isinstance(cur, kind) or (isinstance(cur, float) and not math.isfinite(cur)):
-        raise RobotModelError(src, key, f"expected {kind.__name__}, got {cur!r}")
-    return cur
-
-
-def _optional(doc: dict, key: str, src: str, default: float) -> float:
-    """A non-negative finite number at the dotted ``key``, or ``default`` where it is absent."""
-    cur = doc
-    for part in key.split("."):
-        if not isinstance(cur, dict) or part not in cur:
-            return default
-        cur = cur[part]
-    if isinstance(cur, bool) or not isinstance(cur, int | float) or not math.isfinite(cur) or cur < 0:
-        raise RobotModelError(src, key, f"expected a non-negative number, got {cur!r}")
-    return float(cur)
-
-
-def _numbers(doc: dict, key: str, src: str) -> dict:
-    """The mapping at ``key`` (absent: empty), every value a non-negative finite number."""
-    block = doc.get(key, {})
-    if not isinstance(block, dict):
-        raise RobotModelError(src, key, "expected a mapping")
-    return {str(k): _optional(doc, f"{key}.{k}", src, 0.0) for k in block}
-
-
 def _geometry_height(urdf: Path, robot, soles: list[str]) -> float:
     """Top of the URDF's visual boxes and cylinders over the lowest sole, at the zero posture [m]."""
     robot.state.q[7:] = 0.0
     robot.update_kinematics()
     z_sole = min(robot.get_T_world_frame(s)[2, 3] for s in soles)
     top = -math.inf
-    for link in ET.parse(urdf).getroot().iter("link"):
-        T_link = robot.get_T_world_frame(_attr(link, "name", urdf))
-        for vis in link.iter("visual"):
-            xyz = np.array(_numbers_of(vis.find("origin"), "xyz", "0 0 0"))
-            geom = vis.find("geometry")
-            box = geom.find("box") if geom is not None else None
-            cyl = geom.find("cylinder") if geom is not None else None
-            if box is not None:
-                half = np.array(_numbers_of(box, "size", "0 0 0")) / 2
-            elif cyl is not None:
-                r, ln = float(_attr(cyl, "radius", urdf)), float(_attr(cyl, "length", urdf))
-                half = np.array([r, r, ln / 2])
-            else:
-                continue
-            corners = xyz + half * np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
-            world = (T_link[:3, :3] @ corners.T).T + T_link[:3, 3]
-            top = max(top, float(world[:, 2].max()))
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+    for link, xyz, half in geometry_boxes(urdf):
+        T_link = robot.get_T_world_frame(link)
+        world = (T_link[:3, :3] @ (xyz + half * corners).T).T + T_link[:3, 3]
+        top = max(top, float(world[:, 2].max()))
     return top - z_sole
 
 
@@ -292,7 +274,8 @@ def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
     Models are cached: loading the same name twice gives the same object.
 
     Raises:
-        RobotModelError: missing or inconsistent files (exit 2).
+        RobotModelError: missing, malformed or inconsistent files (exit 2): the YAML against its
+            schema (:mod:`.schema`), the URDF against its checks (:mod:`.urdf`), then the two together.
     """
     if isinstance(name_or_path, RobotModel):
         return name_or_path
@@ -303,48 +286,49 @@ def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
 def _load(name_or_path: str | Path) -> RobotModel:
     yaml_path = _resolve(name_or_path)
     src = str(yaml_path)
-    try:
-        doc = yaml.safe_load(yaml_path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise RobotModelError(src, "", f"cannot read: {exc}".splitlines()[0]) from None
-    if not isinstance(doc, dict):
-        raise RobotModelError(src, "", "expected a mapping")
-    urdf = yaml_path.parent / _require(doc, "urdf", src, str)
+    doc = read_robot_yaml(yaml_path)
+    urdf = yaml_path.parent / doc["urdf"]
     if not urdf.is_file():
         raise RobotModelError(src, "urdf", f"no such file {urdf}")
-    try:
-        robot = _placo_robot(str(urdf))
-    except Exception as exc:  # PlaCo/pinocchio raise RuntimeError on a bad URDF
-        raise RobotModelError(str(urdf), "", f"PlaCo cannot load it: {exc}") from None
+    checked = check_urdf(urdf.resolve())
+    robot = _placo_robot(str(urdf))
     model = robot.model
     names = tuple(model.names[2:])
     frames = set(_frame_names(robot))
-    trunk = _require(doc, "trunk", src, str)
-    root = ET.parse(urdf).getroot()
-    children = {_attr(j.find("child"), "link", urdf) for j in root.iter("joint")}
-    roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
-    if roots != [trunk]:
-        raise RobotModelError(src, "trunk", f"{trunk!r} is not the URDF's root link (the root is {roots})")
+    if abs(float(robot.total_mass()) - checked.total_mass_kg) > 1e-9 * max(1.0, checked.total_mass_kg):
+        raise RobotModelError(str(urdf), "", f"PlaCo reads {float(robot.total_mass()):.6g} kg, the links' masses add "
+                              f"up to {checked.total_mass_kg:.6g} kg: a link's inertial was not read")
+    trunk = doc["trunk"]
+    if checked.root != trunk:
+        raise RobotModelError(src, "trunk", f"{trunk!r} is not the URDF's root link (the root is {checked.root!r})")
     legs = {side: _leg(doc, side, names, frames, src) for side in SIDES}
     if len({j for leg in legs.values() for j in leg.joints}) != 12:
         raise RobotModelError(src, "legs", "the two legs share a joint")
     lower = np.array(model.lowerPositionLimit[7:], dtype=float)
     upper = np.array(model.upperPositionLimit[7:], dtype=float)
     effort = np.array(model.effortLimit[6:], dtype=float)
+    for k in (k for leg in legs.values() for k in leg.index):  # the URDF's checks hold; the planner needs these
+        if not (np.isfinite(lower[k]) and np.isfinite(upper[k]) and lower[k] < upper[k] and effort[k] > 0):
+            raise RobotModelError(str(urdf), f"joint {names[k]} limit", "a leg joint needs finite, ordered limits "
+                                  "and a positive effort")
 
-    stall = _require(doc, "servos.stall_torque_nm", src, float)
-    stiffness = _optional(doc, "servos.stiffness_nm_per_rad", src, 78.0)
-    derivative = _optional(doc, "servos.derivative_time_s", src, 0.03)
+    servos = doc["servos"]
+    stall = float(servos["stall_torque_nm"])
+    stiffness = float(servos.get("stiffness_nm_per_rad", 78.0))
+    derivative = float(servos.get("derivative_time_s", 0.03))
     role = {j: r for leg in legs.values() for r, j in zip(LEG_ROLES, leg.joints, strict=True)}
     servo_limit, servo_k = np.empty(len(names)), np.empty(len(names))
-    table = doc.get("servos", {}).get("joints") if isinstance(doc.get("servos"), dict) else None
+    table = servos["joints"]
+    known = set(LEG_ROLES) | set(names)
+    unknown = sorted(k for k in table if k not in known)
+    if unknown:
+        raise RobotModelError(src, f"servos.joints.{unknown[0]}", "neither a leg role nor a joint of the URDF")
     for i, jn in enumerate(names):
         key = role.get(jn, jn)  # leg joints by role, any other joint by its name
-        if not isinstance(table, dict) or key not in table:
+        if key not in table:
             raise RobotModelError(src, f"servos.joints.{key}", "missing (servos and gear ratio of the joint"
                                   + (f" {jn})" if key != jn else ")"))
-        n = _require(doc, f"servos.joints.{key}.servos", src, int)
-        ratio = _require(doc, f"servos.joints.{key}.gear_ratio", src, float)
+        n, ratio = int(table[key]["servos"]), float(table[key]["gear_ratio"])
         servo_limit[i] = stall * n * ratio
         servo_k[i] = stiffness * n * ratio * ratio
 
@@ -353,14 +337,9 @@ def _load(name_or_path: str | Path) -> RobotModel:
     robot.update_kinematics()
     soles = {leg.sole: side for side, leg in legs.items()}
     fans = []
-    fan_docs = doc.get("fans", [])
-    if not isinstance(fan_docs, list):
-        raise RobotModelError(src, "fans", "expected a list (empty for a robot without fans)")
-    for k, fd in enumerate(fan_docs):
+    for k, fd in enumerate(doc.get("fans", [])):
         key = f"fans[{k}]"
-        if not isinstance(fd, dict):
-            raise RobotModelError(src, key, "expected a mapping")
-        frame = _require(fd, "frame", src, str)
+        frame = fd["frame"]
         mount = fd.get("mount", fd.get("foot"))
         if not isinstance(mount, str) or (mount not in soles and mount != trunk):
             raise RobotModelError(src, f"{key}.mount", f"expected a sole frame ({', '.join(soles)}) or the trunk "
@@ -372,14 +351,11 @@ def _load(name_or_path: str | Path) -> RobotModel:
         axis = tuple(float(a) for a in fd.get("axis", [0, 0, 1]))
         if axis != (0.0, 0.0, 1.0):
             raise RobotModelError(src, f"{key}.axis", "only vertical thrust [0, 0, 1] is modelled")
-        fmax = _require(fd, "max_thrust_n", src, float)
-        if fmax < 0:
-            raise RobotModelError(src, f"{key}.max_thrust_n", "must be >= 0")
-        name = fd.get("name", frame)
-        if not isinstance(name, str) or not name.replace("_", "").isalnum():
-            raise RobotModelError(src, f"{key}.name", f"expected letters, digits and _, got {name!r}")
-        fans.append(Fan(name, frame, mount, soles.get(mount), fmax, (float(off[0]), float(off[1]), float(off[2])),
-                        _optional(fd, "lag_s", src, 0.05)))
+        fans.append(Fan(fd.get("name", frame), frame, mount, soles.get(mount), float(fd["max_thrust_n"]),
+                        (float(off[0]), float(off[1]), float(off[2])), float(fd.get("lag_s", 0.05))))
+    for k, fan in enumerate(fans):
+        if not fan.name.replace("_", "").isalnum():
+            raise RobotModelError(src, f"fans[{k}].name", f"expected letters, digits and _, got {fan.name!r}")
     if len({f.name for f in fans}) != len(fans):
         raise RobotModelError(src, "fans", "two fans share a name")
 
@@ -391,7 +367,10 @@ def _load(name_or_path: str | Path) -> RobotModel:
     hip_l, knee_l, ankle_l, foot_l = hips["left"], at(left.joints[3]), at(left.joints[4]), at(left.sole)
     if np.linalg.norm((hips["left"] + hips["right"]) / 2) > 1e-9:
         raise RobotModelError(str(urdf), trunk, "trunk origin is not the midpoint of the hip joints")
-    stance = _optional(doc, "stance_width_m", src, float(abs(at(legs["left"].sole)[1] - at(legs["right"].sole)[1])))
+    stance = float(doc.get("stance_width_m", abs(at(legs["left"].sole)[1] - at(legs["right"].sole)[1])))
+    sole_l, sole_w = float(doc["sole"]["length_m"]), float(doc["sole"]["width_m"])
+    if stance < sole_w:
+        raise RobotModelError(src, "stance_width_m", f"{stance:g} m: the soles ({sole_w:g} m wide) would overlap")
     return RobotModel(
         name=yaml_path.parent.name,
         urdf_path=urdf.resolve(),
@@ -405,8 +384,8 @@ def _load(name_or_path: str | Path) -> RobotModel:
         effort_nm=effort,
         servo_limit_nm=servo_limit,
         fans=tuple(fans),
-        sole_length_m=_require(doc, "sole.length_m", src, float),
-        sole_width_m=_require(doc, "sole.width_m", src, float),
+        sole_length_m=sole_l,
+        sole_width_m=sole_w,
         stance_width_m=stance,
         hip_offset_m=float(np.linalg.norm(hips["left"] - hips["right"]) / 2),
         thigh_m=float(np.linalg.norm(knee_l - hip_l)),
@@ -416,9 +395,9 @@ def _load(name_or_path: str | Path) -> RobotModel:
         height_m=_geometry_height(urdf, robot, [legs[s].sole for s in SIDES]),
         servo_stiffness_nm_per_rad=servo_k,
         servo_damping_nms_per_rad=servo_k * derivative,
-        armature_kgm2=_optional(doc, "servos.armature_kgm2", src, 0.003),
-        controller=_numbers(doc, "controller", src),
-        twin=_numbers(doc, "twin", src),
+        armature_kgm2=float(servos.get("armature_kgm2", 0.003)),
+        controller=ControllerSettings(**{k: float(v) for k, v in doc.get("controller", {}).items()}),
+        twin=TwinSettings(**{k: float(v) for k, v in doc.get("twin", {}).items()}),
         walking=_walking(doc, names, frames, legs, src),
     )
 
@@ -427,36 +406,27 @@ def _walking(doc: dict, joints: tuple[str, ...], frames: set[str], legs: dict[st
              ) -> WalkingStructure:
     """``walking:``: the waist yaw joint, the torso frame, the arm-swing joints and their home pose."""
     block = doc.get("walking", {})
-    if not isinstance(block, dict):
-        raise RobotModelError(src, "walking", "expected a mapping")
-    unknown = set(block) - {"waist_yaw", "torso", "arm_swing", "arm_home_rad", "com_height_m"}
-    if unknown:
-        raise RobotModelError(src, f"walking.{sorted(unknown)[0]}", "unknown key")
     leg_joints = {j for leg in legs.values() for j in leg.joints}
     waist = block.get("waist_yaw")
-    if waist is not None and (not isinstance(waist, str) or waist not in joints or waist in leg_joints):
+    if waist is not None and (waist not in joints or waist in leg_joints):
         raise RobotModelError(src, "walking.waist_yaw", f"expected a joint of the URDF outside the legs, got {waist!r}")
     torso = block.get("torso")
-    if torso is not None and (not isinstance(torso, str) or torso not in frames):
+    if torso is not None and torso not in frames:
         raise RobotModelError(src, "walking.torso", f"frame {torso!r} not in the URDF")
     if (waist is None) != (torso is None):
         raise RobotModelError(src, "walking", "waist_yaw and torso go together")
     arms = block.get("arm_swing", [])
-    if not isinstance(arms, list) or any(not isinstance(a, str) or a not in joints or a in leg_joints or a == waist
-                                         for a in arms):
-        raise RobotModelError(src, "walking.arm_swing", "expected a list of joints of the URDF outside the legs "
-                              "and the waist")
+    for k, a in enumerate(arms):
+        if a not in joints or a in leg_joints or a == waist:
+            raise RobotModelError(src, f"walking.arm_swing[{k}]", f"{a!r}: expected a joint of the URDF outside the "
+                                  "legs and the waist")
     home = block.get("arm_home_rad", {})
-    if not isinstance(home, dict) or any(k not in joints for k in home):
-        raise RobotModelError(src, "walking.arm_home_rad", "expected joint names of the URDF")
     for k in home:
-        _require(home, k, src, float)
-    height = None
-    if "com_height_m" in block:
-        height = _require(doc, "walking.com_height_m", src, float)
-        if not 0.0 < height < 10.0:
-            raise RobotModelError(src, "walking.com_height_m", f"{height:g} m: expected a height in (0, 10) m")
-    return WalkingStructure(waist, torso, tuple(arms), tuple((str(k), float(v)) for k, v in home.items()), height)
+        if k not in joints:
+            raise RobotModelError(src, f"walking.arm_home_rad.{k}", "not a joint of the URDF")
+    height = block.get("com_height_m")
+    return WalkingStructure(waist, torso, tuple(arms), tuple((str(k), float(v)) for k, v in home.items()),
+                            None if height is None else float(height))
 
 
 def _frame_names(robot) -> list[str]:
@@ -466,111 +436,35 @@ def _frame_names(robot) -> list[str]:
 def _leg(doc: dict, side: str, joints: tuple[str, ...], frames: set[str], src: str) -> Leg:
     """``legs.<side>``: the sole frame and the six joints by role."""
     key = f"legs.{side}"
-    sole = _require(doc, f"{key}.sole", src, str)
+    sole = doc["legs"][side]["sole"]
     if sole not in frames:
         raise RobotModelError(src, f"{key}.sole", f"frame {sole!r} not in the URDF")
-    by_role = _require(doc, f"{key}.joints", src, dict)
+    by_role = doc["legs"][side]["joints"]
     names = []
     for role in LEG_ROLES:
-        name = by_role.get(role)
-        if not isinstance(name, str):
-            raise RobotModelError(src, f"{key}.joints.{role}", "missing (the joint's name in the URDF)")
+        name = by_role[role]
         if name not in joints:
             raise RobotModelError(src, f"{key}.joints.{role}", f"no joint {name!r} in the URDF")
         names.append(name)
-    extra = set(by_role) - set(LEG_ROLES)
-    if extra:
-        raise RobotModelError(src, f"{key}.joints", f"unknown roles {sorted(extra)} (roles: {', '.join(LEG_ROLES)})")
     return Leg(side, sole, tuple(names), tuple(joints.index(n) for n in names))
-
-
-@dataclass(frozen=True)
-class UrdfJoint:
-    """A URDF joint as written: origin (xyz [m], rpy [rad]) and axis, for /tf."""
-
-    name: str
-    kind: str
-    parent: str
-    child: str
-    xyz: tuple[float, float, float]
-    rpy: tuple[float, float, float]
-    axis: tuple[float, float, float]
-
-
-@functools.lru_cache(maxsize=16)
-def urdf_joints(urdf: Path) -> tuple[UrdfJoint, ...]:
-    """Every joint of the URDF file, in file order."""
-    out = []
-    for j in ET.parse(urdf).getroot().iter("joint"):
-        org, ax = j.find("origin"), j.find("axis")
-        out.append(UrdfJoint(_attr(j, "name", urdf), _attr(j, "type", urdf), _attr(j.find("parent"), "link", urdf),
-                             _attr(j.find("child"), "link", urdf), _vec3(_numbers_of(org, "xyz", "0 0 0")),
-                             _vec3(_numbers_of(org, "rpy", "0 0 0")), _vec3(_numbers_of(ax, "xyz", "1 0 0"))))
-    return tuple(out)
-
-
-def _attr(el: ET.Element | None, key: str, urdf: Path) -> str:
-    """An attribute the URDF must have.
-
-    Raises:
-        RobotModelError: the element or the attribute is missing.
-    """
-    value = el.get(key) if el is not None else None
-    if value is None:
-        raise RobotModelError(str(urdf), key, "missing in the URDF (a joint without parent or child, a link without "
-                              "a name?)")
-    return value
-
-
-def _numbers_of(el: ET.Element | None, key: str, default: str) -> list[float]:
-    """The numbers of a URDF attribute (``default`` where the element or the attribute is absent)."""
-    return [float(v) for v in (el.get(key, default) if el is not None else default).split()]
-
-
-def _vec3(v: list[float]) -> tuple[float, float, float]:
-    return (v[0], v[1], v[2])
 
 
 @functools.lru_cache(maxsize=4)
 def _placo_robot(urdf: str):
+    """PlaCo's model of the URDF (checked first by :func:`.urdf.check_urdf`); what pinocchio prints on
+    the C stderr is kept off the terminal.
+
+    Raises:
+        RobotModelError: PlaCo cannot load it (its first line of complaint in the message).
+    """
     import placo
 
-    return placo.RobotWrapper(urdf, placo.Flags.ignore_collisions)
-
-
-def robot_summary(model: RobotModel) -> dict:
-    """The figures of ``jethr1 robot show --json`` (SI units)."""
-    return {
-        "name": model.name,
-        "urdf": str(model.urdf_path),
-        "mass_kg": model.mass_kg,
-        "height_m": model.height_m,
-        "leg_length_m": model.leg_length_m,
-        "hip_width_m": 2 * model.hip_offset_m,
-        "joints": [
-            {
-                "name": n,
-                "lower_rad": float(lo),
-                "upper_rad": float(hi),
-                "effort_nm": float(e),
-                "servo_limit_nm": float(s),
-            }
-            for n, lo, hi, e, s in zip(
-                model.joint_names, model.lower_rad, model.upper_rad, model.effort_nm, model.servo_limit_nm, strict=True
-            )
-        ],
-        "fans": [
-            {"name": f.name, "frame": f.frame, "mount": f.mount, "max_thrust_n": f.max_thrust_n,
-             "offset_m": list(f.offset_m), "lag_s": f.lag_s}
-            for f in model.fans
-        ],
-        "trunk": model.trunk,
-        "legs": {s: {"sole": leg.sole, "joints": dict(zip(LEG_ROLES, leg.joints, strict=True))}
-                 for s, leg in model.legs.items()},
-        "stance_width_m": model.stance_width_m,
-        "sole": {"length_m": model.sole_length_m, "width_m": model.sole_width_m},
-        "weight_n": model.mass_kg * GRAVITY,
-    }
+    try:
+        with quiet_stderr() as said:
+            return placo.RobotWrapper(urdf, placo.Flags.ignore_collisions)
+    except Exception as exc:  # PlaCo/pinocchio raise RuntimeError on a bad URDF
+        first = (str(exc) or (said[0] if said else type(exc).__name__)).splitlines()[0][:160]
+        raise RobotModelError(urdf, "", f"PlaCo cannot load it: {first}") from None
 
 
 def build_with_robot(text: str, src: str, schema: dict, max_values: int, what: str, build):

@@ -28,7 +28,7 @@ import numpy as np
 
 from jethr1_plan.control import thrust_feedback as ctl
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import read_json, read_plan
+from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
 from jethr1_plan.robot.model import RobotModel
@@ -112,15 +112,11 @@ def load_plan(folder: Path) -> PlanTrack:
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(str(folder), "", "not a plan folder (expected trajectory.csv and summary.json in it)")
+    plan = read_plan(folder, suffixes=(".csv",), strict=True, purpose="simulate rehearses a plan's folder")
     summary_path, csv_path = folder / "summary.json", folder / "trajectory.csv"
-    if not summary_path.is_file():
-        raise InputError(str(summary_path), "", "missing: simulate needs a plan's folder")
-    summary = read_json(summary_path)
+    summary = plan.summary or {}
     if summary.get("feasible") is not True:
         raise InputError(str(summary_path), "feasible", "the plan is not feasible: nothing to rehearse")
-    if not csv_path.is_file():
-        raise InputError(str(csv_path), "", "missing: simulate needs the plan's trajectory")
-    plan = read_plan(folder, suffixes=(".csv",))
     robot, c = plan.robot, plan.table
     try:
         tol = summary.get("balance", {}).get("tolerance", {})

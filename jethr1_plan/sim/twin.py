@@ -45,8 +45,7 @@ class TwinParams:
     @classmethod
     def of(cls, robot: RobotModel) -> TwinParams:
         """The robot YAML's ``twin:`` settings over the defaults."""
-        known = {k: float(v) for k, v in robot.twin.items() if k in cls.__dataclass_fields__}
-        return cls(**known)
+        return cls(**robot.twin.given())
 
 
 @dataclass

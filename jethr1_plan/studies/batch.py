@@ -14,9 +14,11 @@ __all__ = ["batch_exit_code", "check_expectations", "read_manifest", "run_batch"
 
 def read_manifest(path: Path) -> list[Path]:
     """Scenario paths listed in a manifest: a YAML list (or ``scenarios:`` list), relative to the manifest."""
+    from jethr1_plan.io.yaml_input import YamlLoader
+
     try:
-        doc = yaml.safe_load(Path(path).read_text())
-    except (OSError, yaml.YAMLError) as exc:
+        doc = yaml.load(Path(path).read_text(), Loader=YamlLoader)  # a SafeLoader: no key twice
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise InputError(str(path), "", f"cannot read the manifest: {exc}".splitlines()[0]) from None
     if isinstance(doc, dict):
         doc = doc.get("scenarios")
@@ -54,6 +56,8 @@ def run_scenario(path: str, outdir: str) -> dict:
     except InfeasiblePlan as exc:
         summary = exc.summary or {}
         infeasible = {**record, "status": "infeasible", "error": str(exc), "summary": summary}
+    except InputError as exc:  # its folder cannot be written (a file in the way, a full disk)
+        return {**record, "status": "bad input", "error": str(exc), "exit_code": 2}
     except (Exception, SelfCheckFailed) as exc:  # a bug in one scenario must not lose every other scenario's result
         return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
                 "exit_code": 1}
@@ -87,10 +91,9 @@ def run_batch(paths: list[Path], outdir: Path, jobs: int = 1, executor: str = "l
 
     tasks = [delayed(run_scenario)(str(p), str(outdir)) for p in paths]
     if executor == "dask":
-        from distributed import Client
+        from jethr1_plan.io.cluster import dask_client
 
-        with Client(scheduler) if scheduler else Client(processes=True, n_workers=jobs, threads_per_worker=1), \
-                parallel_config(backend="dask"):
+        with dask_client(scheduler, jobs), parallel_config(backend="dask"):
             return list(Parallel()(tasks))
     records = []
     for k, rec in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):

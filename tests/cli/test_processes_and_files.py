@@ -47,12 +47,13 @@ def test_sigterm_ends_the_workers(tmp_path):
     assert len(_children(proc.pid)) >= 2
     proc.send_signal(signal.SIGTERM)
     err = proc.communicate(timeout=30)[1]
-    assert proc.returncode == 143 and "terminated" in err and "Traceback" not in err
+    assert proc.returncode == 143 and "Traceback" not in err and "leaked" not in err
+    assert err.strip().splitlines()[-1] == "jethr1: terminated (SIGTERM); workers stopped, nothing written"
     deadline = time.time() + 10
     while time.time() < deadline and _group_alive(proc.pid):
         time.sleep(0.1)
     assert not _group_alive(proc.pid)  # no orphaned worker
-    assert not (tmp_path / "o" / "jet_hr1_trial").exists()
+    assert not (tmp_path / "o").exists()  # not even an empty output folder
 
 
 def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_path, capsys):

@@ -50,3 +50,28 @@ def copy_scenario(name: str, folder: Path, robot_yaml: Path) -> Path:
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     shutil.copymode(ROOT / "configs" / f"{name}.yaml", path)
     return path
+
+
+def tampered_jethr1(folder: Path, yaml_edit: Callable[[dict], None] | None = None,
+                    urdf_edit: Callable[[str], str] | None = None) -> Path:
+    """A copy of robots/jethr1/ in ``folder`` with its YAML (as a dict) and URDF (as text) edited;
+    returns the robot YAML's path."""
+    src = ROOT / "robots" / "jethr1"
+    folder.mkdir(parents=True, exist_ok=True)
+    urdf = (src / "jethr1.urdf").read_text()
+    (folder / "jethr1.urdf").write_text(urdf_edit(urdf) if urdf_edit else urdf)
+    doc = yaml.safe_load((src / "jethr1.yaml").read_text())
+    if yaml_edit:
+        yaml_edit(doc)
+    path = folder / f"{folder.name}.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def urdf_attribute(urdf: str, element: str, name: str, tag: str, attribute: str, value: str) -> str:
+    """``urdf`` with the ``attribute`` of the first ``<tag>`` inside ``<element name="name">`` set to ``value``."""
+    import re
+
+    m = re.search(rf'<{element} name="{name}".*?<{tag}\b[^>]*?\b{attribute}="([^"]*)"', urdf, re.S)
+    assert m, (element, name, tag, attribute)
+    return urdf[:m.start(1)] + value + urdf[m.end(1):]

@@ -112,7 +112,7 @@ def test_window_margin_and_command_columns(side_plans, robot):
     lead = c["thrust_cmd_left_n"] - c["thrust_left_n"]
     rising = np.flatnonzero(np.diff(c["thrust_left_n"]) > 0.01)[5:-5]
     assert np.all(lead[rising] > 0)  # the command leads a rising thrust by the fan's lag
-    assert s["controller"]["gains"]["band_margin_m"] == robot.controller["band_margin_m"]
+    assert s["controller"]["gains"]["band_margin_m"] == robot.controller.band_margin_m
 
 
 def test_an_infeasible_robust_plan_names_the_tolerance_its_sample_reaches(tmp_path, capsys):

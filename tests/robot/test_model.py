@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.robot.model import load_robot, robot_summary
+from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.summary import robot_summary
 from tests.conftest import JOINT_NAMES, ROOT
 
 

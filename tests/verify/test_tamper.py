@@ -15,11 +15,9 @@ from jethr1_plan.cli import run
 from tests.conftest import ROOT
 
 
-@pytest.fixture(scope="module")
-def planned(tmp_path_factory):
-    out = tmp_path_factory.mktemp("tamper")
-    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
-    return out / "side_step"
+@pytest.fixture
+def planned(side_step_plan):
+    return side_step_plan
 
 
 def _copy(planned, tmp_path):
@@ -85,7 +83,8 @@ def test_a_tampered_csv_fails(planned, tmp_path, capsys, case):
     code, err = _verify(d / "trajectory.csv", capsys)
     assert code == 5 and words in err, err[-800:]
     lines = err.strip().splitlines()
-    rows = [ln.split(": row ")[1].split(" ")[0] for ln in lines[:-1]]
+    assert lines[-2].startswith("checked trajectory.csv")  # verify names what it read
+    rows = [ln.split(": row ")[1].split(" ")[0] for ln in lines[:-2]]
     assert len(rows) == len(set(rows))  # one line per failing row
     # the folder form checks the CSV and the MCAP against each other too
     code, err = _verify(d, capsys)
