@@ -23,6 +23,7 @@ __all__ = [
     "inside_polygon",
     "other_side",
     "polygon_margin",
+    "pose_difference",
     "pose_from_quaternion",
     "pose_matrix",
     "quat_axis_angle",
@@ -197,9 +198,49 @@ def pose_from_quaternion(xyz: ArrayLike, quat_xyzw: ArrayLike) -> np.ndarray:
 
 
 def quaternion_from_matrix(R: np.ndarray) -> np.ndarray:
-    """(x, y, z, w) of a rotation matrix (the inverse of :func:`pose_from_quaternion`'s rotation; w ≥ 0)."""
-    w = np.sqrt(max(0.0, 1.0 + R[0, 0] + R[1, 1] + R[2, 2])) / 2.0
-    x = np.copysign(np.sqrt(max(0.0, 1.0 + R[0, 0] - R[1, 1] - R[2, 2])) / 2.0, R[2, 1] - R[1, 2])
-    y = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] + R[1, 1] - R[2, 2])) / 2.0, R[0, 2] - R[2, 0])
-    z = np.copysign(np.sqrt(max(0.0, 1.0 - R[0, 0] - R[1, 1] + R[2, 2])) / 2.0, R[1, 0] - R[0, 1])
-    return np.array([x, y, z, w])
+    """(x, y, z, w) of a rotation matrix (the inverse of :func:`pose_from_quaternion`'s rotation; w ≥ 0),
+    by Shepperd's method: the largest component from the diagonal, the others from the off-diagonal
+    sums and differences (accurate to round-off for small rotations too, where the square roots of
+    1 ± R_ii ∓ … cancel)."""
+    R = np.asarray(R, dtype=float)
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
+    if k == 0:
+        w = np.sqrt(1.0 + tr) / 2.0
+        x, y, z = (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)
+    elif k == 1:
+        x = np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2]) / 2.0
+        w, y, z = (R[2, 1] - R[1, 2]) / (4 * x), (R[0, 1] + R[1, 0]) / (4 * x), (R[0, 2] + R[2, 0]) / (4 * x)
+    elif k == 2:
+        y = np.sqrt(1.0 - R[0, 0] + R[1, 1] - R[2, 2]) / 2.0
+        w, x, z = (R[0, 2] - R[2, 0]) / (4 * y), (R[0, 1] + R[1, 0]) / (4 * y), (R[1, 2] + R[2, 1]) / (4 * y)
+    else:
+        z = np.sqrt(1.0 - R[0, 0] - R[1, 1] + R[2, 2]) / 2.0
+        w, x, y = (R[1, 0] - R[0, 1]) / (4 * z), (R[0, 2] + R[2, 0]) / (4 * z), (R[1, 2] + R[2, 1]) / (4 * z)
+    out = np.array([x, y, z, w])
+    return -out if w < 0 else out
+
+
+def pose_difference(T0: np.ndarray, T1: np.ndarray) -> np.ndarray:
+    """(..., 6) the twist (linear [m], angular [rad], in ``T0``'s own frame) that carries pose ``T0`` to
+    ``T1`` (..., 4, 4) in unit time: log of T0⁻¹·T1 on SE(3), the free-flyer's difference in pinocchio's
+    convention (its second central differences are the base's spatial acceleration). Rotations between
+    the two poses below π/2."""
+    T0, T1 = np.asarray(T0, dtype=float), np.asarray(T1, dtype=float)
+    R0t = np.swapaxes(T0[..., :3, :3], -1, -2)
+    R = R0t @ T1[..., :3, :3]
+    p = np.einsum("...ij,...j->...i", R0t, T1[..., :3, 3] - T0[..., :3, 3])
+    c = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    theta = np.arccos(c)
+    small = theta < 1e-4
+    sin = np.sin(theta)
+    k = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin)))
+    w = k[..., None] * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
+                                 R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    # V(ω)⁻¹ = I − ½[ω]× + b·[ω]×², b = (1 − θ·sin θ / (2(1 − cos θ)))/θ² (1/12 + θ²/720 near 0)
+    safe = np.where(small, 1.0, theta)
+    b = np.where(small, 1.0 / 12.0 + theta**2 / 720.0,
+                 (1.0 - safe * sin / (2.0 * np.where(small, 1.0, 1.0 - c))) / safe**2)
+    wxp = np.cross(w, p)
+    v = p - 0.5 * wxp + b[..., None] * np.cross(w, wxp)
+    return np.concatenate([v, w], axis=-1)

@@ -71,9 +71,14 @@ def _report_walk(s: dict, folder: Path) -> None:
             f"{s['spec']['footsteps']['step_length_m']:g} m, pelvic rotation {s['spec']['pelvis_rotation']['mode']}, "
             f"{s['rows']} rows over {s['duration_s']:.1f} s, generated in {s['wall_s']:.2f} s "
             f"({s['realtime_factor']:.0f}x real time)")
-    c.print(f"peak yaw {s['peak_yaw_rad']:.3f} rad, peak κ {s['peak_kappa']:.1f}, least knee margin "
-            f"{s['least_knee_margin_rad']:.3f} rad, least ZMP margin {1000 * s['least_zmp_margin_m']:.1f} mm, "
+    c.print(f"peak yaw {s['peak_yaw_rad']:.3f} rad, peak κ {s['peak_kappa']:.1f} (legs "
+            f"{max(s['peak_kappa_leg'].values()):.1f}), least knee bend {s['least_knee_bend_rad']:.3f} rad, "
             f"E_con over two steps {s['energy_two_steps_j']:.1f} J")
+    c.print(f"from the rows' second differences: least ZMP margin {1000 * s['least_zmp_margin_m']:.1f} mm, peak "
+            f"friction ratio {s['peak_friction_ratio']:.2f} (μ {s['sole_friction']:g}), peak torque "
+            f"{100 * s['peak_torque_ratio']:.0f} % of its servo's, peak joint acceleration "
+            f"{s['peak_joint_acceleration_rad_s2']:.0f} rad/s² (limit "
+            f"{s['spec']['ik']['max_joint_acceleration_rad_s2']:g})")
     line = f"peak yaw momentum {mom['peak_total_nms']:.3f} N·m·s"
     if mom["peak_with_arms_held_nms"] is not None:
         line += f" ({mom['peak_with_arms_held_nms']:.3f} with the arms held: {100 * mom['reduction']:.0f} % less)"
@@ -135,8 +140,10 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
     _report_sweep(doc, outdir)
 
 
-_SWEEP_COLUMNS = ("step_m", "mode", "ok", "energy_two_steps_j", "peak_kappa", "peak_yaw_rad", "peak_yaw_momentum_nms",
-                  "peak_yaw_momentum_arms_held_nms", "least_knee_margin_rad", "least_zmp_margin_m", "reason")
+_SWEEP_COLUMNS = ("step_m", "mode", "ok", "energy_two_steps_j", "peak_kappa", "peak_kappa_leg", "peak_yaw_rad",
+                  "peak_yaw_momentum_nms", "peak_yaw_momentum_arms_held_nms", "least_knee_bend_rad",
+                  "least_zmp_margin_m", "peak_friction_ratio", "peak_torque_ratio", "peak_joint_acceleration_rad_s2",
+                  "reason")
 
 
 def _sweep_csv(doc: dict) -> str:
@@ -162,14 +169,15 @@ def _report_sweep(doc: dict, outdir: Path) -> None:
 
     t = Table(title=f"{doc['name']} on {doc['robot']}: CoM {doc['com_height_m']:g} m, k_pel {doc['k_pel']:g}, "
                     f"arm swing {'on' if doc['arm_swing'] else 'off (or no arms)'}")
-    for col in ("step [m]", "mode", "walks", "E_con 2 steps [J]", "peak κ", "peak yaw [rad]",
-                "peak h_z [N·m·s]", "arms held", "why not"):
+    for col in ("step [m]", "mode", "walks", "E_con 2 steps [J]", "peak κ", "legs' κ", "knee bend [rad]",
+                "peak yaw [rad]", "peak h_z [N·m·s]", "arms held", "why not"):
         t.add_column(col, justify="right" if col not in ("mode", "why not") else "left")
     for r in doc["rows"]:
         if r.get("reason") == NOT_WALKED:
             continue
         t.add_row(f"{r['step_m']:.3f}", r["mode"], "[green]yes[/]" if r["ok"] else "[red]no[/]",
                   *(_cell(r, key, fmt) for key, fmt in (("energy_two_steps_j", ".1f"), ("peak_kappa", ".1f"),
+                                                        ("peak_kappa_leg", ".3g"), ("least_knee_bend_rad", ".3f"),
                                                         ("peak_yaw_rad", ".3f"), ("peak_yaw_momentum_nms", ".3f"),
                                                         ("peak_yaw_momentum_arms_held_nms", ".3f"))),
                   (r.get("reason") or "")[:60])

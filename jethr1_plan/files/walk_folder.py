@@ -5,12 +5,14 @@
 ``trajectory.csv`` has one row per control period; its columns (SI units in their names):
 ``time_s, step, support``, the trunk pose ``pelvis_x_m … pelvis_qw``, every joint ``<joint>_rad``,
 the soles reached ``left_foot_x_m …``, the CoM of the posture ``com_*_m`` and of the LIPM
-``com_ref_*_m``, the multibody ZMP ``zmp_*_m`` (from the joints' motion), (B-18)'s reference
-``zmp_ref_*_m`` and the LIPM's ``zmp_lipm_*_m``, ``zmp_margin_m`` (inside the support polygon),
-``yaw_ref_rad`` (B-30), ``yaw_rad`` and ``yaw_rate_rad_s`` (B-34..B-38), ``kappa`` (B-45), the yaw
-momentum of the lower and the upper body ``h_lower_nms``/``h_upper_nms`` (B-41, B-42) and every
-joint's torque ``<joint>_tau_nm`` by inverse dynamics, and the servo commands ``<joint>_cmd_rad``
-(the row plus the sag its torque causes: what to send to position servos).
+``com_ref_*_m``, the multibody ZMP ``zmp_*_m`` (the ground's wrench by inverse dynamics of the rows'
+second central differences), (B-18)'s reference ``zmp_ref_*_m`` and the LIPM's ``zmp_lipm_*_m``,
+``zmp_margin_m`` (inside the support polygon), ``friction_ratio`` (the ground force's horizontal
+over its vertical part), ``yaw_ref_rad`` (B-30), ``yaw_rad`` and ``yaw_rate_rad_s`` (B-34..B-38),
+``kappa`` (B-45), each leg's ``kappa_leg_<side>`` and knee bend ``knee_bend_<side>_rad`` (from
+straight), the yaw momentum of the lower and the upper body ``h_lower_nms``/``h_upper_nms`` (B-41,
+B-42) and every joint's torque ``<joint>_tau_nm`` by inverse dynamics, and the servo commands
+``<joint>_cmd_rad`` (the row plus the sag its torque causes: what to send to position servos).
 """
 
 from __future__ import annotations
@@ -54,7 +56,8 @@ _FIXED_HEAD = ("time_s", "step", "support", *(f"pelvis_{a}_m" for a in _XYZ),
                *(f"pelvis_q{a}" for a in ("x", "y", "z", "w")))
 _FIXED_TAIL = (*(f"{s}_foot_{a}_m" for s in SIDES for a in _XYZ), *(f"com_{a}_m" for a in _XYZ),
                "com_ref_x_m", "com_ref_y_m", "zmp_x_m", "zmp_y_m", "zmp_ref_x_m", "zmp_ref_y_m", "zmp_lipm_x_m",
-               "zmp_lipm_y_m", "zmp_margin_m", "yaw_ref_rad", "yaw_rad", "yaw_rate_rad_s", "kappa", "h_lower_nms",
+               "zmp_lipm_y_m", "zmp_margin_m", "friction_ratio", "yaw_ref_rad", "yaw_rad", "yaw_rate_rad_s", "kappa",
+               *(f"kappa_leg_{s}" for s in SIDES), *(f"knee_bend_{s}_rad" for s in SIDES), "h_lower_nms",
                "h_upper_nms")
 
 
@@ -75,8 +78,9 @@ def walk_csv(result: WalkResult) -> str:
                 *map(num, T[:3, 3]), *map(num, quaternion_from_matrix(T[:3, :3])), *map(num, walk.q[i]),
                 *(num(v) for s in SIDES for v in walk.feet[s][i][:3, 3]), *map(num, walk.com[i]),
                 *map(num, walk.com_ref[i][:2]), *map(num, a.zmp[i]), *map(num, walk.zmp_ref[i]),
-                *map(num, walk.zmp_lipm[i]), num(a.zmp_margin[i]), num(walk.yaw_ref[i]), num(walk.yaw[i]),
-                num(walk.yaw_rate[i]), num(a.kappa[i]), num(walk.h_low[i]), num(walk.h_up[i]), *map(num, a.tau[i]),
+                *map(num, walk.zmp_lipm[i]), num(a.zmp_margin[i]), num(a.friction_ratio[i]), num(walk.yaw_ref[i]),
+                num(walk.yaw[i]), num(walk.yaw_rate[i]), num(a.kappa[i]), *map(num, a.kappa_leg[i]),
+                *map(num, a.knee_bend_rad[i]), num(walk.h_low[i]), num(walk.h_up[i]), *map(num, a.tau[i]),
                 *map(num, result.commands_rad[i])]
         return vals
 
@@ -238,13 +242,21 @@ def walk_figures(result: WalkResult) -> dict[str, bytes]:
     ax.set_title(f"Yaw momentum about the CoM (Figs. 12, 16)\n{title}", fontsize=10)
     out["momentum.png"] = _png(fig)
 
-    fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
-    ax.plot(t, a.kappa, color="tab:purple")
-    _phases(ax, result)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("κ(J_low) (B-45)")
-    ax.grid(alpha=0.3)
-    ax.set_title(f"Condition number of the lower body's Jacobian (Fig. 13)\n{title}", fontsize=10)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    ax1.semilogy(t, a.kappa, color="tab:purple", label="κ(J_low) (B-45)")
+    ax2.axhline(result.spec.success.knee_margin_rad, color="0.3", ls=":", lw=1,
+                label=f"margin {result.spec.success.knee_margin_rad:g} rad")
+    for k, (side, color) in enumerate((("left", "tab:blue"), ("right", "tab:orange"))):
+        ax1.semilogy(t, a.kappa_leg[:, k], color=color, lw=0.8, label=f"{side} leg's sole Jacobian")
+        ax2.plot(t, a.knee_bend_rad[:, k], color=color, lw=1, label=f"{side} knee")
+    ax1.set_ylabel("condition number")
+    ax2.set_ylabel("knee bend from straight [rad]")
+    ax2.set_xlabel("time [s]")
+    for ax in (ax1, ax2):
+        _phases(ax, result)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    fig.suptitle(f"Condition numbers and the straight-leg singularity (Fig. 13)\n{title}", fontsize=10)
     out["kappa.png"] = _png(fig)
     return out
 

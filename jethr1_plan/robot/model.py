@@ -23,6 +23,7 @@ from jethr1_plan.robot.urdf import UrdfJoint, check_urdf, geometry_boxes, quiet_
 __all__ = [
     "LEG_ROLES",
     "ROBOTS_DIR",
+    "SOLE_FRICTION",
     "ControllerSettings",
     "Fan",
     "Leg",
@@ -88,6 +89,7 @@ def _robots_dir() -> Path:
 
 
 ROBOTS_DIR = _robots_dir()
+SOLE_FRICTION = 0.8  # μ of a sole on the ground unless the robot YAML's twin.sole_friction says otherwise
 
 
 @dataclass(frozen=True)
@@ -220,6 +222,11 @@ class RobotModel:
         its sole, then those on the trunk."""
         return tuple(i for i, f in enumerate(self.fans) if f.leg == swing) + tuple(
             i for i, f in enumerate(self.fans) if f.on_trunk)
+
+    @property
+    def sole_friction(self) -> float:
+        """μ of the soles on the ground: the YAML's ``twin.sole_friction`` (default :data:`SOLE_FRICTION`)."""
+        return SOLE_FRICTION if self.twin.sole_friction is None else float(self.twin.sole_friction)
 
     def fan_for(self, side: str) -> Fan | None:
         """The (first) fan on the ``side`` sole, or None: the fan Paper A's body yaw (A-4) points at."""

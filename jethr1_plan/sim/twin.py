@@ -28,7 +28,7 @@ import numpy as np
 
 from jethr1_plan.errors import RobotModelError
 from jethr1_plan.geometry import SIDES
-from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.model import SOLE_FRICTION, RobotModel
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["Twin", "TwinParams", "build_twin"]
@@ -39,7 +39,7 @@ class TwinParams:
     """Settings of the twin (defaults: the robot YAML's ``twin:`` block, else these)."""
 
     timestep_s: float = 0.001
-    sole_friction: float = 0.8
+    sole_friction: float = SOLE_FRICTION
     sole_thickness_m: float = 0.01
 
     @classmethod

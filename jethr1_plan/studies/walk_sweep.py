@@ -31,9 +31,13 @@ def walk_point(spec: WalkSpec) -> dict[str, Any]:
     return {"ok": s["ok"], "reason": None if s["failure"] is None else s["failure"]["reason"],
             "failure_time_s": None if s["failure"] is None else s["failure"]["time_s"],
             "energy_two_steps_j": s["energy_two_steps_j"], "peak_kappa": s["peak_kappa"],
+            "peak_kappa_leg": max(s["peak_kappa_leg"].values()),
             "peak_yaw_rad": s["peak_yaw_rad"], "peak_yaw_momentum_nms": mom["peak_total_nms"],
             "peak_yaw_momentum_arms_held_nms": mom["peak_with_arms_held_nms"],
-            "least_knee_margin_rad": s["least_knee_margin_rad"], "least_zmp_margin_m": s["least_zmp_margin_m"],
+            "least_knee_bend_rad": s["least_knee_bend_rad"], "least_zmp_margin_m": s["least_zmp_margin_m"],
+            "peak_friction_ratio": s["peak_friction_ratio"],
+            "peak_joint_acceleration_rad_s2": s["peak_joint_acceleration_rad_s2"],
+            "peak_torque_ratio": s["peak_torque_ratio"],
             "rehearsal_survived": None if s["rehearsal"] is None else s["rehearsal"]["survived"]}
 
 
@@ -130,6 +134,9 @@ def sweep_png(doc: dict) -> bytes:
             ax.plot(x, y, color=c, lw=1, alpha=0.6)
             ax.scatter(x[ok], y[ok], color=c, s=18, label=f"{m}: max step {doc['max_step_m'][m]} m")
             ax.scatter(x[~ok], y[~ok], facecolors="none", edgecolors=c, s=18)
+            if key == "peak_kappa":
+                legs = np.array([r["peak_kappa_leg"] for r in rows], dtype=float)
+                ax.plot(x, legs, color=c, ls="--", lw=1, label=f"{m}, the legs' own κ")
             if key == "peak_yaw_momentum_nms":
                 held = np.array([np.nan if r.get("peak_yaw_momentum_arms_held_nms") is None
                                  else r["peak_yaw_momentum_arms_held_nms"] for r in rows], dtype=float)
@@ -139,7 +146,8 @@ def sweep_png(doc: dict) -> bytes:
         if best is not None:
             for ax in axes:
                 ax.axvline(best, color=c, ls="--", lw=0.8)
-    titles = ("E_con over two steps (B-44, Table 1) [J]", "peak κ(J_low) (B-45, Fig. 13)",
+    axes[1].set_yscale("log")
+    titles = ("E_con over two steps (B-44, Table 1) [J]", "peak κ(J_low) (B-45, Fig. 13) and the legs' κ",
               "peak yaw momentum (Figs. 12, 16) [N·m·s]")
     for ax, title in zip(axes, titles, strict=True):
         ax.set_xlabel("step length [m]")

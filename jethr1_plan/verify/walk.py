@@ -1,19 +1,23 @@
 """``jethr1 verify`` of a walk folder (``jethr1 walk``'s output): an independent re-check of what was
-written, never the generator's state.
+written, never the generator's state nor its analysis's code.
 
 Each row's trunk pose and joints go into a fresh PlaCo robot; against ``summary.json`` (its rows,
-rate, start soles, footholds and success criteria) every row must hold:
+rate, start soles, footholds, IK limits and success criteria) every row must hold:
 
 * **the file**: as many rows as the walk wrote, at its control rate from t = 0; a unit quaternion;
   the support column as the footsteps' timing says;
 * **the pose**: joints within the URDF limits; each sole (forward kinematics) where the CSV says it
   is and, when it bears weight, on its foothold within the walk's tolerance and flat; the swing sole
-  above the ground; the knees at least the walk's margin from straight; the CoM as written;
-* **balance**: the multibody ZMP recomputed from the written rows (the centroidal momentum of each
-  row's posture and motion, differentiated) as written, and inside the support polygon with the
-  walk's margin (the first and last two rows excepted: one-sided differences);
-* **torques and commands**: the written joint torques within the servo limits; the servo commands
-  the rows plus the sag those torques cause (``planning.commands``);
+  above the ground; each knee bent at least the walk's margin from straight (the angle between thigh
+  and shank) and as written; the CoM as written and on the LIPM's within the walk's tolerance;
+* **motion, from the rows alone**: each row's velocity and acceleration by second central
+  differences of the rows around it (the trunk's by the matrix logarithm of its relative poses),
+  every joint's acceleration within the walk's limit;
+* **balance**: the ground's wrench from the inverse dynamics of that motion: the multibody ZMP as
+  written and inside the support polygon with the walk's margin, the friction ratio within the
+  soles' μ (the first and last rows excepted: their stencil reaches beyond the walk);
+* **torques and commands**: the written joint torques those of the inverse dynamics and within the
+  servo limits; the servo commands the rows plus the sag those torques cause (``control.commands``);
 * **the walk's own verdict**: ``summary.json`` says ok;
 * **CSV and MCAP together**: the MCAP's ``/joint_states`` are the CSV's rows.
 """
@@ -29,13 +33,14 @@ from jethr1_plan.errors import InputError
 from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure
-from jethr1_plan.walking.analysis import EDGE_ROWS, SuccessCriteria, zmp_from_momentum
-from jethr1_plan.walking.generator import generalized_velocity
+from jethr1_plan.walking.analysis import ACCELERATION_TOL, EDGE_ROWS, SuccessCriteria
+from jethr1_plan.walking.ik import IKSettings
 from jethr1_plan.walking.timeline import Timeline, polygon_of
 
 __all__ = ["is_walk", "verify_walk"]
 
 TOL_ZMP_M = 1e-5  # the recomputed ZMP differentiates written numbers twice [m]
+TOL_TAU_NM = 1e-6  # and so do the recomputed torques [N·m]
 
 
 def is_walk(summary: dict | None, header: list[str] | None = None) -> bool:
@@ -125,8 +130,6 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     over = np.flatnonzero(np.any((q < robot.lower_rad - 1e-6) | (q > robot.upper_rad + 1e-6), axis=1))
     fail(over, "joints", "a joint beyond its URDF limits")
     tau = np.column_stack([c[f"{j}_tau_nm"] for j in robot.joint_names])
-    fail(np.flatnonzero(np.any(np.abs(tau) > robot.servo_limit_nm + 1e-9, axis=1)), "torque",
-         "a joint torque beyond its servo limit")
     from jethr1_plan.control.commands import servo_commands
     from jethr1_plan.walking.result import WALK_SAG_FILTER_S
 
@@ -142,7 +145,10 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
         if f.name in given and f.name != "rehearse":
             _number(given, f.name, src + " spec.success")
     criteria = SuccessCriteria(**{f.name: given[f.name] for f in fields(SuccessCriteria) if f.name in given})
-    _check_rows(c, robot, q, quat, _timeline(summary, robot, src), rate, criteria, fail)
+    ik_doc = summary.get("spec", {}).get("ik", {})
+    acc_limit = (_number(ik_doc, "max_joint_acceleration_rad_s2", src + " spec.ik") if isinstance(ik_doc, dict)
+                 and "max_joint_acceleration_rad_s2" in ik_doc else IKSettings().max_joint_acceleration_rad_s2)
+    _check_rows(c, robot, q, quat, _timeline(summary, robot, src), rate, criteria, acc_limit, fail)
     mcap_path = folder / "trajectory.mcap"
     if mcap_path in files and mcap_path.is_file():
         _check_mcap(mcap_path, robot, q, t, fail)
@@ -150,40 +156,99 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     return n, found[:max_failures], str(folder)
 
 
-def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criteria: SuccessCriteria, fail) -> None:
-    """The pose and balance checks, from one forward-kinematics pass over the written rows."""
+def _twist(quat0: np.ndarray, p0: np.ndarray, quat1: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """(6,) the twist (linear, angular; in the first pose's frame) from pose (p0, quat0) to (p1, quat1)
+    in unit time: the logarithm on SE(3), from the relative quaternion (x, y, z, w)."""
+    x0, y0, z0, w0 = quat0
+    x1, y1, z1, w1 = quat1
+    # q0* ⊗ q1
+    rel = np.array([w0 * x1 - x0 * w1 - y0 * z1 + z0 * y1, w0 * y1 + x0 * z1 - y0 * w1 - z0 * x1,
+                    w0 * z1 - x0 * y1 + y0 * x1 - z0 * w1, w0 * w1 + x0 * x1 + y0 * y1 + z0 * z1])
+    if rel[3] < 0:
+        rel = -rel
+    s = float(np.linalg.norm(rel[:3]))
+    theta = 2.0 * np.arctan2(s, rel[3])
+    omega = rel[:3] * (theta / s if s > 1e-12 else 2.0)
+    local = pose_from_quaternion(np.zeros(3), quat0)[:3, :3].T @ (np.asarray(p1) - p0)
+    half = theta / 2.0
+    c = 1.0 / 12.0 if theta < 1e-4 else (1.0 - half / np.tan(half)) / theta**2
+    lin = local - 0.5 * np.cross(omega, local) + c * np.cross(omega, np.cross(omega, local))
+    return np.concatenate([lin, omega])
+
+
+def _row_motion(pos: np.ndarray, quat: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(v, a) (N, 6 + J) at each row from its neighbours alone: with D_k the twist from row k − 1 to row
+    k (the trunk's in its own frame at row k − 1, the joints' differences), the step back from row i is
+    −D_i, so v_i = (D_i+1 + D_i)/2Δt and a_i = (D_i+1 − D_i)/Δt²; the robot holds its posture beyond
+    both ends."""
+    n, nj = q.shape
+    D = np.zeros((n + 1, 6 + nj))  # D[k]: from row k − 1 to row k (zero beyond the ends)
+    for k in range(1, n):
+        D[k, :6] = _twist(quat[k - 1], pos[k - 1], quat[k], pos[k])
+        D[k, 6:] = q[k] - q[k - 1]
+    return (D[1:] + D[:-1]) / (2.0 * dt), (D[1:] - D[:-1]) / dt**2
+
+
+def _knee_bend(w, robot: RobotModel, side: str) -> float:
+    """The angle [rad] between the thigh and the shank (0: straight), by forward kinematics."""
+    hip, knee, ankle = (w.get_T_world_frame(robot.legs[side].joints[k])[:3, 3] for k in (2, 3, 4))
+    a, b = knee - hip, ankle - knee
+    return float(np.arccos(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0)))
+
+
+def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criteria: SuccessCriteria,
+                acc_limit: float, fail) -> None:
+    """The pose, motion and balance checks, from one inverse-dynamics pass over the written rows."""
     n = len(q)
     t = c["time_s"]
     dt = 1.0 / rate
     unit = quat / np.linalg.norm(quat, axis=1)[:, None]
     T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
                   for i in range(n)])
-    # the generalised velocity at each row: the mean of the motions over the periods before and after it
-    v_period = np.zeros((n, 6 + len(robot.joint_names)))
-    for i in range(1, n):
-        v_period[i] = generalized_velocity(T[i - 1], T[i], q[i - 1], q[i], dt)
-    v = v_period.copy()
-    v[:-1] = 0.5 * (v_period[:-1] + v_period[1:])
+    pos = np.column_stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]])
+    v, acc = _row_motion(pos, unit, q, dt)
     w = robot.wrapper()
-    com, h = np.zeros((n, 3)), np.zeros((n, 6))
+    com, zmp, friction = np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n)
+    tau, bend = np.zeros_like(q), np.zeros((n, 2))
     sole = {s: np.zeros((n, 4, 4)) for s in SIDES}
+    support, _ = tl.phase(t)
     for i in range(n):
         w.state.q[:3] = T[i][:3, 3]
         w.state.q[3:7] = unit[i]
         w.state.q[7:] = q[i]
+        w.state.qd = v[i]
+        w.state.qdd = acc[i]
         w.update_kinematics()
         com[i] = w.com_world()
-        h[i] = w.centroidal_map() @ v[i]
-        for s in SIDES:
+        for k, s in enumerate(SIDES):
             sole[s][i] = w.get_T_world_frame(robot.legs[s].sole)
+            bend[i, k] = _knee_bend(w, robot, s)
+        gen = w.mass_matrix() @ acc[i] + w.non_linear_effects()  # the generalised forces the motion needs
+        R, p = T[i][:3, :3], T[i][:3, 3]
+        force = R @ gen[:3]  # what the ground supplies, in the world
+        moment = R @ gen[3:6] + np.cross(p, force)  # about the world's origin
+        zmp[i] = (-moment[1] / force[2], moment[0] / force[2])
+        friction[i] = float(np.linalg.norm(force[:2]) / force[2])
+        written_support = str(c["support"][i])  # as the footsteps say (checked below), either one at a boundary
+        feet_down = SIDES if written_support not in SIDES else (written_support,)
+        Jc = np.vstack([w.frame_jacobian(robot.legs[s].sole, "local") for s in feet_down])
+        split = np.linalg.lstsq(Jc[:, :6].T, gen[:6], rcond=None)[0]
+        tau[i] = gen[6:] - Jc[:, 6:].T @ split
     written_com = np.column_stack([c[f"com_{a}_m"] for a in "xyz"])
     fail(np.flatnonzero(np.linalg.norm(com - written_com, axis=1) > TOL_M), "CoM",
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
                    f"{np.round(com[i], 6).tolist()} m")
-    knees = [robot.legs[s].index[3] for s in SIDES]
-    knee_short = np.flatnonzero(np.min(q[:, knees] - robot.lower_rad[knees], axis=1) < criteria.knee_margin_rad - 1e-9)
-    fail(knee_short, "knee", f"closer than {criteria.knee_margin_rad:g} rad to straight")
-    support, _ = tl.phase(t)
+    lipm = np.column_stack([c["com_ref_x_m"], c["com_ref_y_m"]])
+    fail(np.flatnonzero(np.linalg.norm(com[:, :2] - lipm, axis=1) > criteria.com_tolerance_m + TOL_M), "CoM",
+         lambda i: f"{1000 * np.linalg.norm(com[i, :2] - lipm[i]):.3f} mm from the LIPM's (tolerance "
+                   f"{1000 * criteria.com_tolerance_m:g} mm)")
+    fail(np.flatnonzero(np.min(bend, axis=1) < criteria.knee_margin_rad - 1e-9), "knee",
+         lambda i: f"a knee bent {np.min(bend[i]):.4f} rad from straight, less than the margin "
+                   f"{criteria.knee_margin_rad:g} rad")
+    written_bend = np.column_stack([c[f"knee_bend_{s}_rad"] for s in SIDES])
+    fail(np.flatnonzero(np.max(np.abs(bend - written_bend), axis=1) > 1e-6), "knee",
+         lambda i: f"knee bends written {np.round(written_bend[i], 6).tolist()} rad, forward kinematics "
+                   f"{np.round(bend[i], 6).tolist()} rad")
     feet, air = tl.feet(t)
     edge = np.zeros(n, dtype=bool)  # rows on a phase boundary (times written to 1e-9 s): either phase holds
     for st in tl.steps:
@@ -208,16 +273,34 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
                     fail([i], "feet", f"the {s} sole bears weight {tilt:.3f} rad off flat")
             elif p[2] < -TOL_M - criteria.foot_tolerance_m:
                 fail([i], "feet", f"the swinging {s} sole is {1000 * -p[2]:.1f} mm below the ground")
-    zmp = zmp_from_momentum(com, h, dt, robot.mass_kg)
+    inner = np.arange(EDGE_ROWS, n - EDGE_ROWS)
     written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
-    fail(np.flatnonzero(np.linalg.norm(zmp - written_zmp, axis=1) > TOL_ZMP_M), "ZMP",
+    fail(inner[np.linalg.norm(zmp - written_zmp, axis=1)[inner] > TOL_ZMP_M], "ZMP",
          lambda i: f"written {np.round(written_zmp[i], 5).tolist()} m, recomputed {np.round(zmp[i], 5).tolist()} m")
+    written_tau = np.column_stack([c[f"{j}_tau_nm"] for j in robot.joint_names])
+    fail(inner[np.max(np.abs(tau - written_tau), axis=1)[inner] > TOL_TAU_NM], "torque",
+         lambda i: f"written torques differ from the inverse dynamics of the rows by "
+                   f"{np.max(np.abs(tau[i] - written_tau[i])):.2e} N·m")
+    over = inner[np.any(np.abs(tau[inner]) > robot.servo_limit_nm, axis=1)]
+    fail(over, "torque", lambda i: f"the rows need {_worst(robot, tau[i])}")
+    joint_acc = np.abs(acc[:, 6:])
+    fail(inner[np.max(joint_acc, axis=1)[inner] > acc_limit + ACCELERATION_TOL], "acceleration",
+         lambda i: f"{robot.joint_names[int(np.argmax(joint_acc[i]))]} accelerates at {np.max(joint_acc[i]):.0f} "
+                   f"rad/s² between its rows (limit {acc_limit:g} rad/s²)")
+    mu = robot.sole_friction
+    fail(inner[friction[inner] > mu], "friction",
+         lambda i: f"the ground's force is {friction[i]:.2f} of its normal force sideways (soles' μ {mu:g})")
     keys = tl.support_keys(t)
-    for i in range(EDGE_ROWS, n - EDGE_ROWS):
-        inside = polygon_margin(zmp[i], polygon_of(keys[i], robot.sole_length_m, robot.sole_width_m, 0.0))
+    for row in inner.tolist():
+        inside = polygon_margin(zmp[row], polygon_of(keys[row], robot.sole_length_m, robot.sole_width_m, 0.0))
         if inside < criteria.zmp_margin_m - 1e-9:
-            fail([i], "ZMP", f"the recomputed ZMP is {1000 * inside:.1f} mm inside the support, less than "
+            fail([row], "ZMP", f"the recomputed ZMP is {1000 * inside:.1f} mm inside the support, less than "
                  f"the walk's margin {1000 * criteria.zmp_margin_m:g} mm")
+
+
+def _worst(robot: RobotModel, tau: np.ndarray) -> str:
+    k = int(np.argmax(np.abs(tau) / robot.servo_limit_nm))
+    return f"{abs(tau[k]):.2f} N·m at {robot.joint_names[k]}, beyond its servo's {robot.servo_limit_nm[k]:g} N·m"
 
 
 def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fail) -> None:

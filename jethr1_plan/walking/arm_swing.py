@@ -6,7 +6,9 @@ columns of the arm joints (B-42), the arm rates solve
     min  ω1/2·(h_low + A_up,yaw·q̇_up)² + ω2/2·‖q_up^init − (q_up + Δt·q̇_up)‖² + ω3/2·‖q̇_up‖²
     s.t. the joint limits reached within Δt, and the rate limits                            (B-43)
 
-(the second term written with the posture the rates lead to). A convex quadratic over a box: solved
+(the second term written with the posture the rates lead to), the rates also within the joints'
+acceleration limits (the same window as the IK's joints). The momentum cancelled is the lower
+body's over the same period, not the one before it. A convex quadratic over a box: solved
 exactly by a primal active-set method (a handful of variables).
 """
 
@@ -84,19 +86,18 @@ def box_qp(H: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, max_ite
 
 
 @numba.njit(cache=True)
-def arm_rates(h_low: float, a_up: np.ndarray, q_up: np.ndarray, q_home: np.ndarray, lower: np.ndarray,
-              upper: np.ndarray, rate_max: np.ndarray, dt: float, w1: float = 1.0, w2: float = 1e-2,
-              w3: float = 1e-4) -> np.ndarray:
-    """(B-43): the arm joints' rates [rad/s].
+def arm_rates(h_low: float, a_up: np.ndarray, q_up: np.ndarray, q_home: np.ndarray, rate_lo: np.ndarray,
+              rate_hi: np.ndarray, dt: float, w1: float = 1.0, w2: float = 1e-2, w3: float = 1e-4) -> np.ndarray:
+    """(B-43): the arm joints' rates [rad/s] over the period whose lower-body yaw momentum is ``h_low``.
 
     Args:
         h_low: the lower body's yaw momentum about the CoM [N·m·s]; a_up: (n,) the yaw row of the
-            centroidal momentum matrix at the arm joints [kg·m²]; q_up, q_home, lower, upper: (n,) [rad];
-            rate_max: (n,) [rad/s]; dt: the control period [s]; w1, w2, w3: ω1, ω2, ω3 of (B-43).
+            centroidal momentum matrix at the arm joints [kg·m²]; q_up, q_home: (n,) the arms at the
+            period's start and at home [rad]; rate_lo, rate_hi: (n,) the rates the joints may take
+            (``joint_window.rate_window``: rate and acceleration limits, room to brake before the
+            angle limits) [rad/s]; dt: the control period [s]; w1, w2, w3: ω1, ω2, ω3 of (B-43).
     """
     n = len(a_up)
     H = w1 * np.outer(a_up, a_up) + (w2 * dt * dt + w3) * np.eye(n)
     g = w1 * h_low * a_up - w2 * dt * (q_home - q_up)
-    hi = np.minimum((upper - q_up) / dt, rate_max)
-    lo = np.minimum(np.maximum((lower - q_up) / dt, -rate_max), hi)
-    return box_qp(H, g, lo, hi)
+    return box_qp(H, g, np.minimum(rate_lo, rate_hi), rate_hi)

@@ -1,6 +1,7 @@
 """Paper B's walking pattern generator (Fig. 3): footsteps → CoM by MPC (B-18) → look-ahead pelvic
 rotation (B-27..B-33) → yaw MPC (B-34..B-38) → QP IK of the lower body (B-39, B-40) → arm swing that
-cancels the lower body's yaw momentum (B-41..B-43), one control period after the other.
+cancels the lower body's yaw momentum of the same period (B-41..B-43), one control period after the
+other, every joint within its rate and acceleration limits (no impulse by construction).
 
 The MPCs are updated every ``CoMSettings.dt_s`` (their step; the pelvis's yaw follows the yaw MPC's
 constant acceleration in between); the IK and the arm QP run every control period.
@@ -19,7 +20,7 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.walking.arm_swing import arm_rates
 from jethr1_plan.walking.com_mpc import CoMPlan, CoMSettings, plan_com
-from jethr1_plan.walking.ik import WalkIK
+from jethr1_plan.walking.ik import COM_WEIGHT, IKSettings, WalkIK
 from jethr1_plan.walking.pelvis_yaw import reference_yaw
 from jethr1_plan.walking.timeline import Timeline
 
@@ -72,6 +73,10 @@ class Walk:
     h_up: np.ndarray  # (N,) the arms' (B-42) [N·m·s]
     v: np.ndarray  # (N, 6 + J) the generalised velocity of each period (base in its own frame)
     yaw_horizon: list[np.ndarray] = field(default_factory=list)  # per MPC update, the reference over its horizon
+    pelvis_rotation: bool = True  # the walk turns the pelvis (Paper B's mode), or keeps it facing the walk
+    ik: IKSettings = field(default_factory=IKSettings)
+    window_bound: np.ndarray | None = None  # (N, J) the joints whose rate sat on an edge of their window
+    infeasible: tuple[int, str] | None = None  # the first row no posture within the limits could follow, and why
     wall_s: float = 0.0
 
 
@@ -106,19 +111,35 @@ def generalized_velocity(T0: np.ndarray, T1: np.ndarray, q0: np.ndarray, q1: np.
     return out
 
 
+def _describe_window(name: str, q: float, rate: float, lo: float, hi: float, lower: float, upper: float) -> str:
+    """Why a joint's window of rates is empty: it moves towards a limit too fast to stop."""
+    towards = upper if rate > 0 else lower
+    return (f"{name} at {q:.3f} rad moving {rate:+.2f} rad/s cannot stop before {towards:.3f} rad within its "
+            f"acceleration limit (rates {lo:+.2f} > {hi:+.2f} rad/s)")
+
+
 def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: PelvisRotation, arms: ArmSwing,
-             control_hz: float) -> Walk:
-    """Generate the walk of ``timeline`` on ``robot``."""
+             control_hz: float, ik_settings: IKSettings | None = None, knee_bend_rad: float = 0.0) -> Walk:
+    """Generate the walk of ``timeline`` on ``robot``, each knee kept ``knee_bend_rad`` [rad] from straight.
+
+    Each period: the lower body's QP IK within the joints' windows of rates (``joint_window``); with
+    arms, their (B-43) rates for the lower body's momentum of this period, then one more IK step of
+    the lower body with the arms where they now are. Where a window is empty or the QP has no
+    solution the walk is infeasible from that row on (``Walk.infeasible``; the period is still
+    taken, the window widened or the CoM released, so that the rows go on)."""
     import time
 
     t_wall = time.perf_counter()
+    ik_settings = ik_settings or IKSettings()
     dt = 1.0 / control_hz
     plan = plan_com(timeline, com, dt)
     n = len(plan.t)
-    ik = WalkIK(robot, dt)
+    ik = WalkIK(robot, dt, knee_bend_rad)
     feet0, _ = timeline.feet(plan.t[:1])
     ik.stand({s: feet0[s][0] for s in SIDES}, np.array([*plan.pos[0], com.height_m]), 0.0)
+    ik.walk(ik_settings)
     nj = len(robot.joint_names)
+    names = robot.joint_names
     out_q, out_base = np.zeros((n, nj)), np.zeros((n, 4, 4))
     out_com = np.zeros((n, 3))
     feet_pos, _ = timeline.feet(plan.t)
@@ -126,19 +147,35 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
     yaw, yaw_rate, yaw_ref = np.zeros(n), np.zeros(n), np.zeros(n)
     h_low, h_up = np.zeros(n), np.zeros(n)
     velocity = np.zeros((n, 6 + nj))
+    bound = np.zeros((n, nj), dtype=bool)
     lo, hi = yaw_bounds(robot)
     arm_idx = ik.arm_index
+    solved = ik.solved_index
     swing_arms = arms.enabled and len(arm_idx) > 0
-    arm_q = ik.home[arm_idx].copy()
     lower_cols = np.ones(6 + nj, dtype=bool)
     lower_cols[6 + arm_idx] = False
-    arm_lo, arm_hi = robot.lower_rad[arm_idx].astype(float), robot.upper_rad[arm_idx].astype(float)
     arm_home = ik.home[arm_idx].astype(float)
-    arm_rate = np.array([ik.wrapper.model.velocityLimit[6 + i] for i in arm_idx], dtype=float)
     yaw_state = np.zeros(2)
     per_update = round(com.dt_s / dt)
     horizons = []
+    infeasible: tuple[int, str] | None = None
     T_prev, q_prev = ik.base, ik.q
+    rate_prev = np.zeros(nj)  # the joints' rates over the last period [rad/s]
+
+    def fail(row: int, reason: str) -> None:
+        nonlocal infeasible
+        if infeasible is None:
+            infeasible = (row, reason)
+
+    def solve(row: int, targets: dict, target_com: np.ndarray, yaw_now: float, arm_q: np.ndarray | None) -> None:
+        try:
+            ik.step(targets, target_com, yaw_now, arm_q)
+        except RuntimeError:  # PlaCo's "QPError: Infeasible QP": no posture keeps the CoM within the windows
+            fail(row, "no posture within the joints' rate windows keeps the CoM on the LIPM's")
+            ik.com.configure("com", "soft", COM_WEIGHT)
+            ik.step(targets, target_com, yaw_now, arm_q)
+            ik.com.configure("com", "hard", 1.0)
+
     for i in range(n):
         t = plan.t[i]
         if i % per_update == 0:
@@ -160,16 +197,44 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
         state = yaw_step_state(yaw_start, yaw_acc, t - u_start)
         yaw[i], yaw_rate[i], yaw_ref[i] = state[0], state[1], yaw_ref_now
         target = np.array([*plan.pos[i], com.height_m])
-        ik.step({s: feet_pos[s][i] for s in SIDES}, target, float(yaw[i]), arm_q if swing_arms else None)
-        T, q = ik.base, ik.q
-        v = generalized_velocity(T_prev, T, q_prev, q, dt) if i else np.zeros(6 + nj)
+        targets = {s: feet_pos[s][i] for s in SIDES}
+        if i == 0:  # the standing posture itself
+            T, q, v = T_prev, q_prev, np.zeros(6 + nj)
+        else:
+            w_lo, w_hi = ik.window(q_prev, rate_prev, solved)
+            empty = np.flatnonzero(w_lo > w_hi)
+            for k in empty[:1]:
+                j = int(solved[k])
+                fail(i, _describe_window(names[j], q_prev[j], rate_prev[j], w_lo[k], w_hi[k], ik.lower[j],
+                                         ik.upper[j]))
+            if len(empty):
+                w_lo[empty] = w_hi[empty] = 0.5 * (w_lo[empty] + w_hi[empty])
+            ik.set_window(q_prev, w_lo, w_hi)
+            solve(i, targets, target, float(yaw[i]), None)
+            if swing_arms:  # the arms cancel the lower body's yaw momentum of this very period
+                v = generalized_velocity(T_prev, ik.base, q_prev, ik.q, dt)
+                A_yaw = ik.wrapper.centroidal_map()[5]
+                a_lo, a_hi = ik.window(q_prev, rate_prev, arm_idx)
+                empty = np.flatnonzero(a_lo > a_hi)
+                for k in empty[:1]:
+                    j = int(arm_idx[k])
+                    fail(i, _describe_window(names[j], q_prev[j], rate_prev[j], a_lo[k], a_hi[k], ik.lower[j],
+                                             ik.upper[j]))
+                rates = arm_rates(float(A_yaw[lower_cols] @ v[lower_cols]), np.ascontiguousarray(A_yaw[6 + arm_idx]),
+                                  q_prev[arm_idx], arm_home, a_lo, a_hi, dt, arms.w1, arms.w2, arms.w3)
+                solve(i, targets, target, float(yaw[i]), q_prev[arm_idx] + dt * rates)
+            T, q = ik.base, ik.q
+            v = generalized_velocity(T_prev, T, q_prev, q, dt)
+            rate = (q - q_prev) / dt
+            at_lo = np.abs(rate[solved] - w_lo) < 1e-6
+            at_hi = np.abs(rate[solved] - w_hi) < 1e-6
+            bound[i, solved] = at_lo | at_hi
+            if swing_arms:
+                bound[i, arm_idx] = (np.abs(rate[arm_idx] - a_lo) < 1e-6) | (np.abs(rate[arm_idx] - a_hi) < 1e-6)
+            rate_prev = rate
         A_yaw = ik.wrapper.centroidal_map()[5]
         h_low[i] = float(A_yaw[lower_cols] @ v[lower_cols])
         h_up[i] = float(A_yaw[~lower_cols] @ v[~lower_cols])
-        if swing_arms and i:
-            rates = arm_rates(h_low[i], np.ascontiguousarray(A_yaw[6 + arm_idx]), arm_q, arm_home, arm_lo, arm_hi,
-                              arm_rate, dt, arms.w1, arms.w2, arms.w3)
-            arm_q = arm_q + dt * rates
         out_q[i], out_base[i], velocity[i] = q, T, v
         out_com[i] = ik.wrapper.com_world()
         for s in SIDES:
@@ -179,4 +244,4 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
     return Walk(robot, timeline, plan, plan.t, support, step, out_q, out_base,
                 np.column_stack([plan.pos, np.full(n, com.height_m)]), out_com, plan.zmp_ref, plan.zmp,
                 yaw_ref, yaw, yaw_rate, feet_pos, feet_reached, h_low, h_up, velocity, horizons,
-                time.perf_counter() - t_wall)
+                rotation.mode == "paper_b", ik_settings, bound, infeasible, time.perf_counter() - t_wall)

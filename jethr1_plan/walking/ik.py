@@ -1,28 +1,48 @@
 """The QP inverse kinematics of a walk (Paper B, V-D, eqs. B-39, B-40), with PlaCo's KinematicsSolver.
 
 At each control step the whole body's velocity solves a QP whose tasks are both soles' poses (the
-support sole still, the swing sole on its (B-21) trajectory), the CoM (the LIPM's, at its height),
-the pelvis's yaw (the pelvic rotation θ; with a waist, the torso keeps facing the walk so that the
-waist yaw joint carries θ, B-39's equality), and whose constraints are the joint angle and rate
-limits (the URDF's), over one control period Δt (B-40: q ← q + Δt·q̇). The arm-swing joints are
-left to (B-43) and masked here; any other joint outside the legs holds its home angle.
+support sole still, the swing sole on its (B-21) trajectory) and the pelvis's yaw (the pelvic
+rotation θ; with a waist, the torso keeps facing the walk so that the waist yaw joint carries θ,
+B-39's equality), under hard constraints: the CoM on the LIPM's (at its height), the joint angle
+limits (the URDF's, the knees' narrowed so that each leg stays bent by the walk's knee margin) and
+each joint's window of rates (``joint_window``: its rate limit, its acceleration limit, room to
+brake before its angle limits), over one control period Δt (B-40: q ← q + Δt·q̇). The arm-swing
+joints are left to (B-43) and masked here; any other joint outside the legs holds its home angle.
 
-The CoM task replaces (B-19)'s proportional pelvis update (the pelvis moved until the measured CoM
-meets the desired one): the QP places the CoM directly.
+The CoM constraint replaces (B-19)'s proportional pelvis update (the pelvis moved until the measured
+CoM meets the desired one): the QP places the CoM exactly, so the floating base cannot absorb what
+the legs fail to do. What the limits forbid shows as a sole off its target (the soft tasks give) or
+as a joint whose window is empty (the generator reports both): never as a snap of a joint.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.robot.model import LEG_ROLES, RobotModel
+from jethr1_plan.walking.joint_window import rate_window
+from jethr1_plan.walking.knees import knee_limits_for_bend
 
-__all__ = ["WalkIK", "yaw_matrix"]
+__all__ = ["IKSettings", "WalkIK", "yaw_matrix"]
 
-#: task weights: the soles first, then the CoM, then the orientations (soft tasks, PlaCo's weighting)
+#: task weights: the soles first, then the orientations (soft tasks, PlaCo's weighting); the CoM is
+#: weighted only while standing up, a hard constraint while walking
 SOLE_WEIGHT, COM_WEIGHT, ORIENTATION_WEIGHT, HOLD_WEIGHT = 100.0, 10.0, 10.0, 1.0
 ITERATIONS = 1  # QP steps per control period (each from the posture the last one reached)
 BENT_SEED = {"hip_pitch": -0.4, "knee": 0.8, "ankle_pitch": -0.4}
+KNEE_FLOOR_SLACK_RAD = 1e-4  # the IK keeps the knees this much more bent than the success margin [rad]
+WINDOW_SLACK_RAD = 1e-12  # the window's bounds on the next angle, widened by this (round-off) [rad]
+
+
+@dataclass(frozen=True)
+class IKSettings:
+    """The walk's IK (the walk file's ``ik:``)."""
+
+    max_joint_acceleration_rad_s2: float = 100.0  # every IK joint's and arm joint's acceleration limit
 
 
 def yaw_matrix(yaw_rad: float) -> np.ndarray:
@@ -35,14 +55,25 @@ class WalkIK:
     """One robot, one solver: the walk's QP IK (B-39) step by step.
 
     Args:
-        robot: the model; dt: the control period [s].
+        robot: the model; dt: the control period [s]; knee_bend_rad: the least bend [rad] each
+            knee keeps (the IK's floor, :mod:`~jethr1_plan.walking.knees`).
     """
 
-    def __init__(self, robot: RobotModel, dt: float):
+    def __init__(self, robot: RobotModel, dt: float, knee_bend_rad: float = 0.0):
         import placo
 
         self.robot = robot
+        self.dt = dt
         self.wrapper = robot.wrapper()
+        model = self.wrapper.model
+        if knee_bend_rad > 0:  # the knees' floor: the live model's limits are the QP's joint limits
+            for side in SIDES:
+                k = robot.legs[side].index[3]
+                lo, hi = knee_limits_for_bend(robot, side, knee_bend_rad + KNEE_FLOOR_SLACK_RAD)
+                model.lowerPositionLimit[7 + k], model.upperPositionLimit[7 + k] = lo, hi
+        self.lower = np.array(model.lowerPositionLimit[7:], dtype=float)
+        self.upper = np.array(model.upperPositionLimit[7:], dtype=float)
+        self.rate_max = np.array(model.velocityLimit[6:], dtype=float)
         self.solver = placo.KinematicsSolver(self.wrapper)
         self.solver.dt = dt
         self.soles = {}
@@ -70,7 +101,36 @@ class WalkIK:
         for j in w.arm_swing:
             self.solver.mask_dof(j)
         self.arm_index = np.array([robot.joint_names.index(j) for j in w.arm_swing], dtype=np.int64)
+        arms = set(self.arm_index.tolist())
+        self.solved_index = np.array([j for j in range(len(robot.joint_names)) if j not in arms], dtype=np.int64)
         self._targets = {side: np.eye(4) for side in self.soles}
+        self._window: Any = None  # the rate window's half-spaces (PlaCo), from walk() on
+        self.acc_max = np.inf
+
+    def walk(self, settings: IKSettings) -> None:
+        """From the standing posture on: the CoM a hard constraint, each joint in its window of rates."""
+        self.com.configure("com", "hard", 1.0)
+        self.acc_max = float(settings.max_joint_acceleration_rad_s2)
+        k = len(self.solved_index)
+        A = np.zeros((2 * k, self.wrapper.model.nq))
+        A[np.arange(k), 7 + self.solved_index] = 1.0
+        A[k + np.arange(k), 7 + self.solved_index] = -1.0
+        self._window = self.solver.add_joint_space_half_spaces_constraint(
+            A, np.concatenate([self.upper[self.solved_index], -self.lower[self.solved_index]]))
+        self._window.configure("rate window", "hard", 1.0)  # PlaCo's default for it is soft
+
+    def window(self, q: np.ndarray, rate: np.ndarray, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) the rates [rad/s] the ``joints`` may take over the next period from angles ``q`` and
+        rates ``rate`` over the last one (all joints, (J,))."""
+        return rate_window(q[joints], rate[joints], self.lower[joints], self.upper[joints], self.rate_max[joints],
+                           self.acc_max, self.dt)
+
+    def set_window(self, q: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Hold the IK's joints' next angles within ``q + Δt·[lo, hi]`` (``lo``, ``hi``: over ``solved_index``)."""
+        j = self.solved_index
+        up = q[j] + self.dt * hi + WINDOW_SLACK_RAD
+        down = q[j] + self.dt * lo - WINDOW_SLACK_RAD
+        self._window.b = np.concatenate([up, -down])
 
     def stand(self, feet: dict[str, np.ndarray], com: np.ndarray, yaw: float, iterations: int = 200) -> None:
         """Converge (without rate limits) on the standing posture of the walk's start."""

@@ -1,5 +1,5 @@
 """One walk from its file to its verdict: generate it (Paper B's pipeline), analyse it (κ, torques,
-the multibody ZMP, E_con), judge it against the walk's success criteria and rehearse it in the
+the multibody ZMP, friction, E_con), judge it against the walk's success criteria and rehearse it in the
 MuJoCo twin; and its ``summary.json`` document."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.walking.analysis import Verdict, WalkAnalysis
 from jethr1_plan.walking.generator import Walk, generate
 from jethr1_plan.walking.spec import WalkSpec
@@ -68,7 +69,8 @@ class WalkResult:
 
 def generate_walk(spec: WalkSpec) -> Walk:
     """Paper B's pipeline on ``spec`` (no analysis)."""
-    return generate(spec.robot, spec.timeline(), spec.com, spec.rotation, spec.arms, spec.timing.control_hz)
+    return generate(spec.robot, spec.timeline(), spec.com, spec.rotation, spec.arms, spec.timing.control_hz, spec.ik,
+                    spec.success.knee_margin_rad)
 
 
 def _peak(x: np.ndarray) -> float:
@@ -87,7 +89,8 @@ def walk_summary(result: WalkResult) -> dict:
         "survived": result.rehearsal.survived, "fell_at_s": result.rehearsal.fell_at_s,
         "reason": result.rehearsal.reason or None, "max_trunk_tilt_deg": result.rehearsal.max_tilt_deg,
         "landing_error_m": None if not result.rehearsal.survived else result.rehearsal.landing_error_m}
-    tau_peak = np.max(np.abs(a.tau), axis=0) if len(a.tau) else np.zeros(len(spec.robot.joint_names))
+    judged = a.tau[a.judged]
+    tau_peak = np.max(np.abs(judged), axis=0) if len(judged) else np.zeros(len(spec.robot.joint_names))
     return {
         "kind": "walk",
         "version": __version__,
@@ -100,7 +103,7 @@ def walk_summary(result: WalkResult) -> dict:
         "spec": {"footsteps": {k: v for k, v in asdict(spec.footsteps).items() if k != "landings"} | {
                      "landings": [{"side": s, "position_m": list(p)} for s, p in spec.footsteps.landings]},
                  "timing": asdict(spec.timing), "com": asdict(spec.com), "pelvis_rotation": asdict(spec.rotation),
-                 "arm_swing": asdict(spec.arms), "success": asdict(spec.success)},
+                 "arm_swing": asdict(spec.arms), "ik": asdict(spec.ik), "success": asdict(spec.success)},
         "start_m": {side: [float(v) for v in p] for side, p in walk.timeline.start.items()},
         "steps": [{"side": st.side, "position_m": [float(v) for v in st.position_m], "lift_s": st.t_lift,
                    "land_s": st.t_land} for st in walk.timeline.steps],
@@ -112,15 +115,22 @@ def walk_summary(result: WalkResult) -> dict:
         "peak_yaw_rate_rad_s": _peak(walk.yaw_rate),
         "peak_kappa": float(np.max(a.kappa)),
         "mean_kappa": float(np.mean(a.kappa)),
+        "peak_kappa_leg": {side: float(np.max(a.kappa_leg[:, k])) for k, side in enumerate(SIDES)},
         "yaw_momentum": {"peak_lower_nms": _peak(walk.h_low), "peak_upper_nms": _peak(walk.h_up),
                          "peak_total_nms": _peak(total),
                          "peak_with_arms_held_nms": result.armless_peak_momentum_nms,
                          "reduction": (None if not result.armless_peak_momentum_nms else
                                        1.0 - _peak(total) / result.armless_peak_momentum_nms)},
         "energy_two_steps_j": a.energy_two_steps_j,
-        "least_knee_margin_rad": float(np.min(a.knee_margin_rad)),
+        "least_knee_bend_rad": float(np.min(a.knee_bend_rad)),
+        "least_reach_left_m": float(np.min(a.reach_left_m)),
         "least_zmp_margin_m": a.least_zmp_margin_m,
+        "peak_friction_ratio": a.peak_friction_ratio,
+        "sole_friction": spec.robot.sole_friction,
+        "peak_joint_acceleration_rad_s2": a.peak_joint_acceleration_rad_s2,
         "max_foot_error_m": float(np.max(a.foot_error_m)),
+        "max_com_error_m": float(np.max(a.com_error_m)),
         "peak_torque_nm": {j: float(v) for j, v in zip(spec.robot.joint_names, tau_peak, strict=True)},
+        "peak_torque_ratio": float(np.max(tau_peak / spec.robot.servo_limit_nm)) if len(tau_peak) else 0.0,
         "rehearsal": rehearsal,
     }

@@ -1,14 +1,14 @@
 """A walk file (``WALK.yaml``, read by ``jethr1 walk`` and ``jethr1 walk-sweep``): the robot, the
 footsteps, the timing, and the settings of Paper B's generator; every default stated once, in the
 dataclasses it fills (``Footsteps``, ``WalkTiming`` here, ``SuccessCriteria`` in ``analysis``, ``CoMSettings``,
-``PelvisRotation`` and ``ArmSwing`` in their modules).
+``PelvisRotation``, ``ArmSwing`` and ``IKSettings`` in their modules).
 
 Every problem is one :class:`~jethr1_plan.errors.InputError` naming the file and the key.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +20,7 @@ from jethr1_plan.robot.model import RobotModel, build_with_robot
 from jethr1_plan.walking.analysis import SuccessCriteria
 from jethr1_plan.walking.com_mpc import CoMSettings
 from jethr1_plan.walking.generator import ArmSwing, PelvisRotation
+from jethr1_plan.walking.ik import IKSettings
 from jethr1_plan.walking.timeline import Timeline, repetitive_footsteps
 
 __all__ = ["MAX_ROWS", "ROTATION_MODES", "SCHEMA", "Footsteps", "SuccessCriteria", "WalkSpec", "WalkTiming",
@@ -71,6 +72,7 @@ class WalkSpec:
     rotation: PelvisRotation
     arms: ArmSwing
     success: SuccessCriteria
+    ik: IKSettings = field(default_factory=IKSettings)
     text: str = ""
 
     def start(self) -> dict[str, np.ndarray]:
@@ -147,9 +149,11 @@ SCHEMA = _obj({
                              "alpha": {"type": "number", "exclusiveMinimum": 0, "maximum": 1e12},
                              "beta": _weight}),
     "arm_swing": _obj({"enabled": {"type": "boolean"}, "w1": _weight, "w2": _weight, "w3": _weight}),
+    "ik": _obj({"max_joint_acceleration_rad_s2": {"type": "number", "exclusiveMinimum": 0, "maximum": 1e6}}),
     "success": _obj({"foot_tolerance_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1},
                      "foot_tolerance_rad": {"type": "number", "exclusiveMinimum": 0, "maximum": 3.2},
                      "knee_margin_rad": {"type": "number", "minimum": 0, "maximum": 3.2},
+                     "com_tolerance_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1},
                      "zmp_margin_m": {"type": "number", "minimum": -1, "maximum": 1},
                      "rehearse": {"type": "boolean"},
                      "landing_tolerance_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 10}}),
@@ -187,7 +191,8 @@ def _build(doc: dict, src: str, robot: RobotModel) -> WalkSpec:
     spec = WalkSpec(src, doc.get("name", Path(src).stem), robot, footsteps, timing, com,
                     fill_dataclass(PelvisRotation(), doc.get("pelvis_rotation", {})),
                     fill_dataclass(ArmSwing(), doc.get("arm_swing", {})),
-                    fill_dataclass(SuccessCriteria(), doc.get("success", {})))
+                    fill_dataclass(SuccessCriteria(), doc.get("success", {})),
+                    fill_dataclass(IKSettings(), doc.get("ik", {})))
     check_walk(spec, src)
     return spec
 
