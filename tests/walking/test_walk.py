@@ -142,7 +142,7 @@ def test_walk_writes_its_files_and_paper_b_measures(dyros_folder):
     assert mom["peak_total_nms"] <= 0.5 * mom["peak_with_arms_held_nms"]
     twin = s["rehearsal"]
     assert twin["survived"] and twin["landing_error_m"] < s["spec"]["success"]["landing_tolerance_m"]
-    assert s["least_knee_margin_rad"] >= s["spec"]["success"]["knee_margin_rad"]
+    assert s["least_knee_bend_rad"] >= s["spec"]["success"]["knee_margin_rad"]
     assert 0 < s["peak_yaw_rad"] < math.radians(45)
 
 
@@ -287,5 +287,5 @@ def test_walk_sweep_finds_the_longer_step_with_rotation_and_ignores_jobs(tmp_pat
     doc = json.loads(docs[0])
     assert doc["max_step_m"] == {"none": 0.32, "paper_b": 0.36}
     rows = {(r["mode"], r["step_m"]): r for r in doc["rows"]}
-    assert not rows[("none", 0.34)]["ok"] and "knee" in rows[("none", 0.34)]["reason"]
+    assert not rows[("none", 0.34)]["ok"] and "KneePitch" in rows[("none", 0.34)]["reason"]
     assert rows[("paper_b", 0.32)]["peak_kappa"] < rows[("none", 0.32)]["peak_kappa"]
