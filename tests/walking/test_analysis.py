@@ -93,7 +93,8 @@ def test_knee_reversal_within_one_period_is_caught(straight_walk):
     added = a.joint_acceleration[:, j] - before.joint_acceleration[:, j]
     assert added[k] == pytest.approx(600.0, rel=1e-9) and added[k - 6] == pytest.approx(-300.0, rel=1e-9)
     verdict = judge(w, a, spec.success)
-    assert not verdict.ok and f"R_KneePitch accelerates at {a.joint_acceleration[k - 6, j]:+.0f} rad/s²" in verdict.reason
+    corner = a.joint_acceleration[k - 6, j]
+    assert not verdict.ok and f"R_KneePitch accelerates at {corner:+.0f} rad/s²" in verdict.reason
     assert verdict.time_s == pytest.approx(w.t[k - 6], abs=1e-9)  # the first corner, where the dip starts
 
 
