@@ -109,13 +109,14 @@ def ground_wrench(T_base: np.ndarray, base_rows: np.ndarray) -> tuple[np.ndarray
     its origin)."""
     R, p = T_base[:3, :3], T_base[:3, 3]
     f = R @ base_rows[:3]
-    return f, R @ base_rows[3:6] + np.cross(p, f)
+    p_x_f = np.array([p[1] * f[2] - p[2] * f[1], p[2] * f[0] - p[0] * f[2], p[0] * f[1] - p[1] * f[0]])
+    return f, R @ base_rows[3:6] + p_x_f
 
 
 def _yaw_column(T_sole: np.ndarray, axis_point: np.ndarray) -> np.ndarray:
     """The twist (linear, angular; world-aligned) of a sole turned about the vertical axis through ``axis_point``."""
-    z = np.array([0.0, 0.0, 1.0])
-    return np.concatenate([np.cross(z, T_sole[:3, 3] - axis_point), z])
+    r = T_sole[:3, 3] - axis_point
+    return np.array([-r[1], r[0], 0.0, 0.0, 0.0, 1.0])  # (z × r, z)
 
 
 def _condition(J: np.ndarray) -> float:
@@ -132,7 +133,7 @@ def analyse(walk: Walk) -> WalkAnalysis:
     v, a = row_derivatives(walk.base, walk.q, dt)
     waist = robot.walking.waist_yaw
     kappa, kappa_leg = np.zeros(n), np.zeros((n, 2))
-    bend, reach = np.zeros((n, 2)), np.zeros((n, 2))
+    points = np.zeros((4, n, 2, 3))  # hip yaw, hip pitch, knee, ankle pitch joints' origins
     tau, zmp, friction = np.zeros((n, nj)), np.zeros((n, 2)), np.zeros(n)
     legs = [np.asarray(robot.legs[s].index) for s in SIDES]
     ncols = 13 if walk.pelvis_rotation else 12
@@ -153,10 +154,8 @@ def analyse(walk: Walk) -> WalkAnalysis:
             J_low[6 * k:6 * k + 6, ncols - 12 + 6 * k:ncols - 6 + 6 * k] = J_leg
             if walk.pelvis_rotation:
                 J_low[6 * k:6 * k + 6, 0] = _yaw_column(w.get_T_world_frame(sole), axis_point)
-            hip, knee, ankle = leg_points(w, robot, side)
-            bend[i, k] = knee_bend_rad(hip, knee, ankle)
-            reach[i, k] = robot.thigh_m + robot.shank_m - np.linalg.norm(
-                ankle - w.get_T_world_frame(robot.legs[side].joints[0])[:3, 3])
+            points[1:, i, k] = leg_points(w, robot, side)
+            points[0, i, k] = w.get_T_world_frame(robot.legs[side].joints[0])[:3, 3]
         kappa[i] = _condition(J_low)
         full = w.mass_matrix() @ a[i] + w.non_linear_effects()
         f, moment = ground_wrench(T, full[:6])
@@ -166,6 +165,8 @@ def analyse(walk: Walk) -> WalkAnalysis:
         Jc = np.vstack([w.frame_jacobian(robot.legs[sd].sole, "local") for sd in supports])
         wrench, *_ = np.linalg.lstsq(Jc[:, :6].T, full[:6], rcond=None)
         tau[i] = full[6:] - Jc[:, 6:].T @ wrench
+    bend = knee_bend_rad(points[1], points[2], points[3])
+    reach = robot.thigh_m + robot.shank_m - np.linalg.norm(points[3] - points[0], axis=-1)
     margin = np.zeros(n)
     polygons: dict[tuple, np.ndarray] = {}
     for i, key in enumerate(walk.timeline.support_keys(walk.t)):
@@ -239,7 +240,8 @@ def _held_back(walk: Walk, a: WalkAnalysis, i: int, rows: int = 10) -> str:
             dt = float(walk.t[1] - walk.t[0])
             rates = (walk.q[r] - walk.q[r - 1]) / dt
             names = ", ".join(f"{walk.robot.joint_names[j]} at {rates[j]:+.2f} rad/s" for j in held[:3])
-            return f" ({names}, on the edge of its rate window at t = {walk.t[r]:.2f} s)"
+            when = "" if r == i else f" at t = {walk.t[r]:.2f} s"
+            return f" ({names}, on the edge of its window of rates{when})"
     return ""
 
 
