@@ -11,7 +11,8 @@ rate, start soles, footholds, IK limits and success criteria) every row must hol
   above the ground; each knee bent at least the walk's margin from straight (the angle between thigh
   and shank) and as written; the CoM as written and on the LIPM's within the walk's tolerance;
 * **motion, from the rows alone**: each row's velocity and acceleration by second central
-  differences of the rows around it (the trunk's by the matrix logarithm of its relative poses),
+  differences of the rows around it (the trunk's by the logarithm of its relative pose on SE(3), from
+  the relative quaternion),
   every joint's acceleration within the walk's limit;
 * **balance**: the ground's wrench from the inverse dynamics of that motion: the multibody ZMP as
   written and inside the support polygon with the walk's margin, the friction ratio within the

@@ -151,7 +151,7 @@ def test_friction_above_the_soles_mu_fails_the_walk(straight_walk):
     spec, walk, a = straight_walk
     peak = a.peak_friction_ratio
     assert 0 < peak < walk.robot.sole_friction and judge(walk, a, spec.success).ok
-    slippery = replace(walk.robot, twin={**walk.robot.twin, "sole_friction": 0.9 * peak})
+    slippery = replace(walk.robot, twin=replace(walk.robot.twin, sole_friction=0.9 * peak))
     w = copy.copy(walk)
     w.robot = slippery
     verdict = judge(w, a, spec.success)
