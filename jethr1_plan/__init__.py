@@ -1,17 +1,11 @@
-"""jethr1-plan: thrust-assisted quasistatic stepping over ditches for the Jet-HR1 biped.
+"""jethr1-plan: thrust-assisted quasistatic stepping over ditches for the Jet-HR1 biped (Paper A) and
+walking with pelvic rotation (Paper B).
 
-Modules, one per concept of the papers:
-
-* :mod:`jethr1_plan.robot.model` — the URDF + robot YAML (mass, joints, fans, sole).
-* :mod:`jethr1_plan.physics.balance` — quasistatic balance with thrust, (A-1)..(A-4), (A-10).
-* :mod:`jethr1_plan.kinematics.placo` — P_body + body yaw → 12 joint angles (PlaCo IK).
-* :mod:`jethr1_plan.optimisers.problem` — candidate evaluation and GAS's fitness (A-15)..(A-22).
-* :mod:`jethr1_plan.optimisers.gas` — GAS, GA, GAEx.
-* :mod:`jethr1_plan.swing_path` — circular-arc and explicit swing paths, carton clearance.
-* :mod:`jethr1_plan.scenario` — scenario files.
-* :mod:`jethr1_plan.planning.sequence`, :mod:`jethr1_plan.planning.plan` — steps, transfers, resampling.
-* :mod:`jethr1_plan.files.plan_csv`, :mod:`jethr1_plan.files.plan_mcap` (ROS 2 MCAP), :mod:`jethr1_plan.io.atomic` —
-  outputs.
+The package is layered, lowest first (``tools/check_imports.py`` holds the layers; docs/architecture.md
+explains them): the shared words (:mod:`.errors`, :mod:`.reasons`, :mod:`.geometry`), :mod:`.io`,
+:mod:`.robot`, :mod:`.physics`, :mod:`.kinematics`, :mod:`.optimisers`, :mod:`.scenario` and
+:mod:`.swing_path`, :mod:`.control`, :mod:`.planning` / :mod:`.walking` / :mod:`.balance_space`,
+:mod:`.files`, :mod:`.sim`, :mod:`.verify`, :mod:`.pipeline`, :mod:`.studies`, :mod:`.viewer`, :mod:`.cli`.
 """
 
 __version__ = "0.1.0"

@@ -1,5 +1,4 @@
-"""Every file jethr1 reads or writes: atomic writes (:mod:`.atomic`), the trajectory CSV
-(:mod:`.trajectory_csv`), MCAP (:mod:`.mcap`), the plan folder (:mod:`.plan_files`), the balance-space
-files (:mod:`.balance_space_files`) and JSON documents (:mod:`.json_text`)."""
-
-__all__: list[str] = []
+"""Thin input and output helpers every file format uses: YAML documents checked against a schema
+(:mod:`.yaml_input`), JSON text (:mod:`.json_text`), wide CSV tables (:mod:`.csv_table`), atomic
+staging and commit of outputs (:mod:`.atomic`) and the Dask client of scale-out runs (:mod:`.cluster`).
+The file formats themselves live in :mod:`jethr1_plan.files`."""
