@@ -1,4 +1,4 @@
-"""Expected failures, each with the exit code the CLI maps it to (CONTRACT.md)."""
+"""Expected failures, each with the exit code the CLI maps it to."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ import pytest
 from jethr1_plan.robot.model import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Jet-HR1's joints as its URDF names them (CONTRACT.md), left leg then right, hip yaw to ankle roll
+#: Jet-HR1's joints as its URDF names them (docs/robots.md), left leg then right, hip yaw to ankle roll
 JOINT_NAMES = tuple(f"{side}_{j}" for side in ("left", "right")
                     for j in ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"))
 

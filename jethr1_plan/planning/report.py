@@ -1,4 +1,5 @@
-"""What a plan reports: summary.json (CONTRACT.md), its robustness and smoothness figures, the infeasible message."""
+"""What a plan reports: summary.json (docs/contract.md), its robustness and smoothness figures, the
+infeasible message."""
 
 from __future__ import annotations
 
@@ -70,7 +71,7 @@ def robustness_summary(rows: Rows, fans: list[str]) -> dict:
 
 
 def plan_summary(result: PlanResult) -> dict:
-    """summary.json (CONTRACT.md): figures over the optimised swing samples, per step and in total."""
+    """summary.json (docs/contract.md): figures over the optimised swing samples, per step and in total."""
     sc = result.scenario
     per_step = []
     all_thrust, all_p = [], []

@@ -2,7 +2,7 @@
 (checked by :mod:`.schema`), as typed dataclasses.
 
 Everything reported about a robot (mass, height, leg length, joints, fans) is computed from the
-loaded model, never copied from the YAML. Frames and joint names follow CONTRACT.md.
+loaded model, never copied from the YAML. Frames and joint names follow docs/robots.md.
 """
 
 from __future__ import annotations

@@ -98,7 +98,7 @@ def test_straight_leg_is_the_reach_boundary(robot, side):
 
 
 def test_the_compiled_closed_form_is_the_numpy_one(robot):
-    """balance_kernel.postures against the numpy statement of the same formulas (tests/leg_oracle.py),
+    """physics.compiled.postures against the numpy statement of the same formulas (tests/oracles/leg.py),
     feet turned as well as straight."""
     rng = np.random.default_rng(17)
     n = 20_000
