@@ -45,15 +45,15 @@ import numpy as np
 
 from jethr1_plan.geometry import other_side
 from jethr1_plan.kinematics.closed_form import solve_postures
+from jethr1_plan.optimisers.compass import compass_search
+from jethr1_plan.optimisers.exhaustive import exhaustive_cell
 from jethr1_plan.optimisers.search import (
     DIRECTIONS,
     INTO_JOINT_LIMITS,
     Cells,
     Evaluator,
     SupportStance,
-    compass_search,
     cube_offsets,
-    exhaustive_cell,
     generic_seeds,
     lens_seeds,
 )

@@ -205,7 +205,7 @@ def solve_postures(robot: RobotModel, trunk_xyz: ArrayLike, trunk_yaw: ArrayLike
     ``feet[side] = (xyz (N, 3) or (3,), yaw (N,) or scalar)``. Status: OK, UNREACHABLE (the
     hip–ankle distance exceeds the leg) or JOINT_LIMIT (the solution leaves the URDF limits).
     """
-    from jethr1_plan.physics.compiled import postures
+    from jethr1_plan.physics.compiled.legs import postures
 
     P = np.ascontiguousarray(np.atleast_2d(np.asarray(trunk_xyz, dtype=float)))
     n = len(P)

@@ -103,7 +103,7 @@ def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
     window is [lo, hi] where ``lo <= hi`` and not ``blocked``; where ``lo > hi``, lo − hi [N] says how
     far it is from opening. Computed by ``physics.compiled.windows`` (one implementation for every caller).
     """
-    from jethr1_plan.physics.compiled import windows
+    from jethr1_plan.physics.compiled.windows import windows
 
     shape = np.broadcast_shapes(np.shape(com_xy)[:-1], np.shape(fan_xy)[:-1])
     n, b = halfplanes(polygon)
@@ -162,7 +162,7 @@ def least_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, ma
     Returns:
         total (...,) [N], inf where no thrust balances; split (..., F) [N], NaN there.
     """
-    from jethr1_plan.physics.compiled import least_totals
+    from jethr1_plan.physics.compiled.windows import least_totals
 
     fan_xy = np.asarray(fan_xy, dtype=float)
     nf = fan_xy.shape[-2]
@@ -192,7 +192,7 @@ def shared_window(com_xy: np.ndarray, fan_xy: np.ndarray, share: np.ndarray, pol
     Returns:
         lo, hi (...,) [N]; lo = inf and hi = nan where it is empty.
     """
-    from jethr1_plan.physics.compiled import mixed_windows
+    from jethr1_plan.physics.compiled.windows import mixed_windows
 
     fan_xy = np.asarray(fan_xy, dtype=float)
     nf = fan_xy.shape[-2]
@@ -246,7 +246,7 @@ def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nda
     swing ankle. Where either direction is shorter than 1e-9 m the angle is undefined: 0. Computed by
     ``physics.compiled.edge_errors``.
     """
-    from jethr1_plan.physics.compiled import edge_errors
+    from jethr1_plan.physics.compiled.edge import edge_errors
 
     shape = np.broadcast_shapes(np.shape(origin_xy)[:-1], np.shape(com_xy)[:-1], np.shape(ankle_xy)[:-1])
     return edge_errors(_rows(origin_xy, shape), _rows(com_xy, shape), _rows(ankle_xy, shape)).reshape(shape)
