@@ -78,11 +78,12 @@ def kernel(fn: Callable | None = None, **options: Any) -> Any:
     it is set for that moment only, so other libraries' caches stay where they were.
     """
     def wrap(f: Callable) -> Any:
-        saved = numba.config.CACHE_DIR
-        numba.config.CACHE_DIR = cache_dir()
+        config: Any = numba.config  # (numba ships no type information for its settings)
+        saved = config.CACHE_DIR
+        config.CACHE_DIR = cache_dir()
         try:
             return numba.njit(cache=True, **options)(f)
         finally:
-            numba.config.CACHE_DIR = saved
+            config.CACHE_DIR = saved
 
     return wrap if fn is None else wrap(fn)
