@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from jethr1_plan.optimisers.search import AXIS_DIRECTIONS, FINE_DIRECTIONS, SEARCH_LEVEL, Cells, Evaluator
+from jethr1_plan.optimisers.search import Cells, Evaluator
 from jethr1_plan.physics.compiled.jit import kernel
 from jethr1_plan.physics.compiled.objective import objective_into, objective_scratch
 from jethr1_plan.physics.compiled.reach import into_reach_one
@@ -26,18 +26,18 @@ POLL_CHUNK = 3  # compass: directions evaluated together (independent candidates
 
 def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
                    min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002,
-                   axis_dirs: np.ndarray = AXIS_DIRECTIONS, fine_dirs: np.ndarray = FINE_DIRECTIONS,
-                   chunk: int | None = None, levels: tuple[int, int] | None = None):
+                   axis_dirs: np.ndarray | None = None, fine_dirs: np.ndarray | None = None,
+                   chunk: int = POLL_CHUNK, levels: tuple[int, int] | None = None):
     """Compass (pattern) search from P (B, 3) [m] with objective f (B,), one cell per row; returns the
     new (P, f).
 
-    Polls ``axis_dirs`` (the 6 axes) while the step is at least ``coarse_until`` [m], then
-    ``fine_dirs`` (the 6 axes and 8 cube corners, so the search can slide along a constraint's edge).
-    A poll is opportunistic: directions are tried ``chunk`` (default POLL_CHUNK) at a time, starting
+    Polls ``axis_dirs`` (default the evaluator's: the 6 axes, mirrored for a left support) while the step is
+    at least ``coarse_until`` [m], then ``fine_dirs`` (default the 6 axes and 8 cube corners, so the search can
+    slide along a constraint's edge). A poll is opportunistic: directions are tried ``chunk`` at a time, starting
     from the last move's, and the search moves to the best of the first chunk that improves; when none
     does, the step halves (``chunk`` ≥ the number of directions: a complete poll, the best of all).
     Every poll point is moved into the reach balls and joint limits first (:meth:`Evaluator.into_reach`,
-    ``levels``: the level of the axis stage, then of the fine stage; default SEARCH_LEVEL).
+    ``levels``: the level of the axis stage, then of the fine stage; default the evaluator's).
     A row stops when its step falls below ``min_step`` [m], when it reaches zero thrust, or, after
     ``give_up_after`` polls of a stage, when it has still found no kinematically valid posture. A row
     that ends on an invalid posture (a penalty a hair above zero) gets the best valid posture it met,
@@ -47,18 +47,18 @@ def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: n
     f = np.array(f, dtype=float)
     counts = np.zeros(len(idx), dtype=np.int64)
     _compass_rows(P, f, np.ascontiguousarray(step0, dtype=float), counts, np.ascontiguousarray(idx, dtype=np.int64),
-                  coarse_until, float(min_step), max_iter, give_up_after, POLL_CHUNK if chunk is None else int(chunk),
-                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, ev.search_radius, ev.shapes,
-                  *((SEARCH_LEVEL, SEARCH_LEVEL) if levels is None else levels),
-                  c.swing, c.yaw, c.fan, *ev.params)
+                  coarse_until, float(min_step), max_iter, give_up_after, int(chunk),
+                  ev.axis_dirs if axis_dirs is None else axis_dirs, ev.fine_dirs if fine_dirs is None else fine_dirs,
+                  c.centre_w, c.centre_s, ev.search_radius, ev.shapes,
+                  *((ev.level, ev.level) if levels is None else levels), c.swing, c.yaw_cs, c.fan, *ev.params)
     ev.evaluations += int(counts.sum())
     return P, f
 
 
 @kernel
 def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, give_up_after, chunk, axis_dirs,
-                  fine_dirs, centre_w, centre_s, radius, shapes, level0, level1, swing, yaw, fan, geom, trunk, joints,
-                  links, limits, normals, offsets, support, scalars, fans):
+                  fine_dirs, centre_w, centre_s, radius, shapes, level0, level1, swing, yaw_cs, fan, geom, trunk,
+                  joints, links, limits, normals, offsets, support, scalars, fans, arcs):
     """:func:`compass_search`'s loop, in place on P and f; ``counts`` (B,) gets each row's evaluations."""
     kmax = max(len(axis_dirs), len(fine_dirs))
     cand, rows = np.empty((kmax, 3)), np.empty(kmax, dtype=np.int64)
@@ -93,8 +93,9 @@ def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, gi
                         cand[t, 0], cand[t, 1], cand[t, 2] = into_reach_one(
                             p0 + st * dirs[j, 0], p1 + st * dirs[j, 1], p2 + st * dirs[j, 2], c, centre_w, centre_s,
                             radius, shapes, level)
-                    objective_into(cand[:m], rows[:m], swing, yaw, fan, geom, trunk, joints, links, limits, normals,
-                                   offsets, support, scalars, fans, obj, thrust, reason, q, cs, fxs, fys, fmax, split)
+                    objective_into(cand[:m], rows[:m], swing, yaw_cs, fan, geom, trunk, joints, links, limits, normals,
+                                   offsets, support, scalars, fans, arcs, obj, thrust, reason, q, cs, fxs, fys, fmax,
+                                   split)
                     counts[b] += m
                     jb = 0
                     for t in range(m):
@@ -111,8 +112,8 @@ def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, gi
         # the penalties are exact, but a search that ends a hair outside a constraint falls back on the
         # best valid posture it met
         cand[0, 0], cand[0, 1], cand[0, 2] = p0, p1, p2
-        objective_into(cand[:1], rows[:1], swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets,
-                       support, scalars, fans, obj, thrust, reason, q, cs, fxs, fys, fmax, split)
+        objective_into(cand[:1], rows[:1], swing, yaw_cs, fan, geom, trunk, joints, links, limits, normals, offsets,
+                       support, scalars, fans, arcs, obj, thrust, reason, q, cs, fxs, fys, fmax, split)
         counts[b] += 1
         if reason[0] != _OK and reason[0] != _THRUST_MAX and math.isfinite(f_ok):
             p0, p1, p2, fb = k0, k1, k2, f_ok

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.optimisers.search import INTO_JOINT_LIMITS, Cells, Evaluator, cube_offsets, pelvis_box
+from jethr1_plan.optimisers.search import INTO_JOINT_LIMITS, Cells, Evaluator, pelvis_box
 from jethr1_plan.reasons import Reason, balances
 
 __all__ = ["REFINE_BASINS", "ZOOM_STEPS_M", "exhaustive_cell"]
@@ -31,7 +31,8 @@ def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins
     the limits, on 1,000 cells 209 answers were higher, by up to 5.8 N).
 
     The answer is the best valid posture met (the penalties are exact, but a grid point a hair
-    outside a constraint can score below every valid one); the best score where none is valid."""
+    outside a constraint can score below every valid one); the best score where none is valid. Every grid is
+    mirrored for a left support (:attr:`Evaluator.flip`): its answer is the mirror of a right support's."""
     grid = pelvis_box(ev, c, i, resolution_m)
     if not len(grid):
         return np.full(3, np.nan), np.inf, int(Reason.UNREACHABLE)
@@ -53,7 +54,7 @@ def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins
     j = int(np.argmin(valid))
     best_valid_p, best_valid_f = grid[j], float(valid[j])
     fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
-    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
+    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3) * ev.flip  # mirrored
     for q in centres:
         local = ev.into_reach(c, np.full(len(offsets), i), q + offsets, level=INTO_JOINT_LIMITS)
         o, _, rr = ev(c, np.full(len(local), i), local)
@@ -66,7 +67,7 @@ def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins
             best_valid_f, best_valid_p = float(v[j]), local[j]
     # zoom: finer grids around the best valid point (a thin ridge of the feasible set can hold 0.1 N within
     # a millimetre)
-    for zoom in (cube_offsets(step, 5) for step in ZOOM_STEPS_M) if np.isfinite(best_valid_f) else ():
+    for zoom in (ev.offsets(step, 5) for step in ZOOM_STEPS_M) if np.isfinite(best_valid_f) else ():
         local = ev.into_reach(c, np.full(len(zoom), i), best_valid_p + zoom, level=INTO_JOINT_LIMITS)
         o, _, rr = ev(c, np.full(len(local), i), local)
         v = np.where(balances(rr), o, np.inf)

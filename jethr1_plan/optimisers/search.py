@@ -1,4 +1,4 @@
-"""Searches over P_body for one support sole: the compiled objective, seeds, compass and exhaustive search.
+"""Searches over P_body for one support sole: the compiled objective, its projection and the seeds.
 
 The balance-space sweep (:mod:`~jethr1_plan.balance_space.sweep`), ``compare``'s reference thrust and the
 sqp optimiser's last resort all search the same objective: the least thrust over P_body under all of
@@ -7,9 +7,15 @@ Paper A's constraints, for a swing sole at a given cell, with the body yaw of (A
 * :class:`Evaluator` — the objective of candidates of many cells at once (``physics.compiled.
   balance_objective``: closed-form IK, CoM, thrust window, edge angle, reach), with the projection into
   the legs' reach balls and joint limits (:meth:`Evaluator.into_reach`, :func:`leg_shapes`).
-* :func:`compass_search` — a vectorised pattern search, one cell per row.
-* :func:`exhaustive_cell` — Paper A's grid over every pelvis position, refined at 1 mm.
-* :func:`generic_seeds`, :func:`lens_seeds` — starting points.
+* :func:`generic_seeds`, :func:`lens_seeds` — starting points; :func:`pelvis_box` — the grid of every pelvis
+  position from which both legs may reach.
+* ``optimisers.compass`` — the compass search; ``optimisers.exhaustive`` — Paper A's grid search.
+
+Mirror-exact: Jet-HR1 is left-right symmetric, so a left support's search must be the mirror image (y → −y)
+of a right support's, to the bit. Every choice a search makes in order (the directions it polls first, the
+seeds, the grids and their tie order) is written for a right support and multiplied by the evaluator's
+:attr:`Evaluator.flip` (1, −1, 1) for a left one; the kinematics and the yaw are odd to the bit
+(``physics.compiled.legs.body_com``, ``geometry.wrap_angle``).
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ import numpy as np
 from jethr1_plan.geometry import GRAVITY, other_side, sole_polygon
 from jethr1_plan.kinematics.closed_form import check_structure, kernel_params
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4
+from jethr1_plan.physics.compiled.legs import yaw_cos_sin
 from jethr1_plan.physics.compiled.objective import balance_objective
 from jethr1_plan.physics.compiled.reach import into_reach, pitch_bounds
 from jethr1_plan.robot.model import RobotModel, reach_centre
@@ -35,6 +42,7 @@ __all__ = [
     "INTO_REACH",
     "INTO_ROLL_KNEE",
     "REACH_MARGIN_M",
+    "SEARCH_LEVEL",
     "Cells",
     "Evaluator",
     "SupportStance",
@@ -49,7 +57,7 @@ EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the
 # what the searches' projection (Evaluator.into_reach) moves a pelvis position into: the legs' reach balls only; also
 # each leg's roll and knee limits; also its pitch limits (dearer: trigonometry where the pitch is near a limit)
 INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS = 0, 1, 2
-SEARCH_LEVEL = INTO_ROLL_KNEE  # the searches' (INTO_REACH: the previous release's, for the bench's ratio)
+SEARCH_LEVEL = INTO_ROLL_KNEE  # the searches' default (Evaluator.level)
 REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (optimisers.sqp keeps ~0.13 mm)
 
 AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
@@ -84,13 +92,18 @@ class Cells:
     fan: np.ndarray  # (C, 2) thrust point [m]
     centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot.model.reach_centre) [m]
     centre_w: np.ndarray  # (C, 3) centre of the swing leg's reach ball [m]
+    yaw_cs: np.ndarray  # (C, 2) cos and sin of the yaw (as the kernels compute them)
 
 
 class Evaluator:
-    """Vectorised objective over candidates of many cells at once."""
+    """Vectorised objective over candidates of many cells at once.
 
-    def __init__(self, robot: RobotModel, stance: SupportStance):
-        self.robot, self.stance = robot, stance
+    ``level``: what :meth:`into_reach` and the compass move a pelvis position into by default (INTO_REACH,
+    INTO_ROLL_KNEE, INTO_JOINT_LIMITS). ``flip`` (3,): (1, 1, 1) for a right support, (1, −1, 1) for a left one,
+    the mirror applied to every ordered choice of the searches (poll directions, seeds, grids)."""
+
+    def __init__(self, robot: RobotModel, stance: SupportStance, level: int = SEARCH_LEVEL):
+        self.robot, self.stance, self.level = robot, stance, level
         self.geom = check_structure(robot)
         self.support = np.asarray(stance.support_xyz, dtype=float)
         self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, stance.sole_margin_m)
@@ -100,6 +113,11 @@ class Evaluator:
         self.params = kernel_params(robot, stance.support_side, self.support, self.poly, stance.rho_rad,
                                     stance.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG,
                                     stance.tolerance)
+        self.mirror = -1.0 if stance.support_side == "left" else 1.0
+        self.flip = np.array([1.0, self.mirror, 1.0])
+        self.axis_dirs = np.ascontiguousarray(AXIS_DIRECTIONS * self.flip)
+        self.fine_dirs = np.ascontiguousarray(FINE_DIRECTIONS * self.flip)
+        self.all_dirs = np.ascontiguousarray(DIRECTIONS * self.flip)
         # per level (INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS) the legs' sets of into_reach: the first two
         # leave the pitch free (their fast-path pitch range infinite)
         limited = leg_shapes(self.geom.thigh_m, self.geom.shank_m, self.search_radius, self.params.limits,
@@ -114,7 +132,8 @@ class Evaluator:
         yaw = body_yaw_eq4(self.support[:2], fan, self.stance.support_side)
         centre_s = reach_centre(self.geom, self.stance.support_side, np.broadcast_to(self.support, swing.shape), yaw)
         centre_w = reach_centre(self.geom, self.stance.swing_side, swing, yaw)
-        return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w))
+        return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w),
+                     np.ascontiguousarray(np.column_stack(yaw_cos_sin(np.ascontiguousarray(yaw)))))
 
     @property
     def search_radius(self) -> float:
@@ -123,7 +142,7 @@ class Evaluator:
 
     def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray, level: int | None = None) -> np.ndarray:
         """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them,
-        and (``level``, default SEARCH_LEVEL) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its
+        and (``level``, default :attr:`level`) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its
         pitch limits too (INTO_JOINT_LIMITS).
 
         The optimum of most cells has a leg at full stretch, where the CoM moves like the square root
@@ -131,19 +150,30 @@ class Evaluator:
         projection instead lets it slide along the surface (and along the circle where both legs
         are straight). High cells' optima sit where that sphere meets a joint limit (an ankle and hip
         roll, a fully bent knee, a hip or ankle pitch): the same holds there. See
-        ``physics.compiled.into_reach``. The balls' radius is REACH_MARGIN_M short
+        ``physics.compiled.reach``. The balls' radius is REACH_MARGIN_M short
         of thigh + shank: a leg exactly straight is singular (PlaCo's IK cannot place its CoM to
         better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
         """
         return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
                           c.centre_w, c.centre_s, self.search_radius, self.shapes,
-                          SEARCH_LEVEL if level is None else level)
+                          self.level if level is None else level)
 
     def reach_possible(self, c: Cells) -> np.ndarray:
         """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
         around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
         g = self.geom
         return np.linalg.norm(c.centre_w - c.centre_s, axis=1) <= 2 * (g.thigh_m + g.shank_m)
+
+    def hip_yaw_allowed(self, c: Cells) -> np.ndarray | None:
+        """Per cell whether the trunk's yaw leaves both hip yaws within their limits; None where that does not
+        decide. With both soles flat and facing +x, every posture with the hips above the ankles has both hip
+        yaws equal to −yaw (``physics.compiled.legs``): when the ankle roll's limits keep the hips above the
+        ankles (|roll| < π/2), a cell whose −yaw lies beyond a hip yaw's limits has no valid posture at all."""
+        lim = self.params.limits
+        if np.any(np.abs(lim[:, [5, 11]]) >= np.pi / 2):
+            return None
+        hip = -c.yaw
+        return (hip >= lim[0, 0]) & (hip <= lim[1, 0]) & (hip >= lim[0, 6]) & (hip <= lim[1, 6])
 
     def __call__(self, c: Cells, idx: np.ndarray, P: np.ndarray):
         """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
@@ -155,7 +185,11 @@ class Evaluator:
         self.evaluations += len(P)
         P = np.ascontiguousarray(P, dtype=float)
         idx = np.ascontiguousarray(idx, dtype=np.int64)
-        return balance_objective(P, idx, c.swing, c.yaw, c.fan, *self.params)
+        return balance_objective(P, idx, c.swing, c.yaw_cs, c.fan, *self.params)
+
+    def offsets(self, step: float, half: int) -> np.ndarray:
+        """:func:`cube_offsets` mirrored for a left support (the same points in the mirrored order) [m]."""
+        return cube_offsets(step, half) * self.flip
 
 
 def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarray, swing_side: str) -> np.ndarray:
@@ -210,7 +244,7 @@ def lens_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
     e = axis / np.maximum(h, 1e-12)[:, None]
     up = np.array([0.0, 0.0, 1.0]) - e[:, 2:3] * e
     up /= np.maximum(np.linalg.norm(up, axis=1), 1e-12)[:, None]
-    side = np.cross(e, up)
+    side = np.cross(e, up) * ev.mirror  # a left support: the mirror of a right's seeds, in the same order
     half = np.maximum(L - h / 2, 0.0)  # the lens's half thickness along the line of centres
     seeds = []
     for t in (-0.5, 0.0, 0.5):
@@ -238,7 +272,9 @@ def pelvis_box(ev: Evaluator, c: Cells, i: int, res: float) -> np.ndarray:
     lo = np.maximum(cs - L, cw - L)
     hi = np.minimum(cs + L, cw + L)
     lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
+    if ev.mirror < 0:  # a left support: the right's grid mirrored (from the far side of y, then negated)
+        lo[1], hi[1] = -hi[1], -lo[1]
     axes = [np.arange(lo[k], hi[k] + 1e-12, res) for k in range(3)]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3) * ev.flip
 
 

@@ -267,12 +267,13 @@ def body_yaw_eq4(support_xy: np.ndarray, fan_xy: np.ndarray, support_side: str) 
 
     γ = atan2(P_T,y − Z_y, P_T,x − Z_x) is the direction from the support point Z to the fan. The
     trunk is yawed so that the line from the support hip to the swing hip points along γ. At zero
-    yaw that line points along +y for a right support foot and along −y for a left one.
+    yaw that line points along +y for a right support foot and along −y for a left one. The mirror image
+    (y → −y) of a right support gives the opposite yaw of the left one exactly.
     """
     d = np.asarray(fan_xy, dtype=float) - np.asarray(support_xy, dtype=float)
-    gamma = np.arctan2(d[..., 1], d[..., 0])
-    hip_line0 = np.pi / 2 if support_side == "right" else -np.pi / 2
-    return wrap_angle(gamma - hip_line0)
+    s = 1.0 if support_side == "right" else -1.0  # a left support computed as the mirror of a right, to the bit
+    gamma = np.arctan2(s * d[..., 1], d[..., 0])
+    return s * wrap_angle(gamma - np.pi / 2)
 
 
 def body_yaw_forward_axis(support_xy: np.ndarray, fan_xy: np.ndarray) -> np.ndarray:

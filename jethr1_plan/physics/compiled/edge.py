@@ -12,7 +12,7 @@ import numpy as np
 
 from jethr1_plan.physics.compiled.jit import kernel
 
-__all__ = ["edge_error", "edge_errors"]
+__all__ = ["edge_error", "edge_errors", "edge_excess"]
 
 
 @kernel(inline="always")
@@ -24,6 +24,19 @@ def edge_error(ox, oy, cx, cy, ax, ay):
     if math.sqrt(zc0 * zc0 + zc1 * zc1) < 1e-9 or math.sqrt(ca0 * ca0 + ca1 * ca1) < 1e-9:
         return 0.0
     return math.atan2(abs(zc0 * ca1 - zc1 * ca0), zc0 * ca0 + zc1 * ca1)
+
+
+@kernel(inline="always")
+def edge_excess(ox, oy, cx, cy, ax, ay, rho, tan_rho):
+    """max(:func:`edge_error` − ρ, 0) [rad], the same bits, without the inverse tangent where the angle lies
+    surely within ρ: u·v > 0 and |u×v| < tan ρ·(u·v)·(1 − 1e-9) (``tan_rho`` = tan ρ; ρ < π/2 for the
+    shortcut to apply)."""
+    zc0, zc1 = cx - ox, cy - oy
+    ca0, ca1 = ax - cx, ay - cy
+    dot = zc0 * ca0 + zc1 * ca1
+    if dot > 0.0 and abs(zc0 * ca1 - zc1 * ca0) < tan_rho * dot * (1.0 - 1e-9):
+        return 0.0
+    return max(edge_error(ox, oy, cx, cy, ax, ay) - rho, 0.0)
 
 
 @kernel
