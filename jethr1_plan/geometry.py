@@ -146,8 +146,15 @@ def polygon_margin(p_xy: ArrayLike, polygon: np.ndarray) -> np.ndarray:
 
 
 def wrap_angle(a: ArrayLike) -> np.ndarray:
-    """Wrap [rad] to (−π, π]."""
-    return -((-np.asarray(a, dtype=float) + np.pi) % (2 * np.pi) - np.pi)
+    """Wrap [rad] to (−π, π]: odd to the bit (wrap(−a) = −wrap(a) but at ±π), angles within range unchanged.
+
+    The magnitude is wrapped and the sign put back, so a left support's yaw is the exact mirror of a right's
+    (``physics.balance.body_yaw_eq4``)."""
+    a = np.asarray(a, dtype=float)
+    w = np.abs(a)
+    w = np.where(w > np.pi, w - 2 * np.pi * np.floor((w + np.pi) / (2 * np.pi)), w)
+    out = np.where(a < 0, -w, w)
+    return np.where(out == -np.pi, np.pi, out)[()]
 
 
 def yaw_quaternion(yaw_rad: float) -> tuple[float, float, float, float]:

@@ -55,7 +55,7 @@ __all__ = ["balance_space"]
 def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
                   pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
-    from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep, verify_members
+    from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
     from jethr1_plan.files.balance_space import balance_space_csv, balance_space_mcap, balance_space_png
     from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.robot.model import load_robot
@@ -81,9 +81,8 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     jobs = cap_jobs(jobs)
     with Progress(not no_progress, f"balance space ({cells:,} cells)") as progress:
         result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
-    checked = verify_members(result)
     doc = summary(result)
-    doc["verified_members"] = checked
+    doc["verified_members"] = result.extra["verified_members"]  # re-checked by PlaCo in the sweep's tasks
     with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
                                              "summary.json"})) as staging:
         tmp = staging.path

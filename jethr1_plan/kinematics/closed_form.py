@@ -14,6 +14,7 @@ All functions take a leading batch dimension N.
 from __future__ import annotations
 
 import functools
+import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -37,6 +38,7 @@ __all__ = [
     "closed_form_arrays",
     "kernel_params",
     "leg_mass_model",
+    "limit_arcs",
     "mass_model",
     "mm_batch",
     "rot_axis",
@@ -205,7 +207,7 @@ def solve_postures(robot: RobotModel, trunk_xyz: ArrayLike, trunk_yaw: ArrayLike
     ``feet[side] = (xyz (N, 3) or (3,), yaw (N,) or scalar)``. Status: OK, UNREACHABLE (the
     hip–ankle distance exceeds the leg) or JOINT_LIMIT (the solution leaves the URDF limits).
     """
-    from jethr1_plan.physics.compiled import postures
+    from jethr1_plan.physics.compiled.legs import postures
 
     P = np.ascontiguousarray(np.atleast_2d(np.asarray(trunk_xyz, dtype=float)))
     n = len(P)
@@ -260,10 +262,11 @@ class KernelParams(NamedTuple):
     normals: np.ndarray  # (K, 2) outward normals of the support polygon
     offsets: np.ndarray  # (K,) n·x ≤ b inside
     support: np.ndarray  # (3,) support sole centre [m]
-    scalars: np.ndarray  # (8,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty
-    # [N/deg], and the tolerance of balance.thrust_window: thrust error, mass error, CoM error [m]
+    scalars: np.ndarray  # (9,) support sign (+1 left, −1 right), ρ [rad], F_max [N], M·g [N], edge penalty
+    # [N/deg], the tolerance of balance.thrust_window: thrust error, mass error, CoM error [m]; tan ρ
     fans: np.ndarray  # (F, 4) per fan the swing may use: on the trunk (1) or the swing sole (0), offset x, y [m],
     # maximum [N]
+    arcs: np.ndarray  # (12, 5) the joint limits as cosines and sines (limit_arcs)
 
 
 def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray, polygon: np.ndarray,
@@ -279,7 +282,17 @@ def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray,
         normals=np.ascontiguousarray(normals, dtype=float), offsets=np.ascontiguousarray(offsets, dtype=float),
         support=np.asarray(support_xyz, dtype=float),
         scalars=np.array([1.0 if support_side == "left" else -1.0, rho_rad, thrust_max_n, weight_n,
-                          edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m]),
+                          edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m,
+                          math.tan(rho_rad) if rho_rad < math.pi / 2 else -1.0]),
         fans=np.array([[float(f.on_trunk), f.offset_m[0], f.offset_m[1], f.max_thrust_n] for f in fans],
                       dtype=float).reshape(len(fans), 4),
+        arcs=limit_arcs(limits),
     )
+
+
+def limit_arcs(limits: np.ndarray) -> np.ndarray:
+    """The joint limits (2, 12) [rad] as ``physics.compiled.objective.surely_within`` reads them: per joint
+    cos lo, sin lo, cos hi, sin hi, and 1 where the range is wider than π (12, 5)."""
+    lo, hi = limits
+    return np.ascontiguousarray(np.column_stack([np.cos(lo), np.sin(lo), np.cos(hi), np.sin(hi),
+                                                 (hi - lo > np.pi).astype(float)]))

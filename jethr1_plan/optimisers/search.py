@@ -1,4 +1,4 @@
-"""Searches over P_body for one support sole: the compiled objective, seeds, compass and exhaustive search.
+"""Searches over P_body for one support sole: the compiled objective, its projection and the seeds.
 
 The balance-space sweep (:mod:`~jethr1_plan.balance_space.sweep`), ``compare``'s reference thrust and the
 sqp optimiser's last resort all search the same objective: the least thrust over P_body under all of
@@ -7,9 +7,15 @@ Paper A's constraints, for a swing sole at a given cell, with the body yaw of (A
 * :class:`Evaluator` — the objective of candidates of many cells at once (``physics.compiled.
   balance_objective``: closed-form IK, CoM, thrust window, edge angle, reach), with the projection into
   the legs' reach balls and joint limits (:meth:`Evaluator.into_reach`, :func:`leg_shapes`).
-* :func:`compass_search` — a vectorised pattern search, one cell per row.
-* :func:`exhaustive_cell` — Paper A's grid over every pelvis position, refined at 1 mm.
-* :func:`generic_seeds`, :func:`lens_seeds` — starting points.
+* :func:`generic_seeds`, :func:`lens_seeds` — starting points; :func:`pelvis_box` — the grid of every pelvis
+  position from which both legs may reach.
+* ``optimisers.compass`` — the compass search; ``optimisers.exhaustive`` — Paper A's grid search.
+
+Mirror-exact: Jet-HR1 is left-right symmetric, so a left support's search must be the mirror image (y → −y)
+of a right support's, to the bit. Every choice a search makes in order (the directions it polls first, the
+seeds, the grids and their tie order) is written for a right support and multiplied by the evaluator's
+:attr:`Evaluator.flip` (1, −1, 1) for a left one; the kinematics and the yaw are odd to the bit
+(``physics.compiled.legs.body_com``, ``geometry.wrap_angle``).
 """
 
 from __future__ import annotations
@@ -17,21 +23,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from jethr1_plan.geometry import GRAVITY, other_side, sole_polygon
 from jethr1_plan.kinematics.closed_form import check_structure, kernel_params
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, body_yaw_eq4
-from jethr1_plan.physics.compiled import (
-    balance_objective,
-    into_reach,
-    into_reach_one,
-    objective_into,
-    objective_scratch,
-    pitch_bounds,
-)
-from jethr1_plan.reasons import Reason, balances
+from jethr1_plan.physics.compiled.legs import yaw_cos_sin
+from jethr1_plan.physics.compiled.objective import balance_objective
+from jethr1_plan.physics.compiled.reach import into_reach, pitch_bounds
 from jethr1_plan.robot.model import RobotModel, reach_centre
 
 __all__ = [
@@ -43,13 +42,11 @@ __all__ = [
     "INTO_REACH",
     "INTO_ROLL_KNEE",
     "REACH_MARGIN_M",
-    "REFINE_BASINS",
+    "SEARCH_LEVEL",
     "Cells",
     "Evaluator",
     "SupportStance",
-    "compass_search",
     "cube_offsets",
-    "exhaustive_cell",
     "generic_seeds",
     "leg_shapes",
     "lens_seeds",
@@ -60,12 +57,7 @@ EDGE_PENALTY_N_PER_DEG = 50.0  # far above dF/dθ (about 1 N per degree), so the
 # what the searches' projection (Evaluator.into_reach) moves a pelvis position into: the legs' reach balls only; also
 # each leg's roll and knee limits; also its pitch limits (dearer: trigonometry where the pitch is near a limit)
 INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS = 0, 1, 2
-SEARCH_LEVEL = INTO_ROLL_KNEE  # the searches' (INTO_REACH: the previous release's, for the bench's ratio)
-REFINE_BASINS = 6  # exhaustive: coarse basins refined on the 1 mm grid
-ZOOM_STEPS_M = (2e-4, 4e-5)  # exhaustive: then grids of these steps (±5) around the best
-_OK, _THRUST_MAX = int(Reason.OK), int(Reason.THRUST_MAX)  # compile-time constants
-POLL_CHUNK = 3  # compass: directions evaluated together (independent candidates overlap in the CPU; the first
-#                 improving chunk wins: 1.3x fewer evaluations than complete polls, same members; bench_balance_space)
+SEARCH_LEVEL = INTO_ROLL_KNEE  # the searches' default (Evaluator.level)
 REACH_MARGIN_M = 1e-4  # searches stay this far [m] inside a leg's full stretch (optimisers.sqp keeps ~0.13 mm)
 
 AXIS_DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float)
@@ -100,13 +92,18 @@ class Cells:
     fan: np.ndarray  # (C, 2) thrust point [m]
     centre_s: np.ndarray  # (C, 3) centre of the support leg's reach ball (robot.model.reach_centre) [m]
     centre_w: np.ndarray  # (C, 3) centre of the swing leg's reach ball [m]
+    yaw_cs: np.ndarray  # (C, 2) cos and sin of the yaw (as the kernels compute them)
 
 
 class Evaluator:
-    """Vectorised objective over candidates of many cells at once."""
+    """Vectorised objective over candidates of many cells at once.
 
-    def __init__(self, robot: RobotModel, stance: SupportStance):
-        self.robot, self.stance = robot, stance
+    ``level``: what :meth:`into_reach` and the compass move a pelvis position into by default (INTO_REACH,
+    INTO_ROLL_KNEE, INTO_JOINT_LIMITS). ``flip`` (3,): (1, 1, 1) for a right support, (1, −1, 1) for a left one,
+    the mirror applied to every ordered choice of the searches (poll directions, seeds, grids)."""
+
+    def __init__(self, robot: RobotModel, stance: SupportStance, level: int = SEARCH_LEVEL):
+        self.robot, self.stance, self.level = robot, stance, level
         self.geom = check_structure(robot)
         self.support = np.asarray(stance.support_xyz, dtype=float)
         self.poly = sole_polygon(self.support[:2], 0.0, robot.sole_length_m, robot.sole_width_m, stance.sole_margin_m)
@@ -116,6 +113,11 @@ class Evaluator:
         self.params = kernel_params(robot, stance.support_side, self.support, self.poly, stance.rho_rad,
                                     stance.thrust_max_n, robot.mass_kg * GRAVITY, EDGE_PENALTY_N_PER_DEG,
                                     stance.tolerance)
+        self.mirror = -1.0 if stance.support_side == "left" else 1.0
+        self.flip = np.array([1.0, self.mirror, 1.0])
+        self.axis_dirs = np.ascontiguousarray(AXIS_DIRECTIONS * self.flip)
+        self.fine_dirs = np.ascontiguousarray(FINE_DIRECTIONS * self.flip)
+        self.all_dirs = np.ascontiguousarray(DIRECTIONS * self.flip)
         # per level (INTO_REACH, INTO_ROLL_KNEE, INTO_JOINT_LIMITS) the legs' sets of into_reach: the first two
         # leave the pitch free (their fast-path pitch range infinite)
         limited = leg_shapes(self.geom.thigh_m, self.geom.shank_m, self.search_radius, self.params.limits,
@@ -130,7 +132,8 @@ class Evaluator:
         yaw = body_yaw_eq4(self.support[:2], fan, self.stance.support_side)
         centre_s = reach_centre(self.geom, self.stance.support_side, np.broadcast_to(self.support, swing.shape), yaw)
         centre_w = reach_centre(self.geom, self.stance.swing_side, swing, yaw)
-        return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w))
+        return Cells(swing, yaw, fan, np.ascontiguousarray(centre_s), np.ascontiguousarray(centre_w),
+                     np.ascontiguousarray(np.column_stack(yaw_cos_sin(np.ascontiguousarray(yaw)))))
 
     @property
     def search_radius(self) -> float:
@@ -139,7 +142,7 @@ class Evaluator:
 
     def into_reach(self, c: Cells, idx: np.ndarray, P: np.ndarray, level: int | None = None) -> np.ndarray:
         """P (M, 3) [m] moved onto the nearest point of both legs' reach balls where it lies beyond them,
-        and (``level``, default SEARCH_LEVEL) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its
+        and (``level``, default :attr:`level`) into each leg's roll and knee limits (INTO_ROLL_KNEE), and its
         pitch limits too (INTO_JOINT_LIMITS).
 
         The optimum of most cells has a leg at full stretch, where the CoM moves like the square root
@@ -147,19 +150,30 @@ class Evaluator:
         projection instead lets it slide along the surface (and along the circle where both legs
         are straight). High cells' optima sit where that sphere meets a joint limit (an ankle and hip
         roll, a fully bent knee, a hip or ankle pitch): the same holds there. See
-        ``physics.compiled.into_reach``. The balls' radius is REACH_MARGIN_M short
+        ``physics.compiled.reach``. The balls' radius is REACH_MARGIN_M short
         of thigh + shank: a leg exactly straight is singular (PlaCo's IK cannot place its CoM to
         better than ~1e-4 rad of edge angle there), and 0.1 mm leaves the knee bent about 2.6°.
         """
         return into_reach(np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(idx, dtype=np.int64),
                           c.centre_w, c.centre_s, self.search_radius, self.shapes,
-                          SEARCH_LEVEL if level is None else level)
+                          self.level if level is None else level)
 
     def reach_possible(self, c: Cells) -> np.ndarray:
         """Exact test that some P_body reaches both ankles: two spheres of radius thigh + shank
         around the ankles, shifted by the hip offsets at the cell's yaw, must intersect."""
         g = self.geom
         return np.linalg.norm(c.centre_w - c.centre_s, axis=1) <= 2 * (g.thigh_m + g.shank_m)
+
+    def hip_yaw_allowed(self, c: Cells) -> np.ndarray | None:
+        """Per cell whether the trunk's yaw leaves both hip yaws within their limits; None where that does not
+        decide. With both soles flat and facing +x, every posture with the hips above the ankles has both hip
+        yaws equal to −yaw (``physics.compiled.legs``): when the ankle roll's limits keep the hips above the
+        ankles (|roll| < π/2), a cell whose −yaw lies beyond a hip yaw's limits has no valid posture at all."""
+        lim = self.params.limits
+        if np.any(np.abs(lim[:, [5, 11]]) >= np.pi / 2):
+            return None
+        hip = -c.yaw
+        return (hip >= lim[0, 0]) & (hip <= lim[1, 0]) & (hip >= lim[0, 6]) & (hip <= lim[1, 6])
 
     def __call__(self, c: Cells, idx: np.ndarray, P: np.ndarray):
         """Objective, thrust [N] and reason code of candidates P (M, 3) [m] for cells ``idx`` (M,).
@@ -171,7 +185,11 @@ class Evaluator:
         self.evaluations += len(P)
         P = np.ascontiguousarray(P, dtype=float)
         idx = np.ascontiguousarray(idx, dtype=np.int64)
-        return balance_objective(P, idx, c.swing, c.yaw, c.fan, *self.params)
+        return balance_objective(P, idx, c.swing, c.yaw_cs, c.fan, *self.params)
+
+    def offsets(self, step: float, half: int) -> np.ndarray:
+        """:func:`cube_offsets` mirrored for a left support (the same points in the mirrored order) [m]."""
+        return cube_offsets(step, half) * self.flip
 
 
 def leg_shapes(thigh_m: float, shank_m: float, radius_m: float, limits: np.ndarray, swing_side: str) -> np.ndarray:
@@ -226,7 +244,7 @@ def lens_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
     e = axis / np.maximum(h, 1e-12)[:, None]
     up = np.array([0.0, 0.0, 1.0]) - e[:, 2:3] * e
     up /= np.maximum(np.linalg.norm(up, axis=1), 1e-12)[:, None]
-    side = np.cross(e, up)
+    side = np.cross(e, up) * ev.mirror  # a left support: the mirror of a right's seeds, in the same order
     half = np.maximum(L - h / 2, 0.0)  # the lens's half thickness along the line of centres
     seeds = []
     for t in (-0.5, 0.0, 0.5):
@@ -236,101 +254,6 @@ def lens_seeds(ev: Evaluator, c: Cells, idx: np.ndarray) -> np.ndarray:
             for phi in (0.0, np.pi / 4, -np.pi / 4, np.pi / 2, -np.pi / 2):
                 seeds.append(centre + (frac * rt)[:, None] * (np.cos(phi) * up + np.sin(phi) * side))
     return np.stack(seeds, axis=1)
-
-
-def compass_search(ev: Evaluator, c: Cells, idx: np.ndarray, P: np.ndarray, f: np.ndarray, step0: np.ndarray,
-                   min_step: float, max_iter: int = 60, give_up_after: int = 10, coarse_until: float = 0.002,
-                   axis_dirs: np.ndarray = AXIS_DIRECTIONS, fine_dirs: np.ndarray = FINE_DIRECTIONS,
-                   chunk: int | None = None, levels: tuple[int, int] | None = None):
-    """Compass (pattern) search from P (B, 3) [m] with objective f (B,), one cell per row; returns the
-    new (P, f).
-
-    Polls ``axis_dirs`` (the 6 axes) while the step is at least ``coarse_until`` [m], then
-    ``fine_dirs`` (the 6 axes and 8 cube corners, so the search can slide along a constraint's edge).
-    A poll is opportunistic: directions are tried ``chunk`` (default POLL_CHUNK) at a time, starting
-    from the last move's, and the search moves to the best of the first chunk that improves; when none
-    does, the step halves (``chunk`` ≥ the number of directions: a complete poll, the best of all).
-    Every poll point is moved into the reach balls and joint limits first (:meth:`Evaluator.into_reach`,
-    ``levels``: the level of the axis stage, then of the fine stage; default SEARCH_LEVEL).
-    A row stops when its step falls below ``min_step`` [m], when it reaches zero thrust, or, after
-    ``give_up_after`` polls of a stage, when it has still found no kinematically valid posture. A row
-    that ends on an invalid posture (a penalty a hair above zero) gets the best valid posture it met,
-    if any. Compiled: each row runs to its end in one loop (:func:`_compass_rows`).
-    """
-    P = np.array(P, dtype=float, order="C")
-    f = np.array(f, dtype=float)
-    counts = np.zeros(len(idx), dtype=np.int64)
-    _compass_rows(P, f, np.ascontiguousarray(step0, dtype=float), counts, np.ascontiguousarray(idx, dtype=np.int64),
-                  coarse_until, float(min_step), max_iter, give_up_after, POLL_CHUNK if chunk is None else int(chunk),
-                  axis_dirs, fine_dirs, c.centre_w, c.centre_s, ev.search_radius, ev.shapes,
-                  *((SEARCH_LEVEL, SEARCH_LEVEL) if levels is None else levels),
-                  c.swing, c.yaw, c.fan, *ev.params)
-    ev.evaluations += int(counts.sum())
-    return P, f
-
-
-@numba.njit(cache=True)
-def _compass_rows(P, f, step0, counts, idx, coarse_until, min_step, max_iter, give_up_after, chunk, axis_dirs,
-                  fine_dirs, centre_w, centre_s, radius, shapes, level0, level1, swing, yaw, fan, geom, trunk, joints,
-                  links, limits, normals, offsets, support, scalars, fans):
-    """:func:`compass_search`'s loop, in place on P and f; ``counts`` (B,) gets each row's evaluations."""
-    kmax = max(len(axis_dirs), len(fine_dirs))
-    cand, rows = np.empty((kmax, 3)), np.empty(kmax, dtype=np.int64)
-    obj, thrust, reason = np.empty(kmax), np.empty(kmax), np.empty(kmax, dtype=np.int8)
-    q, cs, fxs, fys, fmax, split = objective_scratch(fans, scalars[2])
-    for b in range(len(idx)):
-        c = idx[b]
-        rows[:] = c
-        p0, p1, p2, fb, st = P[b, 0], P[b, 1], P[b, 2], f[b], step0[b]
-        k0, k1, k2, f_ok = np.nan, np.nan, np.nan, np.inf  # best valid posture met
-        last = 0  # the direction of the last move: polled first
-        for stage in range(2):
-            dirs = axis_dirs if stage == 0 else fine_dirs
-            level = level0 if stage == 0 else level1
-            floor = coarse_until if stage == 0 else min_step
-            k = len(dirs)
-            if stage == 1:  # the fine direction nearest the last move's
-                d0, d1, d2 = axis_dirs[last, 0], axis_dirs[last, 1], axis_dirs[last, 2]
-                best_dot = -np.inf
-                for j in range(k):
-                    dot = dirs[j, 0] * d0 + dirs[j, 1] * d1 + dirs[j, 2] * d2
-                    if dot > best_dot:
-                        best_dot, last = dot, j
-            for it in range(max_iter):
-                if st < floor or fb <= 0.0 or (it >= give_up_after and fb >= 2000.0):
-                    break
-                moved = False
-                for t0 in range(0, k, chunk):  # a few directions at a time, the last move's first
-                    m = min(chunk, k - t0)
-                    for t in range(m):
-                        j = (last + t0 + t) % k
-                        cand[t, 0], cand[t, 1], cand[t, 2] = into_reach_one(
-                            p0 + st * dirs[j, 0], p1 + st * dirs[j, 1], p2 + st * dirs[j, 2], c, centre_w, centre_s,
-                            radius, shapes, level)
-                    objective_into(cand[:m], rows[:m], swing, yaw, fan, geom, trunk, joints, links, limits, normals,
-                                   offsets, support, scalars, fans, obj, thrust, reason, q, cs, fxs, fys, fmax, split)
-                    counts[b] += m
-                    jb = 0
-                    for t in range(m):
-                        if (reason[t] == _OK or reason[t] == _THRUST_MAX) and obj[t] < f_ok:
-                            f_ok, k0, k1, k2 = obj[t], cand[t, 0], cand[t, 1], cand[t, 2]
-                        if obj[t] < obj[jb]:
-                            jb = t
-                    if obj[jb] < fb - 1e-12:
-                        p0, p1, p2, fb = cand[jb, 0], cand[jb, 1], cand[jb, 2], obj[jb]
-                        last, moved = (last + t0 + jb) % k, True
-                        break
-                if not moved:
-                    st *= 0.5
-        # the penalties are exact, but a search that ends a hair outside a constraint falls back on the
-        # best valid posture it met
-        cand[0, 0], cand[0, 1], cand[0, 2] = p0, p1, p2
-        objective_into(cand[:1], rows[:1], swing, yaw, fan, geom, trunk, joints, links, limits, normals, offsets,
-                       support, scalars, fans, obj, thrust, reason, q, cs, fxs, fys, fmax, split)
-        counts[b] += 1
-        if reason[0] != _OK and reason[0] != _THRUST_MAX and math.isfinite(f_ok):
-            p0, p1, p2, fb = k0, k1, k2, f_ok
-        P[b, 0], P[b, 1], P[b, 2], f[b] = p0, p1, p2, fb
 
 
 def cube_offsets(step: float, half: int) -> np.ndarray:
@@ -349,69 +272,9 @@ def pelvis_box(ev: Evaluator, c: Cells, i: int, res: float) -> np.ndarray:
     lo = np.maximum(cs - L, cw - L)
     hi = np.minimum(cs + L, cw + L)
     lo[2] = max(lo[2], max(cs[2], cw[2]))  # the pelvis stays above the ankles
+    if ev.mirror < 0:  # a left support: the right's grid mirrored (from the far side of y, then negated)
+        lo[1], hi[1] = -hi[1], -lo[1]
     axes = [np.arange(lo[k], hi[k] + 1e-12, res) for k in range(3)]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3) * ev.flip
 
 
-def exhaustive_cell(ev: Evaluator, c: Cells, i: int, resolution_m: float, basins: int = REFINE_BASINS
-                    ) -> tuple[np.ndarray, float, int]:
-    """The paper's exhaustive inner search: a P_body grid, then a 1 mm grid (±2 coarse steps) around
-    each of the ``basins`` best coarse points that lie at least 2.5 coarse steps apart (a thin
-    feasible sliver can hold the optimum in a basin whose best coarse point is not the best), last
-    grids of 0.2 and 0.04 mm (±5 steps) around the best valid point (ZOOM_STEPS_M: on a ridge the
-    1 mm grid left up to 0.13 N).
-
-    Grid points beyond a leg's reach or joint limits are moved onto its reach ball and into its limits
-    (:meth:`Evaluator.into_reach`, INTO_JOINT_LIMITS): the optimum usually has a leg at full stretch,
-    on the ball's surface, often against a joint limit, which a plain grid only approaches to within
-    its spacing while the thrust changes like the square root of the distance there (without the
-    reach ball, up to 0.8 N and whole members were missed on 300 sampled cells; with it but without
-    the limits, on 1,000 cells 209 answers were higher, by up to 5.8 N).
-
-    The answer is the best valid posture met (the penalties are exact, but a grid point a hair
-    outside a constraint can score below every valid one); the best score where none is valid."""
-    grid = pelvis_box(ev, c, i, resolution_m)
-    if not len(grid):
-        return np.full(3, np.nan), np.inf, int(Reason.UNREACHABLE)
-    grid = ev.into_reach(c, np.full(len(grid), i), grid, level=INTO_JOINT_LIMITS)
-    scored = [ev(c, np.full(len(chunk), i), chunk) for chunk in (grid[s:s + 20000] for s in range(0, len(grid), 20000))]
-    obj = np.concatenate([o for o, _, _ in scored])
-    valid = np.where(balances(np.concatenate([rr for _, _, rr in scored])), obj, np.inf)
-    r = resolution_m
-    order = np.argsort(obj, kind="stable")
-    centres: list[np.ndarray] = []
-    for j in order:
-        if centres and obj[j] >= 2000:  # only kinematically valid, balanced points beyond the first
-            break
-        if all(np.max(np.abs(grid[j] - q)) > 2.5 * r for q in centres):
-            centres.append(grid[j])
-            if len(centres) == basins:
-                break
-    best_p, best_f = centres[0], float(obj[order[0]])
-    j = int(np.argmin(valid))
-    best_valid_p, best_valid_f = grid[j], float(valid[j])
-    fine = np.arange(-2 * r, 2 * r + 1e-12, 0.001)
-    offsets = np.stack(np.meshgrid(fine, fine, fine, indexing="ij"), axis=-1).reshape(-1, 3)
-    for q in centres:
-        local = ev.into_reach(c, np.full(len(offsets), i), q + offsets, level=INTO_JOINT_LIMITS)
-        o, _, rr = ev(c, np.full(len(local), i), local)
-        j = int(np.argmin(o))
-        if o[j] < best_f:
-            best_f, best_p = float(o[j]), local[j]
-        v = np.where(balances(rr), o, np.inf)
-        j = int(np.argmin(v))
-        if v[j] < best_valid_f:
-            best_valid_f, best_valid_p = float(v[j]), local[j]
-    # zoom: finer grids around the best valid point (a thin ridge of the feasible set can hold 0.1 N within
-    # a millimetre)
-    for zoom in (cube_offsets(step, 5) for step in ZOOM_STEPS_M) if np.isfinite(best_valid_f) else ():
-        local = ev.into_reach(c, np.full(len(zoom), i), best_valid_p + zoom, level=INTO_JOINT_LIMITS)
-        o, _, rr = ev(c, np.full(len(local), i), local)
-        v = np.where(balances(rr), o, np.inf)
-        j = int(np.argmin(v))
-        if v[j] < best_valid_f:
-            best_valid_f, best_valid_p = float(v[j]), local[j]
-    if np.isfinite(best_valid_f):
-        best_p = best_valid_p
-    _, t, rr = ev(c, np.array([i]), best_p[None])
-    return best_p, float(t[0]), int(rr[0])

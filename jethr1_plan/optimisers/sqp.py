@@ -58,7 +58,7 @@ from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
 from jethr1_plan.optimisers.search import DIRECTIONS
 from jethr1_plan.physics.balance import edge_angle_error, least_thrust, thrust_window
-from jethr1_plan.physics.compiled import sample_terms
+from jethr1_plan.physics.compiled.sample import sample_terms
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import LEG_ROLES, RobotModel
 

@@ -103,7 +103,7 @@ def window_bounds(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, m
     window is [lo, hi] where ``lo <= hi`` and not ``blocked``; where ``lo > hi``, lo − hi [N] says how
     far it is from opening. Computed by ``physics.compiled.windows`` (one implementation for every caller).
     """
-    from jethr1_plan.physics.compiled import windows
+    from jethr1_plan.physics.compiled.windows import windows
 
     shape = np.broadcast_shapes(np.shape(com_xy)[:-1], np.shape(fan_xy)[:-1])
     n, b = halfplanes(polygon)
@@ -162,7 +162,7 @@ def least_thrust(com_xy: np.ndarray, fan_xy: np.ndarray, polygon: np.ndarray, ma
     Returns:
         total (...,) [N], inf where no thrust balances; split (..., F) [N], NaN there.
     """
-    from jethr1_plan.physics.compiled import least_totals
+    from jethr1_plan.physics.compiled.windows import least_totals
 
     fan_xy = np.asarray(fan_xy, dtype=float)
     nf = fan_xy.shape[-2]
@@ -192,7 +192,7 @@ def shared_window(com_xy: np.ndarray, fan_xy: np.ndarray, share: np.ndarray, pol
     Returns:
         lo, hi (...,) [N]; lo = inf and hi = nan where it is empty.
     """
-    from jethr1_plan.physics.compiled import mixed_windows
+    from jethr1_plan.physics.compiled.windows import mixed_windows
 
     fan_xy = np.asarray(fan_xy, dtype=float)
     nf = fan_xy.shape[-2]
@@ -246,7 +246,7 @@ def edge_angle_error(origin_xy: np.ndarray, com_xy: np.ndarray, ankle_xy: np.nda
     swing ankle. Where either direction is shorter than 1e-9 m the angle is undefined: 0. Computed by
     ``physics.compiled.edge_errors``.
     """
-    from jethr1_plan.physics.compiled import edge_errors
+    from jethr1_plan.physics.compiled.edge import edge_errors
 
     shape = np.broadcast_shapes(np.shape(origin_xy)[:-1], np.shape(com_xy)[:-1], np.shape(ankle_xy)[:-1])
     return edge_errors(_rows(origin_xy, shape), _rows(com_xy, shape), _rows(ankle_xy, shape)).reshape(shape)
@@ -267,12 +267,13 @@ def body_yaw_eq4(support_xy: np.ndarray, fan_xy: np.ndarray, support_side: str) 
 
     γ = atan2(P_T,y − Z_y, P_T,x − Z_x) is the direction from the support point Z to the fan. The
     trunk is yawed so that the line from the support hip to the swing hip points along γ. At zero
-    yaw that line points along +y for a right support foot and along −y for a left one.
+    yaw that line points along +y for a right support foot and along −y for a left one. The mirror image
+    (y → −y) of a right support gives the opposite yaw of the left one exactly.
     """
     d = np.asarray(fan_xy, dtype=float) - np.asarray(support_xy, dtype=float)
-    gamma = np.arctan2(d[..., 1], d[..., 0])
-    hip_line0 = np.pi / 2 if support_side == "right" else -np.pi / 2
-    return wrap_angle(gamma - hip_line0)
+    s = 1.0 if support_side == "right" else -1.0  # a left support computed as the mirror of a right, to the bit
+    gamma = np.arctan2(s * d[..., 1], d[..., 0])
+    return s * wrap_angle(gamma - np.pi / 2)
 
 
 def body_yaw_forward_axis(support_xy: np.ndarray, fan_xy: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ the smoothness of P_body (Σ‖ΔP_body‖², the largest single step) and of th
 the evaluations and the wall time. With ``reference``, every swing sample is also solved by a dense
 exhaustive search (every pelvis position from which the legs reach within their joint limits, on a
 1 cm grid, the six best basins refined on a 1 mm grid, then 0.2 and 0.04 mm grids around the best;
-``search.exhaustive_cell``), and each method's optimality gap is reported against it.
+``optimisers.exhaustive``), and each method's optimality gap is reported against it.
 
 ``pareto`` (``compare --pareto``) sweeps each method's smoothness weight instead and reports the
 fronts of max and mean thrust against Σ‖ΔP_body‖², with the verdict on the default optimiser: its
@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.optimisers.search import Cells, Evaluator, SupportStance, exhaustive_cell
+from jethr1_plan.optimisers.exhaustive import exhaustive_cell
+from jethr1_plan.optimisers.search import Cells, Evaluator, SupportStance
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.report import plan_summary, smoothness

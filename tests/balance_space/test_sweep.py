@@ -14,7 +14,8 @@ from jethr1_plan.files.mcap import read_mcap
 from jethr1_plan.geometry import inside_polygon, sole_polygon
 from jethr1_plan.kinematics import Stance
 from jethr1_plan.kinematics.placo import PlacoPostureSolver
-from jethr1_plan.optimisers.search import Evaluator, exhaustive_cell
+from jethr1_plan.optimisers.exhaustive import exhaustive_cell
+from jethr1_plan.optimisers.search import Evaluator
 from jethr1_plan.physics.balance import edge_angle_error, minimal_thrust
 from jethr1_plan.reasons import Reason
 

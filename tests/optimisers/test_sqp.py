@@ -12,7 +12,7 @@ import yaml
 from jethr1_plan.cli import run
 from jethr1_plan.geometry import GRAVITY
 from jethr1_plan.optimisers import sqp
-from jethr1_plan.optimisers.search import exhaustive_cell
+from jethr1_plan.optimisers.exhaustive import exhaustive_cell
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.problems import feet_before_each_step, path_problems
 from jethr1_plan.scenario import load_scenario

@@ -14,6 +14,8 @@ import pytest
 
 from jethr1_plan.balance_space.sweep import SweepSpec
 from jethr1_plan.kinematics.closed_form import check_structure
+from jethr1_plan.optimisers.compass import compass_search
+from jethr1_plan.optimisers.exhaustive import exhaustive_cell
 from jethr1_plan.optimisers.search import (
     EDGE_PENALTY_N_PER_DEG,
     FINE_DIRECTIONS,
@@ -21,13 +23,11 @@ from jethr1_plan.optimisers.search import (
     INTO_REACH,
     INTO_ROLL_KNEE,
     Evaluator,
-    compass_search,
-    exhaustive_cell,
     generic_seeds,
     lens_seeds,
 )
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
-from jethr1_plan.physics.compiled import into_reach
+from jethr1_plan.physics.compiled.reach import into_reach
 from jethr1_plan.reasons import Reason, balances
 from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
 from tests.oracles.balance import edge_angle_error, window_bounds

@@ -1,0 +1,190 @@
+"""The sweep cut into blocks, so that the number of tasks grows with the grid and the output does not depend on
+the number of workers, their order or the executor.
+
+A block is the whole x axis (the forward continuation along +x stays intact: cutting x loses members) times
+``block_y_cells`` cells of y and ``block_z_layers`` layers of z (``SearchSettings``); for a left support the
+y blocks are counted from the far end, the mirror image of a right support's. The sweep runs in stages, each
+a set of independent tasks:
+
+1. every block searched on its own (``continuation.search_block``);
+2. boundary rounds: every block whose one-cell ring holds an optimum that changed in the previous stage is
+   re-relaxed from that ring, read from the previous stage's state only (``continuation.relax_box``); the
+   improvements of all blocks are applied together at the round's end (a Jacobi step over blocks), and the
+   rounds repeat until no cell changes (``max_rounds`` at most).
+
+The parent holds the state: per cell the posture (3 float64), the search's objective (float64) and the reason
+(int8), written in place in grid order, 33 bytes a cell.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jethr1_plan.balance_space.continuation import BlockResult, relax_box, search_block
+from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
+from jethr1_plan.reasons import Reason
+
+__all__ = ["Block", "SweepState", "TaskTimes", "makespan", "partition", "run_blocks"]
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block: the whole x axis, the y and z index ranges ``y``, ``z`` (stop exclusive)."""
+
+    y: tuple[int, int]
+    z: tuple[int, int]
+
+    @property
+    def box(self) -> tuple[slice, slice, slice]:
+        return slice(None), slice(*self.y), slice(*self.z)
+
+    def ring(self, shape: tuple[int, int, int]) -> tuple[tuple[slice, slice, slice], np.ndarray]:
+        """The block with a one-cell ring in y and z (within the grid; x is whole already), and which of the
+        box's cells (x-major) are the block's."""
+        ylo, yhi = max(self.y[0] - 1, 0), min(self.y[1] + 1, shape[1])
+        zlo, zhi = max(self.z[0] - 1, 0), min(self.z[1] + 1, shape[2])
+        inner = np.zeros((shape[0], yhi - ylo, zhi - zlo), dtype=bool)
+        inner[:, self.y[0] - ylo:self.y[1] - ylo, self.z[0] - zlo:self.z[1] - zlo] = True
+        return (slice(None), slice(ylo, yhi), slice(zlo, zhi)), inner.ravel()
+
+
+def partition(shape: tuple[int, int, int], settings: SearchSettings, mirror: bool) -> list[Block]:
+    """The grid of ``shape`` (x, y, z cells) cut into blocks; ``mirror`` (a left support): the y blocks counted
+    from the far end."""
+    ny, nz = shape[1], shape[2]
+    by, bz = settings.block_y_cells, settings.block_z_layers
+    ys = [(j, min(j + by, ny)) for j in range(0, ny, by)]
+    if mirror:
+        ys = [(ny - hi, ny - lo) for lo, hi in reversed(ys)]
+    return [Block(y, (k, min(k + bz, nz))) for y in ys for k in range(0, nz, bz)]
+
+
+def flat_indices(shape: tuple[int, int, int], box: tuple[slice, slice, slice]) -> np.ndarray:
+    """The x-major flat indices of the cells of ``box``, in the box's own x-major order."""
+    ranges = [np.arange(n)[s] for n, s in zip(shape, box, strict=True)]
+    return np.ravel_multi_index(np.meshgrid(*ranges, indexing="ij"), shape).ravel()
+
+
+class SweepState:
+    """Per cell of the grid: the best posture [m], the search's objective (the least thrust [N] for a member;
+    inf where no search ran) and the reason; written in place as tasks answer."""
+
+    def __init__(self, shape: tuple[int, int, int]):
+        n = int(np.prod(shape))
+        self.shape = shape
+        self.p_body = np.full((n, 3), np.nan)
+        self.objective = np.full(n, np.inf)
+        self.reason = np.full(n, Reason.UNREACHABLE, dtype=np.int8)
+
+    def put(self, r: BlockResult) -> None:
+        """A task's answer written in; every member in it was re-checked by PlaCo in the task."""
+        if r.checked != int(np.count_nonzero(r.reason == Reason.OK)):
+            raise AssertionError(f"a task re-checked {r.checked} of its {np.count_nonzero(r.reason == Reason.OK)} "
+                                 "members")
+        self.p_body[r.cells], self.objective[r.cells], self.reason[r.cells] = r.p_body, r.objective, r.reason
+
+
+@dataclass
+class TaskTimes:
+    """The CPU time [s] of every task of every stage (pass 1, then each round), in the order they were defined."""
+
+    stages: list[list[float]] = field(default_factory=list)
+    improved: list[int] = field(default_factory=list)  # cells improved by each round
+
+    @property
+    def critical_path_s(self) -> float:
+        """With unlimited workers: the longest task of each stage, summed."""
+        return float(sum(max(s, default=0.0) for s in self.stages))
+
+    @property
+    def total_s(self) -> float:
+        return float(sum(sum(s) for s in self.stages))
+
+
+def makespan(times: TaskTimes, workers: int) -> float:
+    """The wall time [s] of the stages on ``workers`` workers, each stage scheduled greedily in task order (each
+    task to the first worker free, as a scheduler does) and waited for before the next."""
+    total = 0.0
+    for stage in times.stages:
+        free = np.zeros(workers)
+        for t in stage:
+            k = int(np.argmin(free))
+            free[k] += t
+        total += float(free.max(initial=0.0))
+    return total
+
+
+Runner = Callable[[Iterable[tuple]], Iterable[BlockResult]]
+
+
+def _pass1(spec: SweepSpec, settings: SearchSettings, box, flat) -> BlockResult:
+    return search_block(spec, settings, box, flat)
+
+
+def _round(spec: SweepSpec, settings: SearchSettings, box, inner, flat, P_box, f_box, changed) -> BlockResult:
+    return relax_box(spec, settings, box, inner, flat, P_box, f_box, changed)
+
+
+def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
+               progress: Callable[[str, int, int], None] | None = None) -> tuple[SweepState, TaskTimes, int]:
+    """The sweep's stages over the blocks, each through ``run`` (a list of (function, args) → their answers, in
+    any order). Returns the state, the tasks' times and the evaluations."""
+    shape = tuple(len(a) for a in spec.axes())
+    assert len(shape) == 3
+    nx, ny, nz = shape
+    state = SweepState((nx, ny, nz))
+    blocks = partition((nx, ny, nz), settings, spec.support_side == "left")
+    times = TaskTimes()
+    evaluations = 0
+    tasks = [(_pass1, (spec, settings, b.box, flat_indices(state.shape, b.box))) for b in blocks]
+    stage: list[float] = []
+    for k, r in enumerate(run(tasks)):
+        state.put(r)
+        stage.append(r.cpu_s)
+        evaluations += r.evaluations
+        if progress:
+            progress(f"blocks ({len(blocks)})", k + 1, len(tasks))
+    times.stages.append(stage)
+    if spec.method == "exhaustive":
+        return state, times, evaluations
+    changed = np.ones(len(state.objective), dtype=bool)
+    for rnd in range(settings.max_rounds):
+        due = [b for b in blocks if _due(b, state, changed)]
+        if not due:
+            break
+        # tasks made as workers take them (only those in flight hold a copy of their box); the answers are
+        # applied together once all are in: every task reads the previous stage's state
+        answers = list(run(_round_tasks(spec, settings, due, state, changed)))
+        changed[:] = False
+        stage, improved = [], 0
+        for r in answers:
+            state.put(r)
+            changed[r.cells] = True
+            stage.append(r.cpu_s)
+            evaluations += r.evaluations
+            improved += len(r.cells)
+        times.stages.append(stage)
+        times.improved.append(improved)
+        if progress:
+            progress(f"boundary round {rnd + 1}: {improved} cells improved", rnd + 1, settings.max_rounds)
+        if not improved:
+            break
+    return state, times, evaluations
+
+
+def _due(block: Block, state: SweepState, changed: np.ndarray) -> bool:
+    """Whether a block has cells to search and its ring an optimum that changed (one that may be offered)."""
+    box, inner = block.ring(state.shape)
+    flat = flat_indices(state.shape, box)
+    return bool(np.any(changed[flat] & ~inner & (state.objective[flat] < 2000))
+                and np.isfinite(state.objective[flat[inner]]).any())
+
+
+def _round_tasks(spec, settings, blocks: list[Block], state: SweepState, changed: np.ndarray) -> Iterator[tuple]:
+    for b in blocks:
+        box, inner = b.ring(state.shape)
+        flat = flat_indices(state.shape, box)
+        yield _round, (spec, settings, box, inner, flat, state.p_body[flat], state.objective[flat], changed[flat])

@@ -1,0 +1,88 @@
+"""numba's on-disk cache never runs a stale kernel: every kernel that calls another module's kernel is cached
+under a key of all the kernel sources (numba checks only the function's own file, numba issue #1833)."""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import shutil
+from pathlib import Path
+
+import numba
+from numba.core.registry import CPUDispatcher
+
+import jethr1_plan
+from jethr1_plan.physics.compiled.jit import KERNEL_SOURCES, PACKAGE, cache_dir, sources_digest
+
+
+def _modules():
+    out = []
+    for info in pkgutil.walk_packages(jethr1_plan.__path__, "jethr1_plan."):
+        try:
+            out.append(importlib.import_module(info.name))
+        except ImportError:  # an optional extra (rerun) missing: nothing compiled there
+            continue
+    return out
+
+
+def _names(code) -> set[str]:
+    """Every global name a function's code (and its nested code) reads."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if hasattr(const, "co_names"):
+            names |= _names(const)
+    return names
+
+
+def _rel(module) -> str:
+    return Path(module.__file__).resolve().relative_to(PACKAGE).as_posix()
+
+
+def test_every_kernel_calling_another_modules_kernel_is_keyed_on_all_sources():
+    """A kernel whose code calls a kernel of another module, and that callee, live in KERNEL_SOURCES; and every
+    kernel of those modules is cached in the keyed directory."""
+    crossing = set()
+    kernels = 0
+    for module in _modules():
+        for value in vars(module).values():
+            if not isinstance(value, CPUDispatcher) or value.py_func.__module__ != module.__name__:
+                continue
+            kernels += 1
+            for name in _names(value.py_func.__code__):
+                callee = value.py_func.__globals__.get(name)
+                if isinstance(callee, CPUDispatcher) and callee.py_func.__module__ != module.__name__:
+                    crossing |= {_rel(module), _rel(importlib.import_module(callee.py_func.__module__))}
+            if _rel(module) in KERNEL_SOURCES:
+                assert value._cache._cache_path.startswith(cache_dir()), value
+    assert kernels > 30
+    assert "optimisers/compass.py" in crossing and "physics/compiled/objective.py" in crossing
+    assert crossing <= set(KERNEL_SOURCES), crossing - set(KERNEL_SOURCES)
+
+
+def test_the_cache_key_changes_with_any_kernel_source(tmp_path):
+    """A copy of the sources hashes alike; one byte changed in any kernel module gives another key."""
+    for rel in KERNEL_SOURCES:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(PACKAGE / rel, tmp_path / rel)
+    base = sources_digest(tmp_path)
+    assert base == sources_digest() and cache_dir().endswith(base)
+    for rel in KERNEL_SOURCES:
+        text = (tmp_path / rel).read_bytes()
+        (tmp_path / rel).write_bytes(text + b"#")
+        assert sources_digest(tmp_path) != base, rel
+        (tmp_path / rel).write_bytes(text)
+    assert sources_digest(tmp_path) == base
+
+
+def test_kernels_leave_other_librarys_cache_setting_alone(monkeypatch):
+    """The keyed directory is set only while a kernel is decorated."""
+    from jethr1_plan.physics.compiled.jit import kernel
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
+    def add_one(x):
+        return x + 1
+
+    k = kernel(add_one)
+    assert numba.config.CACHE_DIR == ""
+    assert k._cache._cache_path.startswith(cache_dir())
+
