@@ -32,7 +32,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     summary.json), route.mcap and route.png. Exit 3 when no route exists, naming the frontier reached.
     """
     from jethr1_plan.io.atomic import check_writable
-    from jethr1_plan.route.planner import NoRoute, find_route, route_maps, write_route
+    from jethr1_plan.route.planner import NoRoute, find_route, route_maps, steps_text, write_route
     from jethr1_plan.route.terrain import load_terrain
 
     t0 = time.perf_counter()
@@ -62,7 +62,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     if as_json:
         print_json(summary)
     r = summary["route"]
-    say(f"route {terrain.name}: {len(outcome.steps)} steps to {r['goal']} (cost {r['cost']:.3f}; "
+    say(f"route {terrain.name}: {steps_text(len(outcome.steps))} to {r['goal']} (cost {r['cost']:.3f}; "
         f"{r['search']['stances_expanded']} stances expanded, {r['search']['steps_judged']} steps judged on the map "
         f"in {search_s:.2f} s; planned in {outcome.plan_s:.1f} s; {t_route:.1f} s after the maps)")
     for s in r["steps"]:

@@ -116,7 +116,15 @@ def route_png(d: RouteDrawing) -> bytes:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
-    fig, ax = plt.subplots(figsize=(11, 7), constrained_layout=True)
+    xs = [v for c in d.cartons for v in c.top_rectangle()[:2]]
+    ys = [v for c in d.cartons for v in c.top_rectangle()[2:]]
+    span_x, span_y = max(xs) - min(xs) + 0.1, max(ys) - min(ys) + 0.1
+    width = 12.0
+    plot_h = min(9.0, max(3.0, width * span_y / span_x))
+    text_h = 0.16 * (len(d.step_labels) + 1)
+    fig, (ax, notes) = plt.subplots(2, 1, figsize=(width, plot_h + text_h + 0.6), constrained_layout=True,
+                                    gridspec_kw={"height_ratios": [plot_h, text_h]})
+    notes.axis("off")
     zs = [c.top_z for c in d.cartons]
     lo, hi = min(zs), max(zs)
     cmap = plt.get_cmap("copper")
@@ -125,11 +133,13 @@ def route_png(d: RouteDrawing) -> bytes:
         shade = 0.35 + 0.5 * ((c.top_z - lo) / (hi - lo) if hi > lo else 0.5)
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, color=cmap(shade), alpha=0.55, lw=0))
         ax.text(x0 + 0.005, y1 - 0.005, f"{name}\nz {c.top_z:+.2f}", fontsize=6, va="top", color="0.15")
-    for s in d.slices:  # the layer at the landing's height, faint: where the swing sole may be
-        flat = np.abs(s.points_m[:, 2] - s.points_m[:, 2].min()) < 1e-6
-        if flat.any():
-            ax.scatter(s.points_m[flat, 0], s.points_m[flat, 1], s=2, c=s.thrust_n[flat], cmap="viridis", vmin=0,
-                       vmax=d.thrust_max_n, alpha=0.15, marker="s", lw=0)
+    if d.slices:  # the last step's layer at its landing's height: where the swing sole may be, by the map
+        sl = d.slices[-1]
+        z = d.landings_m[-1][2]
+        flat = np.abs(sl.points_m[:, 2] - sl.points_m[np.argmin(np.abs(sl.points_m[:, 2] - z)), 2]) < 1e-6
+        sc = ax.scatter(sl.points_m[flat, 0], sl.points_m[flat, 1], s=6, c=sl.thrust_n[flat], cmap="viridis", vmin=0,
+                        vmax=d.thrust_max_n, alpha=0.25, marker="s", lw=0, zorder=0)
+        fig.colorbar(sc, ax=ax, shrink=0.9, label="least thrust [N]\n(last step's map)")
     holds = np.asarray(d.footholds_m).reshape(-1, 3)
     ax.scatter(holds[:, 0], holds[:, 1], s=3, c="0.3", marker=".", label="candidate footholds")
     gx0, gx1, gy0, gy1 = d.goal_rect
@@ -151,11 +161,13 @@ def route_png(d: RouteDrawing) -> bytes:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right", fontsize=7)
-    ax.set_title(d.title, fontsize=9)
-    if d.step_labels:
-        ax.text(1.01, 1.0, "\n".join(f"{k + 1}. {s}" for k, s in enumerate(d.step_labels)), transform=ax.transAxes,
-                va="top", fontsize=7, family="monospace")
+    ax.set_xlim(min(xs) - 0.05, max(xs) + 0.05)
+    ax.set_ylim(min(ys) - 0.05, max(ys) + 0.05)
+    handles, labels = ax.get_legend_handles_labels()
+    notes.legend(handles, labels, loc="upper right", fontsize=7, frameon=False)
+    ax.set_title(d.title, fontsize=10)
+    notes.text(0.0, 1.0, "\n".join(f"{k + 1:2d}. {s}" for k, s in enumerate(d.step_labels)), transform=notes.transAxes,
+               va="top", fontsize=8, family="monospace")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)

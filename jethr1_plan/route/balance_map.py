@@ -151,6 +151,17 @@ class BalanceMap:
         need = np.where(inside, self.thrust[near[..., 0], near[..., 1], near[..., 2]], np.inf)
         return ok, np.where(inside, thrust, np.inf), np.where(ok, margin, 0.0), reason, need
 
+    def reach_along(self, direction_xy: np.ndarray, within_rad: float = math.radians(10.0)) -> float:
+        """The farthest a member node lies from the support sole's centre [m], horizontally, within
+        ``within_rad`` of the direction ``direction_xy`` (0 where none)."""
+        X, Y = np.meshgrid(self.axes[0], self.axes[1], indexing="ij")
+        xy = np.stack([X, Y], axis=-1)[self.member.any(axis=2)]
+        d = np.linalg.norm(xy, axis=1)
+        u = np.asarray(direction_xy, dtype=float) / max(float(np.linalg.norm(direction_xy)), 1e-12)
+        cos = (xy @ u) / np.maximum(d, 1e-12)
+        near = cos >= math.cos(within_rad)
+        return float(d[near].max()) if near.any() else 0.0
+
     def posture(self, rel: np.ndarray) -> np.ndarray:
         """The trunk position [m] relative to the support sole of the grid node nearest to ``rel`` (..., 3),
         shifted by the point's offset from that node (NaN where the node has no posture or lies beyond the grid)."""

@@ -34,7 +34,7 @@ from jethr1_plan.route.terrain import Terrain, dump_yaml
 from jethr1_plan.scenario import Scenario, load_scenario_text
 
 __all__ = ["MAX_REPLANS", "ROUTE_OWN", "NoRoute", "RouteOutcome", "find_route", "route_maps", "route_scenario_text",
-           "write_route"]
+           "steps_text", "write_route"]
 
 MAX_REPLANS = 25  # steps blacklisted before the route gives up
 ROUTE_OWN = PLAN_FILES | ROUTE_FILES
@@ -99,7 +99,7 @@ def route_scenario_text(terrain: Terrain, holds: Footholds, steps: list[RouteSte
     names = terrain.names
     opt = terrain.options
     lines = [f"# The route `jethr1 route` chose over terrain {terrain.name!r} ({Path(terrain.source).name}): "
-             f"{len(steps)} steps to {terrain.goal.describe(names)}.",
+             f"{steps_text(len(steps))} to {terrain.goal.describe(names)}.",
              "# An ordinary scenario: edit it, then plan it with `jethr1 plan route.yaml`.",
              f"name: {_flow(terrain.name)}"]
     if "description" in doc:
@@ -120,6 +120,10 @@ def route_scenario_text(terrain: Terrain, holds: Footholds, steps: list[RouteSte
     text = "\n".join(lines) + "\n"
     rest = {k: doc[k] for k in ("optimiser", "balance", "timing") if k in doc}
     return text + (dump_yaml(rest) if rest else "")
+
+
+def steps_text(n: int) -> str:
+    return f"{n} step{'' if n == 1 else 's'}"
 
 
 _STEP_KEY = re.compile(r"steps\[(\d+)\]")
@@ -219,7 +223,8 @@ def _no_route(terrain: Terrain, f: Frontier, blacklisted: list[dict]) -> NoRoute
 
 _WHY_TEXT = {"reach": "out of reach", "thrust": "beyond the thrust limit", "margin": "at the edge of the balance "
              "space (margin)", "balance": "unbalanced", "collision": "blocked by cartons",
-             "planner": "refused by the planner", "transfer": "its transfers leave the joint limits",
+             "joint limits": "beyond the joint limits", "overlap": "behind the support sole",
+             "planner": "refused by the planner", "transfer": "its transfers leave the joint limits", "goal": "",
              "": "not reached"}
 
 
@@ -328,8 +333,8 @@ def drawing(o: RouteOutcome, maps: dict[str, BalanceMap]) -> RouteDrawing:
               f"{st.edge.peak_n:5.2f} N, margin {1000 * st.edge.margin_m:3.0f} mm" for st, p in zip(o.steps, per,
                                                                                                   strict=True)]
     s = plan_summary_lite(o.result)
-    title = (f"{t.name}: {len(o.steps)} steps to {t.goal.describe(names)}; {t.base.balance.policy} policy, plan's "
-             f"peak thrust {s:.2f} N")
+    title = (f"{t.name}: {steps_text(len(o.steps))} to {t.goal.describe(names)}; {t.base.balance.policy} policy, "
+             f"plan's peak thrust {s:.2f} N")
     return RouteDrawing(title=title, cartons=t.cartons, names=names, footholds_m=o.holds.xyz,
                         start={k: np.asarray(v, dtype=float) for k, v in t.base.start.items()},
                         swings=[st.swing for st in o.steps], landings_m=o.holds.xyz[[st.to for st in o.steps]],

@@ -24,7 +24,7 @@ on 61 transfers of 11 random routes: all 24 that the planner refused were caught
 accepted refused too (docs/route.md).
 
 **Cost** (:class:`~.terrain.CostWeights`): per step ``step`` + ``peak_thrust`` · F_peak/F_max +
-``mean_thrust`` · F_mean/F_max + ``margin`` · max(0, 1 − d/``margin_m``).
+``mean_thrust`` · F_mean/F_max + ``margin`` · max(0, 1 − d/``margin_m``) + ``edge`` · max(0, 1 − e/``edge_m``).
 
 **Search.** A* over the states, successors evaluated in one batch per expansion, with the
 admissible heuristic ``step`` × (a lower bound on the steps left): each step puts the swing sole
@@ -60,9 +60,10 @@ __all__ = ["TRANSFER_POINTS", "WHY", "Edge", "Footholds", "Frontier", "RouteStep
 TRANSFER_POINTS = np.linspace(0.15, 0.85, 15)
 
 #: why a step is not feasible, from the nearest miss to the farthest (the frontier names the nearest)
-WHY = ("planner", "transfer", "margin", "thrust", "balance", "collision", "reach")
-_REACH = {int(Reason.UNREACHABLE), int(Reason.JOINT_LIMIT), int(Reason.NOT_CONVERGED), int(Reason.OVERLAP), OUTSIDE}
-_BALANCE = {int(Reason.NO_BALANCE), int(Reason.EDGE_ANGLE)}
+WHY = ("planner", "transfer", "margin", "thrust", "balance", "joint limits", "overlap", "collision", "reach", "goal")
+_REACH = [int(Reason.UNREACHABLE), OUTSIDE]
+_JOINTS = [int(Reason.JOINT_LIMIT), int(Reason.NOT_CONVERGED)]
+_BALANCE = [int(Reason.NO_BALANCE), int(Reason.EDGE_ANGLE)]
 _SIDES = ("left", "right")  # plain strings: they go into YAML and JSON
 
 
@@ -73,6 +74,7 @@ class Footholds:
     xyz: np.ndarray
     carton: np.ndarray
     start: dict[str, int]
+    edge_m: np.ndarray  # (F,) the sole's least distance to the edge of its carton's top [m]
 
     def __len__(self) -> int:
         return len(self.xyz)
@@ -109,7 +111,12 @@ def footholds(terrain: Terrain) -> Footholds:
         start[side] = len(pts)
         pts.append(p.copy())
         owner.append(k)
-    return Footholds(np.array(pts, dtype=float).reshape(-1, 3), np.array(owner, dtype=np.int64), start)
+    xyz = np.array(pts, dtype=float).reshape(-1, 3)
+    owner_a = np.array(owner, dtype=np.int64)
+    rect = np.array([terrain.cartons[k].top_rectangle() for k in owner_a]).reshape(-1, 4)
+    edge = np.min(np.column_stack([xyz[:, 0] - L / 2 - rect[:, 0], rect[:, 1] - xyz[:, 0] - L / 2,
+                                   xyz[:, 1] - W / 2 - rect[:, 2], rect[:, 3] - xyz[:, 1] - W / 2]), axis=1)
+    return Footholds(xyz, owner_a, start, np.maximum(edge, 0.0))
 
 
 @dataclass(frozen=True)
@@ -218,9 +225,12 @@ class StepModel:
             rel = paths - sup
             ok, thrust, margin, reason, need = m.lookup(rel)
             far = np.any(np.linalg.norm(rel, axis=2) > self.span, axis=1)
-            reach = far | np.any(np.isin(reason, list(_REACH)), axis=1)
-            balance = np.any(np.isin(reason, list(_BALANCE)), axis=1)
-            peak_need = np.max(need, axis=1)
+            reach = far | np.any(np.isin(reason, _REACH), axis=1)
+            joints = np.any(np.isin(reason, _JOINTS), axis=1)
+            over = np.any(reason == Reason.OVERLAP, axis=1)
+            balance = np.any(np.isin(reason, _BALANCE), axis=1)
+            too_much = np.any(reason == Reason.THRUST_MAX, axis=1)
+            peak_need = np.max(np.where(np.isfinite(need), need, 0.0), axis=1)
             all_ok = np.all(ok, axis=1)
             peak = np.where(all_ok, np.max(thrust, axis=1), np.inf)
             hit = collides(paths, self.L, self.W, self.cartons)
@@ -229,18 +239,23 @@ class StepModel:
                     e = Edge(False, why="reach")
                 elif hit[i]:
                     e = Edge(False, clearance_m=clearance, why="collision")
+                elif over[i]:
+                    e = Edge(False, clearance_m=clearance, why="overlap")
+                elif joints[i]:
+                    e = Edge(False, clearance_m=clearance, why="joint limits")
                 elif balance[i]:
                     e = Edge(False, clearance_m=clearance, why="balance")
-                elif peak_need[i] > limit or np.any(reason[i] == Reason.THRUST_MAX) or peak[i] > limit:
-                    e = Edge(False, clearance_m=clearance, why="thrust", need_n=float(max(peak_need[i], peak[i])
-                                                                                      if all_ok[i] else peak_need[i]))
+                elif too_much[i] or peak_need[i] > limit or (all_ok[i] and peak[i] > limit):
+                    e = Edge(False, clearance_m=clearance, why="thrust",
+                             need_n=float(max(peak_need[i], peak[i]) if all_ok[i] else peak_need[i]))
                 elif not all_ok[i]:
                     e = Edge(False, clearance_m=clearance, why="margin")
                 else:
                     mean = float(np.mean(thrust[i]))
                     least = float(np.min(margin[i]))
                     cost = (w.step + w.peak_thrust * peak[i] / self.fmax + w.mean_thrust * mean / self.fmax
-                            + w.margin * max(0.0, 1.0 - least / w.margin_m))
+                            + w.margin * max(0.0, 1.0 - least / w.margin_m)
+                            + w.edge * max(0.0, 1.0 - float(self.holds.edge_m[targets[i]]) / w.edge_m))
                     e = Edge(True, float(cost), clearance, float(peak[i]), mean, least)
                 if _better(e, best[i]):
                     best[i] = e
@@ -417,6 +432,9 @@ def _frontier(model: StepModel, closed: set[State]) -> Frontier:
     out = Frontier(reached, len(closed))
     others = [k for k in range(len(cartons)) if k not in reached and np.any(holds.carton == k)]
     if not others:
+        out.why = "goal"
+        out.detail = ("a sole reached every carton, but no stance ends the route at the goal (its soles there, and "
+                      "the last transfer to standing within the joint limits)")
         return out
     goal = model.terrain.goal
     goal_xy = (np.array(cartons[goal.carton].top_centre_m[:2]) if goal.carton is not None
@@ -449,13 +467,21 @@ def _frontier(model: StepModel, closed: set[State]) -> Frontier:
     out.why = best.why
     names = model.terrain.names
     if best.why == "reach" and where is not None:
-        out.detail = (f"its nearest foothold is {closest:.3f} m from a support sole; the balance space "
-                      f"({where[0]} foot swinging) reaches {model.reach[other_side(where[0])]:.3f} m")
+        swing, sup = where
+        m = model.maps[other_side(swing)]
+        d = holds.xyz[targets, :2] - holds.xyz[sup, :2]
+        along = m.reach_along(d[int(np.argmin(np.linalg.norm(d, axis=1)))])
+        out.detail = (f"its nearest foothold is {closest:.3f} m from a support sole; the balance space ({swing} foot "
+                      f"swinging) reaches {along:.3f} m that way")
     elif best.why == "thrust":
         out.detail = (f"the best swing path there needs {best.need_n:.2f} N by the map; the limit is "
                       f"{min(model.terrain.limits.peak_thrust_n, model.fmax):g} N")
     elif best.why == "balance":
-        out.detail = "no thrust balances some point of every swing path there"
+        out.detail = "no thrust balances some point of every swing path there (or the edge angle exceeds rho)"
+    elif best.why == "joint limits":
+        out.detail = "every swing path there needs a posture beyond the joint limits"
+    elif best.why == "overlap":
+        out.detail = "every swing path there passes over the support sole"
     elif best.why == "margin":
         out.detail = ("every swing path there leaves the balance space between its grid nodes (the map's "
                       "conservative lookup)")

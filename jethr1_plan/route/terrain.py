@@ -68,7 +68,8 @@ TERRAIN_SCHEMA = {
             "map_resolution_m": {"type": "number", "minimum": 0.005, "maximum": 0.1},
             "cost": {"type": "object", "additionalProperties": False, "properties": {
                 "step": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}, "peak_thrust": _weight,
-                "mean_thrust": _weight, "margin": _weight, "margin_m": _pos}}}},
+                "mean_thrust": _weight, "margin": _weight, "margin_m": _pos, "edge": _weight,
+                "edge_m": _pos}}}},
     },
 }
 
@@ -76,15 +77,18 @@ TERRAIN_SCHEMA = {
 @dataclass(frozen=True)
 class CostWeights:
     """The cost of one step: ``step`` + ``peak_thrust`` · F_peak / F_max + ``mean_thrust`` · F_mean / F_max
-    + ``margin`` · max(0, 1 − d / ``margin_m``), F the map's least thrust along the swing path and d the
-    path's least distance to the edge of the balance space [m]. Every term but the first is ≥ 0, so a
-    route's cost is at least ``step`` times its steps (the search's heuristic counts on it)."""
+    + ``margin`` · max(0, 1 − d / ``margin_m``) + ``edge`` · max(0, 1 − e / ``edge_m``), F the map's least
+    thrust along the swing path, d the path's least distance to the edge of the balance space [m] and e
+    the landing sole's least distance to the edge of its carton's top [m]. Every term but the first is
+    ≥ 0, so a route's cost is at least ``step`` times its steps (the search's heuristic counts on it)."""
 
     step: float = 1.0
     peak_thrust: float = 1.0
     mean_thrust: float = 0.5
     margin: float = 1.0
     margin_m: float = 0.03
+    edge: float = 0.5
+    edge_m: float = 0.02
 
 
 @dataclass(frozen=True)
