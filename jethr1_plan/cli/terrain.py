@@ -40,15 +40,17 @@ def _gaps(text: str) -> tuple[float, float]:
               help="Largest sideways offset of a carton in its row [m].")
 @click.option("--policy", type=click.Choice(["robust", "minimal"]), default="robust", show_default=True,
               help="The terrain's balance policy.")
+@click.option("--sole-margin", type=FiniteFloat(0.0, 0.04), default=0.005, show_default=True,
+              help="The terrain's balance.sole_margin_m: the ZMP this far inside the support sole [m].")
 @click.option("-o", "--output", "output", default=None, type=click.Path(dir_okay=False, path_type=Path),
               help="Write the terrain here (default: stdout).")
-def random_cmd(seed: int, cartons: int, gaps: str, heights: float, side: float, policy: str,
+def random_cmd(seed: int, cartons: int, gaps: str, heights: float, side: float, policy: str, sole_margin: float,
                output: Path | None) -> None:
     """A seeded random carton field: rows of cartons across ditches, with side offsets and height changes."""
     from jethr1_plan.io.atomic import check_writable, write_text_atomic
     from jethr1_plan.route.terrain import random_terrain
 
-    text = random_terrain(seed, cartons, _gaps(gaps), heights, side, policy)
+    text = random_terrain(seed, cartons, _gaps(gaps), heights, side, policy, sole_margin_m=sole_margin)
     if output is None:
         with stdout_errors():
             click.echo(text, nl=False)

@@ -8,11 +8,13 @@ start soles are footholds too.
 either foot may swing next, so a route may step twice with the same foot (Paper A's trial does). A step
 (swing foot, from, to) is
 feasible when the landing does not overlap the support sole, every point of its swing path (the
-planner's arc, :func:`~jethr1_plan.swing_path.arc_path`, for each sagitta of ``clearances_m``) lies
+planner's arc, :func:`~jethr1_plan.swing_path.arc_path`, for a sagitta of ``clearances_m``) lies
 within the legs' span and in the support side's balance space translated to the support sole
 (:meth:`BalanceMap.lookup`, conservative), the map's peak thrust along it is within
-``limits.peak_thrust_n``, and the sole clears every carton on the way. Among the feasible arcs the
-cheapest is kept.
+``limits.peak_thrust_n``, and the sole clears every carton on the way. The sagittas are tried in the
+order given and the first that passes is taken (a sagitta above half the step's length only where it is
+the lowest of the list: the sole never moves back): the default tries the highest first, whose steeper
+final descent lands nearer the planned foothold in the twin (docs/route.md).
 
 **Transfers.** Between two swings both soles stand and the planner moves the trunk in a straight line
 from the posture that ended one swing to the one that starts the next (``planning.sequence``); where the
@@ -220,7 +222,11 @@ class StepModel:
         ends = self.holds.xyz[targets]
         self.evaluated += len(targets)
         best: list[Edge] = [Edge(False, why="reach") for _ in targets]
+        chord = np.linalg.norm(ends - self.holds.xyz[frm], axis=1)
+        lowest = min(opt.clearances_m)
         for clearance in opt.clearances_m:
+            # an arc at most a half circle (the sole never moves back), but for the lowest of the list
+            tall = (clearance > chord / 2) & (clearance > lowest)
             paths = arc_paths(self.holds.xyz[frm], ends, clearance, opt.samples)  # (K, N, 3)
             rel = paths - sup
             ok, thrust, margin, reason, need = m.lookup(rel)
@@ -235,6 +241,8 @@ class StepModel:
             peak = np.where(all_ok, np.max(thrust, axis=1), np.inf)
             hit = collides(paths, self.L, self.W, self.cartons)
             for i in range(len(targets)):
+                if tall[i]:
+                    continue
                 if reach[i]:
                     e = Edge(False, why="reach")
                 elif hit[i]:
@@ -257,7 +265,7 @@ class StepModel:
                             + w.margin * max(0.0, 1.0 - least / w.margin_m)
                             + w.edge * max(0.0, 1.0 - float(self.holds.edge_m[targets[i]]) / w.edge_m))
                     e = Edge(True, float(cost), clearance, float(peak[i]), mean, least)
-                if _better(e, best[i]):
+                if not best[i].ok and _better(e, best[i]):  # the first arc of the list the map accepts
                     best[i] = e
         return best
 

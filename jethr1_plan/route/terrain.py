@@ -87,17 +87,18 @@ class CostWeights:
     mean_thrust: float = 0.5
     margin: float = 1.0
     margin_m: float = 0.03
-    edge: float = 0.5
-    edge_m: float = 0.02
+    edge: float = 1.0
+    edge_m: float = 0.025
 
 
 @dataclass(frozen=True)
 class RouteOptions:
     """``route:`` of a terrain."""
 
-    foothold_spacing_m: float = 0.025  # candidate sole centres on a carton top, this far apart [m]
-    edge_margin_m: float = 0.0  # each candidate sole lies this far inside its carton's top [m]
-    clearances_m: tuple[float, ...] = (0.05, 0.08)  # the arcs tried for each step (its sagitta) [m]
+    foothold_spacing_m: float = 0.02  # candidate sole centres on a carton top, this far apart [m]
+    edge_margin_m: float = 0.005  # each candidate sole lies this far inside its carton's top [m] (the twin lands
+    #                               3 to 5 mm off a first foothold: docs/route.md)
+    clearances_m: tuple[float, ...] = (0.1, 0.07, 0.05)  # the arcs tried for each step, in this order (sagitta) [m]
     samples: int = 25  # swing samples per step (route.yaml's arcs)
     map_resolution_m: float = 0.02  # the balance-space map's grid [m] (docs/route.md: measured)
     cost: CostWeights = field(default_factory=CostWeights)
@@ -236,14 +237,16 @@ def dump_yaml(doc: dict, header: str = "") -> str:
 
 def random_terrain(seed: int, cartons: int = 6, gaps_m: tuple[float, float] = (0.05, 0.25),
                    heights_m: float = 0.04, side_m: float = 0.08, policy: str = "robust",
-                   robot: str = "jethr1") -> str:
+                   robot: str = "jethr1", sole_margin_m: float = 0.005) -> str:
     """A seeded carton field as terrain YAML: the same arguments give the same text.
 
     Two Paper A cartons under the start stance; then ``cartons`` cartons in rows along +x, each row
     across a ditch of a width drawn from ``gaps_m`` [m] behind the row before, holding one or two
     cartons moved sideways by up to ``side_m`` [m] (and forward by up to 3 cm), its top up to
     ``heights_m`` [m] above or below the row before (every carton stands on the floor at z = −0.14 m);
-    last, across one more ditch, a wide carton (0.21 × 0.40 m) whose top is the goal region.
+    last, across one more ditch, a wide carton (0.21 × 0.40 m) whose top is the goal region. The balance
+    policy keeps the ZMP ``sole_margin_m`` inside the support sole beyond the tolerance: over a route of
+    several steps the twin's landings drift by up to ~1 cm (docs/route.md).
     """
     rng = np.random.default_rng([seed, 29])
     size = DEFAULT_CARTON_M
@@ -285,7 +288,7 @@ def random_terrain(seed: int, cartons: int = 6, gaps_m: tuple[float, float] = (0
         "start": {"left": [0.0, 0.1125, 0.0], "right": [0.0, -0.1125, 0.0]},
         "terrain": {"cartons": out},
         "goal": {"region": {"x_m": [r4(goal_x - half), r4(goal_x + half)], "y_m": [-0.2, 0.2]}},
-        "balance": {"policy": policy, "thrust_max_n": 23.0},
+        "balance": {"policy": policy, "thrust_max_n": 23.0, "sole_margin_m": sole_margin_m},
     }
     header = (f"A seeded carton field (jethr1 terrain random --seed {seed}): {cartons} cartons in rows across "
               f"ditches of {gaps_m[0]:g}..{gaps_m[1]:g} m,\nsideways up to {side_m:g} m, heights changing by up to "

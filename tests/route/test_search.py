@@ -47,10 +47,15 @@ def test_footholds_lie_on_their_carton_tops_a_grid_apart(synthetic_maps):
     for p, k in zip(h.xyz, h.carton, strict=True):
         assert sole_on_carton(p, 0.0, *SOLE, t.cartons[k])
     on_a = h.xyz[h.carton == 2]
-    # a 0.21 x 0.11 top holds the 0.16 x 0.09 sole at x offsets -0.025, 0, 0.025 (2.5 cm apart), y at the centre
-    assert sorted(np.round(on_a[:, 0] - 0.3, 6)) == [-0.025, 0.0, 0.025]
+    # a 0.21 x 0.11 top holds the 0.16 x 0.09 sole 5 mm inside its edges at x offsets -0.02, 0, 0.02 (2 cm
+    # apart), y at the centre
+    assert sorted(np.round(on_a[:, 0] - 0.3, 6)) == [-0.02, 0.0, 0.02]
     assert np.allclose(on_a[:, 1], 0.1125)
+    room = np.minimum(0.025 - np.abs(on_a[:, 0] - 0.3), 0.01)  # to the nearest edge: in x, or 10 mm in y
+    assert np.allclose(h.edge_m[h.carton == 2], room) and room.min() == pytest.approx(0.005)
     assert np.allclose(h.xyz[h.start["left"]], [0.0, 0.1125, 0.0])
+    wide = footholds(row(route={"edge_margin_m": 0.0, "foothold_spacing_m": 0.025}))
+    assert sorted(np.round(wide.xyz[wide.carton == 2][:, 0] - 0.3, 6)) == [-0.025, 0.0, 0.025]
     narrow = footholds(row(route={"edge_margin_m": 0.01}))
     assert sorted(np.round(narrow.xyz[narrow.carton == 2][:, 0] - 0.3, 6)) == [0.0]
 
