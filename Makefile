@@ -37,6 +37,7 @@ bench: install
 	$(BIN)/python bench/bench_balance_space.py
 	$(BIN)/python bench/bench_simulate.py
 	$(BIN)/python bench/bench_walk.py
+	$(BIN)/python bench/bench_route.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Carton", "arc_path", "first_collision", "interpolate_path", "path_length", "sole_on_carton"]
+__all__ = ["Carton", "arc_path", "arc_paths", "collides", "first_collision", "interpolate_path", "path_length",
+           "sole_on_carton"]
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,43 @@ def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float = 0.05, 
     return pts
 
 
+def arc_paths(start_m: np.ndarray, ends_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25) -> np.ndarray:
+    """:func:`arc_path` from one ``start_m`` (3,) to each of ``ends_m`` (K, 3) at once: (K, samples, 3) [m].
+
+    The same arcs as :func:`arc_path` to rounding (numpy's vectorised sin and arcsin may differ from
+    the scalar ones in the last bit); a path that must be exactly a scenario's comes from :func:`arc_path`.
+    """
+    start, ends = np.asarray(start_m, dtype=float), np.asarray(ends_m, dtype=float).reshape(-1, 3)
+    if samples < 2:
+        raise ValueError("an arc needs at least 2 samples")
+    chord = ends - start
+    c = np.linalg.norm(chord, axis=1)
+    t = np.linspace(0.0, 1.0, samples)
+    out = start + t[None, :, None] * chord[:, None, :]
+    arc = (c > 0) & (clearance_m > 0)
+    if not arc.any():
+        return out
+    ch, cc = chord[arc], c[arc]
+    u = ch / cc[:, None]
+    horiz = np.column_stack([ch[:, 0], ch[:, 1], np.zeros(len(ch))])
+    flat = np.linalg.norm(horiz, axis=1) <= 1e-12
+    side = np.where(flat[:, None], [0.0, 1.0, 0.0], np.cross(horiz, [0.0, 0.0, 1.0]))
+    n = np.cross(side, u)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n[n[:, 2] < 0] *= -1
+    h = clearance_m
+    radius = (cc * cc / 4 + h * h) / (2 * h)
+    half = np.arcsin(np.minimum(1.0, (cc / 2) / radius))
+    half = np.where(h > radius, np.pi - half, half)
+    centre = start + ch / 2 + n * (h - radius)[:, None]
+    ang = np.linspace(-half, half, samples, axis=1)  # (K, samples)
+    pts = centre[:, None, :] + radius[:, None, None] * (np.sin(ang)[..., None] * u[:, None, :]
+                                                        + np.cos(ang)[..., None] * n[:, None, :])
+    pts[:, 0], pts[:, -1] = start, ends[arc]
+    out[arc] = pts
+    return out
+
+
 def path_length(points: np.ndarray) -> np.ndarray:
     """Cumulative length [m] along a polyline (N, 3), starting at 0."""
     seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
@@ -105,22 +143,58 @@ def first_collision(points: np.ndarray, yaw_rad: float, length_m: float, width_m
 
     The path is checked between its samples too (``densify`` points per segment). The sole is
     inside a carton when its rectangle overlaps the carton's top face (with positive area) and its
-    height is below the top by more than 1e-9 m.
+    height is below the top by more than 1e-9 m (and above the carton's bottom). Every point is
+    tested against every carton at once (numpy); "first" is along the path, then in carton order.
 
     Returns:
         ``None`` if the path is clear, else (segment index, position [m], carton index).
     """
-    for i in range(len(points) - 1):
-        for t in np.linspace(0.0, 1.0, densify, endpoint=False):
-            p = points[i] + t * (points[i + 1] - points[i])
-            corners = _sole_corners(p, yaw_rad, length_m, width_m)
-            sx0, sx1 = corners[:, 0].min(), corners[:, 0].max()
-            sy0, sy1 = corners[:, 1].min(), corners[:, 1].max()
-            for k, carton in enumerate(cartons):
-                x0, x1, y0, y1 = carton.top_rectangle()
-                overlap = (min(sx1, x1) - max(sx0, x0) > 1e-9) and (min(sy1, y1) - max(sy0, y0) > 1e-9)
-                below_top = p[2] < carton.top_z - 1e-9
-                above_bottom = p[2] > carton.top_z - carton.size_m[2]
-                if overlap and below_top and above_bottom:
-                    return i, p, k
-    return None
+    pts = np.asarray(points, dtype=float)
+    if len(pts) < 2 or not cartons:
+        return None
+    t = np.linspace(0.0, 1.0, densify, endpoint=False)
+    p = (pts[:-1, None, :] + t[None, :, None] * (pts[1:] - pts[:-1])[:, None, :]).reshape(-1, 3)
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    local = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) * [length_m / 2, width_m / 2]
+    corners = (local @ np.array([[c, s], [-s, c]]))[None] + p[:, None, :2]  # (P, 4, 2)
+    sx0, sx1 = corners[..., 0].min(axis=1)[:, None], corners[..., 0].max(axis=1)[:, None]
+    sy0, sy1 = corners[..., 1].min(axis=1)[:, None], corners[..., 1].max(axis=1)[:, None]
+    rect = np.array([carton.top_rectangle() for carton in cartons])  # (C, 4): x0, x1, y0, y1
+    top = np.array([carton.top_z for carton in cartons])
+    bottom = np.array([carton.top_z - carton.size_m[2] for carton in cartons])
+    overlap = ((np.minimum(sx1, rect[:, 1]) - np.maximum(sx0, rect[:, 0]) > 1e-9)
+               & (np.minimum(sy1, rect[:, 3]) - np.maximum(sy0, rect[:, 2]) > 1e-9))
+    z = p[:, 2:3]
+    hit = overlap & (z < top - 1e-9) & (z > bottom)
+    rows = np.flatnonzero(hit.any(axis=1))
+    if not len(rows):
+        return None
+    j = int(rows[0])
+    return j // densify, p[j], int(np.argmax(hit[j]))
+
+
+def collides(paths: np.ndarray, length_m: float, width_m: float, cartons: list[Carton],
+             densify: int = 10) -> np.ndarray:
+    """(K,) whether each path of ``paths`` (K, N, 3) dips into a carton: :func:`first_collision` of
+    each (a flat sole, yaw 0) at once."""
+    paths = np.asarray(paths, dtype=float)
+    k = len(paths)
+    if paths.shape[1] < 2 or not cartons or not k:
+        return np.zeros(k, dtype=bool)
+    t = np.linspace(0.0, 1.0, densify, endpoint=False)
+    p = paths[:, :-1, None, :] + t[None, None, :, None] * (paths[:, 1:] - paths[:, :-1])[:, :, None, :]
+    p = p.reshape(k, -1, 3)
+    rect = np.array([carton.top_rectangle() for carton in cartons])  # (C, 4): x0, x1, y0, y1
+    top = np.array([carton.top_z for carton in cartons])
+    bottom = np.array([carton.top_z - carton.size_m[2] for carton in cartons])
+    hit = np.zeros(k, dtype=bool)
+    lo, hi = p.reshape(-1, 3).min(axis=0), p.reshape(-1, 3).max(axis=0)
+    near = np.flatnonzero((rect[:, 1] > lo[0] - length_m) & (rect[:, 0] < hi[0] + length_m)
+                          & (rect[:, 3] > lo[1] - width_m) & (rect[:, 2] < hi[1] + width_m)
+                          & (top > lo[2]) & (bottom < hi[2]))
+    for j in near:  # one carton at a time: (K, P) arrays, not (K, P, C); those the paths' box cannot touch skipped
+        x, y, z = p[..., 0], p[..., 1], p[..., 2]
+        over = ((np.minimum(x + length_m / 2, rect[j, 1]) - np.maximum(x - length_m / 2, rect[j, 0]) > 1e-9)
+                & (np.minimum(y + width_m / 2, rect[j, 3]) - np.maximum(y - width_m / 2, rect[j, 2]) > 1e-9))
+        hit |= np.any(over & (z < top[j] - 1e-9) & (z > bottom[j]), axis=1)
+    return hit

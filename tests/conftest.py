@@ -55,3 +55,42 @@ def side_step_plan(tmp_path_factory):
     out = tmp_path_factory.mktemp("side_step_plan")
     assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
     return out / "side_step"
+
+
+#: a small carton field for ``jethr1 route`` (coarse 5 cm maps, 10 samples a swing, short timing: seconds)
+SMALL_TERRAIN = """\
+name: small
+robot: jethr1
+seed: 2
+start:
+  left: [0.0, 0.1125, 0.0]
+  right: [0.0, -0.1125, 0.0]
+terrain:
+  cartons:
+    - {name: start_left, top_centre_m: [0.0, 0.1125, 0.0]}
+    - {name: start_right, top_centre_m: [0.0, -0.1125, 0.0]}
+    - {name: a, top_centre_m: [0.3, 0.1125, 0.0]}
+    - {name: b, top_centre_m: [0.3, -0.1125, 0.0]}
+    - {name: goal, top_centre_m: [0.6, 0.0, 0.0], size_m: [0.21, 0.4, 0.14]}
+goal: {region: {x_m: [0.495, 0.705], y_m: [-0.2, 0.2]}}
+balance: {policy: robust, thrust_max_n: 23.0}
+timing: {swing_s: 2.0, transfer_s: 1.0, rate_hz: 20.0}
+route: {map_resolution_m: 0.05, samples: 10}
+"""
+
+
+@pytest.fixture(scope="session")
+def route_cache(tmp_path_factory) -> Path:
+    """A map cache for the tests (the 5 cm maps of SMALL_TERRAIN's settings are computed into it once)."""
+    return tmp_path_factory.mktemp("route_cache")
+
+
+@pytest.fixture(scope="session")
+def small_route(tmp_path_factory, route_cache) -> Path:
+    """SMALL_TERRAIN routed by ``jethr1 route`` (its folder; do not edit it)."""
+    from jethr1_plan.cli import run
+
+    out = tmp_path_factory.mktemp("small_route")
+    (out / "small.yaml").write_text(SMALL_TERRAIN)
+    assert run(["route", str(out / "small.yaml"), "-o", str(out), "--cache", str(route_cache), "--no-progress"]) == 0
+    return out / "small"

@@ -28,6 +28,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("sim",),  # the MuJoCo twin and rehearsals
     ("verify",),  # independent re-checks of written files
     ("pipeline",),  # input file to checked output folder
+    ("route",),  # footholds chosen on the balance space, then planned (jethr1 route)
     ("studies",),  # comparisons, curves, sweeps, batches
     ("viewer",),  # written folders shown in Rerun (jethr1 view)
     ("cli",),  # the command line

@@ -21,7 +21,9 @@ from jethr1_plan.cli.ditch_curve import ditch_curve_cmd
 from jethr1_plan.cli.plan import plan
 from jethr1_plan.cli.reach import reach_cmd
 from jethr1_plan.cli.robot import robot
+from jethr1_plan.cli.route import route_cmd
 from jethr1_plan.cli.simulate import simulate_cmd
+from jethr1_plan.cli.terrain import terrain
 from jethr1_plan.cli.verify import verify
 from jethr1_plan.cli.view import view_cmd
 from jethr1_plan.cli.walk import walk_cmd, walk_sweep_cmd
@@ -38,7 +40,7 @@ def main() -> None:
 
 
 for _command in (robot, plan, balance_space, batch, verify, compare_cmd, reach_cmd, ditch_curve_cmd, simulate_cmd,
-                 walk_cmd, walk_sweep_cmd, view_cmd):
+                 walk_cmd, walk_sweep_cmd, view_cmd, route_cmd, terrain):
     main.add_command(_command)
 
 

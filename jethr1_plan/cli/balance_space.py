@@ -41,6 +41,17 @@ __all__ = ["balance_space"]
 @click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 1.0), help="Grid step [m].")
 @click.option("--thrust-max", default=None, type=FiniteFloat(0.0, 1e4),
               help="F_max of every fan [N] (default: each fan's own maximum).")
+@click.option("--policy", type=click.Choice(["minimal", "robust"]), default="minimal", show_default=True,
+              help="The balance policy of the cells: minimal (Paper A's least thrust, Fig. 5) or robust (the least "
+                   "thrust that survives the tolerance below), as a scenario's balance.policy.")
+@click.option("--thrust-error", type=FiniteFloat(0.0, 0.9), default=None,
+              help="Robust policy: relative thrust error (default: a scenario's, 0.10).")
+@click.option("--mass-error", type=FiniteFloat(0.0, 0.9), default=None,
+              help="Robust policy: relative mass error (default: a scenario's, 0.05).")
+@click.option("--com-error", type=FiniteFloat(0.0, 0.1), default=None,
+              help="Robust policy: CoM error [m] (default: a scenario's, 0.01).")
+@click.option("--sole-margin", type=FiniteFloat(0.0, 0.1), default=0.0, show_default=True,
+              help="The ZMP stays this far inside the support sole [m] (a scenario's balance.sole_margin_m).")
 @click.option("--method", type=click.Choice(["continuation", "exhaustive"]), default="continuation", show_default=True,
               help="Inner search over P_body.")
 @click.option("--pbody-resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 0.1),
@@ -52,8 +63,9 @@ __all__ = ["balance_space"]
               type=click.Path(file_okay=False, path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Print summary.json on stdout.")
 @click.option("--no-progress", is_flag=True)
-def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, method,
-                  pbody_resolution, jobs, executor, scheduler, outdir, as_json, no_progress) -> None:
+def balance_space(robot_name, support, support_position, x_range, y_range, z_range, resolution, thrust_max, policy,
+                  thrust_error, mass_error, com_error, sole_margin, method, pbody_resolution, jobs, executor, scheduler,
+                  outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
     from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
     from jethr1_plan.files.balance_space import balance_space_csv, balance_space_mcap, balance_space_png
@@ -61,6 +73,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     from jethr1_plan.robot.model import load_robot
 
     require_dask(executor, scheduler)
+    tolerance = _tolerance(policy, thrust_error, mass_error, com_error)
     robot = load_robot(robot_name)
     if not robot.fans:
         raise InputError("--robot", robot_name, f"{robot.name} has no fans: the balance space is swept with thrust")
@@ -75,7 +88,11 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                      x_range=x_range or (sx - 0.8, sx + 0.9),
                      y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
                      z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
-                     method=method, pbody_resolution_m=pbody_resolution)
+                     sole_margin_m=sole_margin, tolerance=tolerance, method=method,
+                     pbody_resolution_m=pbody_resolution)
+    if sole_margin >= min(robot.sole_length_m, robot.sole_width_m) / 2:
+        raise InputError("--sole-margin", f"{sole_margin:g}", "leaves no support polygon (sole "
+                         f"{robot.sole_length_m} x {robot.sole_width_m} m)")
     cells = _check_grid(spec, (x_range, y_range, z_range))
     check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES)
     jobs = cap_jobs(jobs)
@@ -106,6 +123,22 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     err_console.print(f"Foxglove/Lichtblick: open balance_space.mcap and import the layout {BALANCE_SPACE_LAYOUT}; "
                       f"Rerun: jethr1 view {outdir}", markup=False)
 
+
+
+def _tolerance(policy: str, thrust_error: float | None, mass_error: float | None, com_error: float | None):
+    """The model errors of ``policy`` (a scenario's defaults where not given); the errors only with robust."""
+    from jethr1_plan.physics.balance import NOMINAL, Tolerance
+    from jethr1_plan.scenario import ROBUST_DEFAULT
+
+    given = {"--thrust-error": thrust_error, "--mass-error": mass_error, "--com-error": com_error}
+    if policy == "minimal":
+        for option, value in given.items():
+            if value is not None:
+                raise InputError(option, f"{value:g}", "a tolerance needs --policy robust")
+        return NOMINAL
+    d = ROBUST_DEFAULT
+    return Tolerance(d.thrust if thrust_error is None else thrust_error, d.mass if mass_error is None else mass_error,
+                     d.com_m if com_error is None else com_error)
 
 
 def _check_grid(spec, given) -> int:

@@ -7,7 +7,7 @@ read back in one place: :func:`write_plan` and :func:`read_plan`. Every command 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,15 +42,18 @@ def plan_folder(outdir: Path, scenario: Scenario) -> Path:
 
 
 def write_plan(result: PlanResult, outdir: Path, summary: dict, trajectory: bool = True,
-               check: Callable[[str], None] | None = None) -> tuple[Path, list[str]]:
-    """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ atomically.
+               check: Callable[[str], None] | None = None, folder: Path | None = None,
+               extra: Mapping[str, bytes] | None = None, own: frozenset[str] = PLAN_FILES) -> tuple[Path, list[str]]:
+    """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ (or ``folder``) atomically,
+    with the ``extra`` files (name → bytes: a route's own files) in the same commit; ``own`` names every
+    file the command writes into such a folder (:func:`~jethr1_plan.io.atomic.staged_directory`).
 
     ``check`` is given the CSV text of a feasible plan before anything is written (the self-check);
     if it raises, nothing is written. Returns the folder and the names of files in it that jethr1
     did not write (kept).
     """
-    final = plan_folder(outdir, result.scenario)
-    with staged_directory(final, PLAN_FILES) as staging:
+    final = plan_folder(outdir, result.scenario) if folder is None else Path(folder)
+    with staged_directory(final, own) as staging:
         tmp = staging.path
         if trajectory and result.rows is not None:
             table = plan_table(result.robot, result.rows)  # both files carry this very table
@@ -61,6 +64,8 @@ def write_plan(result: PlanResult, outdir: Path, summary: dict, trajectory: bool
             (tmp / "trajectory.mcap").write_bytes(trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
                                                                   [st.path_m for st in result.steps], table))
         (tmp / "summary.json").write_text(json_text(summary))
+        for name, data in (extra or {}).items():
+            (tmp / name).write_bytes(data)
     return final, staging.kept
 
 

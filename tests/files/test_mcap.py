@@ -18,6 +18,7 @@ from jethr1_plan.files.balance_space import BALANCE_SPACE_TOPICS
 from jethr1_plan.files.mcap import EPOCH_NS, Topic, read_mcap, topics_markdown
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS
 from jethr1_plan.files.ros2_msgs import schema_text
+from jethr1_plan.files.route import ROUTE_TOPICS
 from jethr1_plan.files.simulation import SIMULATION_TOPICS
 from jethr1_plan.files.walk_folder import WALK_TOPICS
 from tests.conftest import ROOT
@@ -26,16 +27,17 @@ rosbags_highlevel = pytest.importorskip("rosbags.highlevel")
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 DECLARED: dict[str, dict[str, Topic]] = {"trajectory": PLAN_TOPICS, "simulation": SIMULATION_TOPICS,
-                                         "walk": WALK_TOPICS, "balance_space": BALANCE_SPACE_TOPICS}
+                                         "walk": WALK_TOPICS, "balance_space": BALANCE_SPACE_TOPICS,
+                                         "route": ROUTE_TOPICS}
 KINDS = tuple(DECLARED)
 TRANSIENT_LOCAL, VOLATILE = 1, 2  # rmw's durability values
 
 
 @pytest.fixture(scope="module")
-def files(written) -> dict[str, Path]:
+def files(written, small_route) -> dict[str, Path]:
     return {"trajectory": written["plan"] / "trajectory.mcap", "simulation": written["plan"] / "simulation.mcap",
             "walk": written["walk"] / "trajectory.mcap",
-            "balance_space": written["balance_space"] / "balance_space.mcap"}
+            "balance_space": written["balance_space"] / "balance_space.mcap", "route": small_route / "route.mcap"}
 
 
 @pytest.mark.parametrize("kind", KINDS)

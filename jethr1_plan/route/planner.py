@@ -1,0 +1,372 @@
+"""``jethr1 route``: a terrain in; the footholds chosen on the balance space, planned for real, written.
+
+1. The maps (:mod:`.balance_map`): one per support side, computed once per robot and setting.
+2. The search (:mod:`.search`): the least-cost route on the maps.
+3. The route as an ordinary scenario (``route.yaml``), loaded by the scenario loader and planned by
+   the project's planner (:func:`jethr1_plan.planning.plan.plan`). A step the loader refuses or the
+   planner cannot balance is blacklisted and the search resumes (at most :data:`MAX_REPLANS` times).
+4. The plan folder: the plan's own files (re-checked by ``verify`` before they are written, as
+   ``jethr1 plan`` does) with the route's (``route.yaml``, ``route.mcap``, ``route.png``) in one commit.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from jethr1_plan.errors import InfeasiblePlan, InputError
+from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
+from jethr1_plan.files.route import ROUTE_FILES, RouteDrawing, SliceCloud, route_mcap, route_png
+from jethr1_plan.geometry import SIDES, other_side
+from jethr1_plan.pipeline.plan import self_check
+from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning.report import plan_summary
+from jethr1_plan.planning.results import PlanResult
+from jethr1_plan.robot.model import ROBOTS_DIR
+from jethr1_plan.route.balance_map import BalanceMap, MapSettings, cached_map
+from jethr1_plan.route.search import Footholds, Frontier, RouteStep, SearchResult, StepModel, astar, footholds
+from jethr1_plan.route.terrain import Terrain, dump_yaml
+from jethr1_plan.scenario import Scenario, load_scenario_text
+
+__all__ = ["MAX_REPLANS", "ROUTE_OWN", "NoRoute", "RouteOutcome", "find_route", "route_maps", "route_scenario_text",
+           "steps_text", "write_route"]
+
+MAX_REPLANS = 25  # steps blacklisted before the route gives up
+ROUTE_OWN = PLAN_FILES | ROUTE_FILES
+
+Say = Callable[[str], None]
+
+
+class NoRoute(InfeasiblePlan):
+    """No route to the goal on the maps (exit 3); ``frontier`` says how far the search got."""
+
+    def __init__(self, message: str, frontier: dict):
+        super().__init__(message)
+        self.frontier = frontier
+
+
+@dataclass
+class RouteOutcome:
+    """A route found and planned."""
+
+    terrain: Terrain
+    holds: Footholds
+    steps: list[RouteStep]
+    scenario: Scenario
+    text: str  # route.yaml
+    result: PlanResult
+    searches: list[SearchResult]
+    blacklisted: list[dict] = field(default_factory=list)
+    plan_s: float = 0.0
+
+
+def route_maps(terrain: Terrain, cache: Path | str | None = None, jobs: int = 1, say: Say | None = None,
+               progress=None) -> dict[str, BalanceMap]:
+    """The map of each support side for the terrain's robot, balance policy, tolerance and resolution."""
+    b = terrain.base.balance
+    return {side: cached_map(terrain.robot, MapSettings(side, terrain.options.map_resolution_m, b.thrust_max_n,
+                                                        b.rho_rad, b.sole_margin_m, b.tolerance),
+                             cache, jobs=jobs, say=say, progress=progress) for side in SIDES}
+
+
+def _flow(value) -> str:
+    """``value`` as one line of YAML (flow style)."""
+    import yaml
+
+    if isinstance(value, dict | list):
+        return yaml.safe_dump(value, default_flow_style=True, width=10**6, sort_keys=False).strip()
+    return yaml.safe_dump([value], default_flow_style=True, width=10**6).strip()[1:-1]
+
+
+def _robot_ref(terrain: Terrain) -> str:
+    """How route.yaml names the robot: by name where it is a shipped one, else by its YAML's absolute path."""
+    given = str(terrain.doc.get("robot", "jethr1"))
+    robot = terrain.robot
+    shipped = Path(ROBOTS_DIR) / given / f"{given}.yaml"
+    if shipped.is_file() and shipped.resolve() == Path(robot.yaml_path).resolve():
+        return given
+    return str(Path(robot.yaml_path).resolve())
+
+
+def route_scenario_text(terrain: Terrain, holds: Footholds, steps: list[RouteStep]) -> str:
+    """``route.yaml``: the route as an ordinary scenario (a person may edit it and plan it with ``jethr1 plan``)."""
+    doc = terrain.doc
+    names = terrain.names
+    opt = terrain.options
+    lines = [f"# The route `jethr1 route` chose over terrain {terrain.name!r} ({Path(terrain.source).name}): "
+             f"{steps_text(len(steps))} to {terrain.goal.describe(names)}.",
+             "# An ordinary scenario: edit it, then plan it with `jethr1 plan route.yaml`.",
+             f"name: {_flow(terrain.name)}"]
+    if "description" in doc:
+        lines.append(f"description: {_flow(doc['description'])}")
+    lines += [f"robot: {_flow(_robot_ref(terrain))}", f"seed: {int(terrain.base.seed)}", "start:"]
+    for side in SIDES:
+        lines.append(f"  {side}: {_flow([float(v) for v in terrain.base.start[side]])}")
+    lines += ["terrain:", "  cartons:"]
+    for c, name in zip(terrain.cartons, names, strict=True):
+        lines.append(f"    - {_flow({'top_centre_m': list(c.top_centre_m), 'size_m': list(c.size_m)})}  # {name}")
+    lines.append("steps:")
+    for k, st in enumerate(steps):
+        land = [float(v) for v in holds.xyz[st.to]]
+        step = {"swing": st.swing, "landing_m": land,
+                "path": {"kind": "arc", "clearance_m": float(st.edge.clearance_m), "samples": int(opt.samples)}}
+        lines.append(f"  - {_flow(step)}  # {k + 1}: onto {names[holds.carton[st.to]]}; map: peak "
+                     f"{st.edge.peak_n:.2f} N, mean {st.edge.mean_n:.2f} N, margin {1000 * st.edge.margin_m:.0f} mm")
+    text = "\n".join(lines) + "\n"
+    rest = {k: doc[k] for k in ("optimiser", "balance", "timing") if k in doc}
+    return text + (dump_yaml(rest) if rest else "")
+
+
+def steps_text(n: int) -> str:
+    return f"{n} step{'' if n == 1 else 's'}"
+
+
+_STEP_KEY = re.compile(r"steps\[(\d+)\]")
+
+
+def _states(holds: Footholds, steps: list[RouteStep]) -> list[tuple[int, int, str | None]]:
+    """(left, right, the foot that swung last) before each step, and after the last."""
+    left, right, last = holds.start["left"], holds.start["right"], None
+    out: list[tuple[int, int, str | None]] = [(left, right, last)]
+    for st in steps:
+        if st.swing == "left":
+            left = st.to
+        else:
+            right = st.to
+        out.append((left, right, st.swing))
+    return out
+
+
+def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs: int = 1, say: Say | None = None,
+               progress=None, holds: Footholds | None = None) -> RouteOutcome:
+    """Search, write the route as a scenario, plan it; blacklist what fails and search again.
+
+    Raises:
+        NoRoute: no route on the maps (or none the planner can balance within MAX_REPLANS).
+    """
+    holds = holds if holds is not None else footholds(terrain)
+    model = StepModel(terrain, holds, maps)
+    searches: list[SearchResult] = []
+    blacklisted: list[dict] = []
+    plan_s = 0.0
+    for _ in range(MAX_REPLANS + 1):
+        found = astar(model)
+        searches.append(found)
+        if found.steps is None:
+            assert found.frontier is not None
+            raise _no_route(terrain, found.frontier, blacklisted)
+        text = route_scenario_text(terrain, holds, found.steps)
+        try:
+            scenario = load_scenario_text(text, str(folder / "route.yaml"))
+        except InputError as exc:  # the loader's own checks refuse a step (a rounding the map missed)
+            m = _STEP_KEY.match(exc.key or "")
+            if m is None:
+                raise
+            bad = found.steps[int(m.group(1))]
+            model.blacklist.add(bad.key)
+            blacklisted.append({"step": int(m.group(1)), "swing": bad.swing, "landing_m": holds.xyz[bad.to].tolist(),
+                                "why": f"the scenario loader: {exc.problem}"})
+            continue
+        t0 = time.perf_counter()
+        try:
+            result = plan(scenario, jobs=jobs, progress=progress)
+        except InfeasiblePlan as exc:
+            plan_s += time.perf_counter() - t0
+            first = (exc.summary or {}).get("first_infeasible") or {}
+            n = len(found.steps)
+            k = min(max(int(first.get("step", 0)), 0), n)
+            why = f"{first.get('reason', 'infeasible')} ({first.get('phase', '?')})"
+            if first.get("phase") == "transfer":
+                left, right, last = _states(holds, found.steps)[k]
+                nxt = found.steps[k].swing if k < n else None
+                model.transfer_blacklist.add((left, right, last, nxt))
+                what = (f"the transfer before step {k + 1}" if k < n else "the final transfer") + \
+                    f" (left on {terrain.names[holds.carton[left]]}, right on {terrain.names[holds.carton[right]]})"
+                blacklisted.append({"transfer": k, "left_m": holds.xyz[left].tolist(),
+                                    "right_m": holds.xyz[right].tolist(), "why": f"the planner: {exc}"})
+            else:
+                k = min(k, n - 1)
+                bad = found.steps[k]
+                model.blacklist.add(bad.key)
+                what = f"step {k + 1} ({bad.swing} foot onto {terrain.names[holds.carton[bad.to]]})"
+                blacklisted.append({"step": k, "swing": bad.swing, "landing_m": holds.xyz[bad.to].tolist(),
+                                    "why": f"the planner: {exc}"})
+            if say:
+                say(f"route: {what} does not plan ({why}); searching again without it")
+            continue
+        plan_s += time.perf_counter() - t0
+        return RouteOutcome(terrain, holds, found.steps, scenario, text, result, searches, blacklisted, plan_s)
+    raise _no_route(terrain, Frontier([], 0, why="planner", detail=f"{MAX_REPLANS} routes failed to plan"),
+                    blacklisted)
+
+
+def _no_route(terrain: Terrain, f: Frontier, blacklisted: list[dict]) -> NoRoute:
+    names = terrain.names
+    reached = ", ".join(names[k] for k in f.reached) or "none"
+    msg = (f"{terrain.source}: no route to {terrain.goal.describe(names)}: the frontier reached cartons {reached} "
+           f"({f.states} stances explored")
+    msg += f", {len(blacklisted)} steps the planner refused)" if blacklisted else ")"
+    if f.nearest is not None:
+        msg += f"; the nearest carton not reached is {names[f.nearest]}, {_WHY_TEXT[f.why]}: {f.detail}"
+    elif f.detail:
+        msg += f"; {f.detail}"
+    doc = {"feasible": False, "terrain": terrain.name, "reached": [names[k] for k in f.reached], "states": f.states,
+           "nearest": None if f.nearest is None else names[f.nearest], "why": f.why, "detail": f.detail,
+           "blacklisted": blacklisted}
+    return NoRoute(msg, doc)
+
+
+_WHY_TEXT = {"reach": "out of reach", "thrust": "beyond the thrust limit", "margin": "at the edge of the balance "
+             "space (margin)", "balance": "unbalanced", "collision": "blocked by cartons",
+             "joint limits": "beyond the joint limits", "overlap": "behind the support sole",
+             "planner": "refused by the planner", "transfer": "its transfers leave the joint limits", "goal": "",
+             "": "not reached"}
+
+
+def _per_step(result: PlanResult) -> list[dict]:
+    """Per step, from the plan's rows (the transfer before the swing and the swing): the largest total
+    thrust [N], the least ZMP margin [m] and, where the plan has it, the least tolerance share."""
+    rows = result.rows
+    out: list[dict] = []
+    if rows is None:
+        return out
+    step = rows.array("step")
+    total = _total_thrust(result)
+    margin = rows.array("zmp_margin").astype(float)
+    share = rows.array("tolerance_share").astype(float) if "tolerance_share" in rows.columns else None
+    for st in result.steps:
+        at = step == st.index
+        m = margin[at]
+        rec = {"max_thrust_n": float(np.max(total[at])) if at.any() else None,
+               "mean_thrust_n": float(np.mean(total[at])) if at.any() else None,
+               "least_zmp_margin_m": float(np.nanmin(m)) if np.isfinite(m).any() else None}
+        if share is not None and np.isfinite(share[at]).any():
+            rec["least_tolerance_share"] = float(np.nanmin(share[at]))
+        out.append(rec)
+    return out
+
+
+def route_summary(o: RouteOutcome, maps: dict[str, BalanceMap], wall: dict[str, float]) -> dict:
+    """The ``route`` section of summary.json."""
+    t = o.terrain
+    names = t.names
+    plan_steps = _per_step(o.result)
+    tol = t.base.balance.tolerance
+    steps = []
+    for k, st in enumerate(o.steps):
+        e = st.edge
+        rec = {"index": k, "swing": st.swing, "support": other_side(st.swing),
+               "from_m": o.holds.xyz[st.frm].tolist(), "landing_m": o.holds.xyz[st.to].tolist(),
+               "carton": names[o.holds.carton[st.to]], "clearance_m": e.clearance_m,
+               "map": {"peak_thrust_n": e.peak_n, "mean_thrust_n": e.mean_n, "least_margin_m": e.margin_m,
+                       "cost": e.cost},
+               "plan": plan_steps[k] if k < len(plan_steps) else None}
+        steps.append(rec)
+    searched = o.searches
+    return {
+        "terrain": t.name, "terrain_file": str(Path(t.source).resolve()), "terrain_yaml": t.text,
+        "goal": t.goal.describe(names), "footholds": len(o.holds),
+        "balance": {"policy": t.base.balance.policy, "tolerance": {"thrust_error": tol.thrust, "mass_error": tol.mass,
+                                                                   "com_error_m": tol.com_m}},
+        "cost_weights": asdict(t.options.cost), "cost": float(sum(s.edge.cost for s in o.steps)),
+        "steps": steps,
+        "search": {"runs": len(searched), "stances_expanded": sum(s.expanded for s in searched),
+                   "steps_judged": sum(s.evaluated for s in searched), "wall_s": sum(s.wall_s for s in searched)},
+        "blacklisted": o.blacklisted,
+        "maps": [{"support": side, "resolution_m": m.settings.resolution_m, "cells": int(m.member.size),
+                  "members": int(m.member.sum()), "reach_m": m.reach_m, "key": m.key,
+                  "file": None if m.path is None else str(m.path), "reused": m.reused, "wall_s": m.wall_s}
+                 for side, m in maps.items()],
+        "wall_s": wall,
+    }
+
+
+def _slices(o: RouteOutcome, maps: dict[str, BalanceMap]) -> list[SliceCloud]:
+    """Per step, the support's balance space around the swing: the cells in the path's vertical plane
+    (within half a cell) and the layer at the landing's height, in the world frame."""
+    rows = o.result.rows
+    times = rows.array("time_s").astype(float) if rows is not None else np.zeros(0)
+    step_col = rows.array("step") if rows is not None else np.zeros(0)
+    phase = np.asarray(rows.columns["phase"]) if rows is not None else np.zeros(0)
+    out = []
+    for k, st in enumerate(o.steps):
+        m = maps[other_side(st.swing)]
+        sup = o.holds.xyz[st.support]
+        a, b = o.holds.xyz[st.frm] - sup, o.holds.xyz[st.to] - sup
+        res = m.settings.resolution_m
+        X, Y, Z = np.meshgrid(*m.axes, indexing="ij")
+        rel = np.stack([X, Y, Z], axis=-1)[m.member]
+        d = b[:2] - a[:2]
+        n = np.linalg.norm(d)
+        if n > 0:
+            u = d / n
+            along = (rel[:, :2] - a[:2]) @ u
+            off = np.abs((rel[:, 0] - a[0]) * u[1] - (rel[:, 1] - a[1]) * u[0])
+            plane = (off <= res / 2 + 1e-9) & (along >= -0.1) & (along <= n + 0.1)
+        else:
+            plane = np.zeros(len(rel), dtype=bool)
+        layer = np.abs(rel[:, 2] - m.axes[2][np.argmin(np.abs(m.axes[2] - b[2]))]) < 1e-9
+        pick = plane | layer
+        sel = np.flatnonzero(m.member.ravel())[pick]
+        at = np.flatnonzero((step_col == k) & (phase == "swing"))
+        out.append(SliceCloud(float(times[at[0]]) if len(at) else 0.0, rel[pick] + sup, m.thrust.ravel()[sel],
+                              m.margin.ravel()[sel]))
+    return out
+
+
+def drawing(o: RouteOutcome, maps: dict[str, BalanceMap]) -> RouteDrawing:
+    t = o.terrain
+    robot = t.robot
+    names = t.names
+    per = _per_step(o.result)
+    if t.goal.carton is not None:
+        goal_rect = t.cartons[t.goal.carton].top_rectangle()
+    else:
+        (x0, x1), (y0, y1) = t.goal.region  # type: ignore[misc]
+        goal_rect = (x0, x1, y0, y1)
+    labels = [f"{st.swing:5s} -> {names[o.holds.carton[st.to]]}: plan {p['max_thrust_n']:5.2f} N, map "
+              f"{st.edge.peak_n:5.2f} N, margin {1000 * st.edge.margin_m:3.0f} mm" for st, p in zip(o.steps, per,
+                                                                                                  strict=True)]
+    s = plan_summary_lite(o.result)
+    title = (f"{t.name}: {steps_text(len(o.steps))} to {t.goal.describe(names)}; {t.base.balance.policy} policy, "
+             f"plan's peak thrust {s:.2f} N")
+    return RouteDrawing(title=title, cartons=t.cartons, names=names, footholds_m=o.holds.xyz,
+                        start={k: np.asarray(v, dtype=float) for k, v in t.base.start.items()},
+                        swings=[st.swing for st in o.steps], landings_m=o.holds.xyz[[st.to for st in o.steps]],
+                        paths_m=[st.path_m for st in o.scenario.steps],
+                        sole_m=(robot.sole_length_m, robot.sole_width_m),
+                        goal_rect=(float(goal_rect[0]), float(goal_rect[1]), float(goal_rect[2]), float(goal_rect[3])),
+                        step_labels=labels, slices=_slices(o, maps),
+                        thrust_max_n=t.base.balance.thrust_max_n)
+
+
+def plan_summary_lite(result: PlanResult) -> float:
+    """The plan's largest total thrust over its rows [N]."""
+    rows = result.rows
+    if rows is None or not len(rows):
+        return float("nan")
+    return float(np.max(_total_thrust(result)))
+
+
+def _total_thrust(result: PlanResult) -> np.ndarray:
+    """(rows,) the thrust of all fans together at each row [N]."""
+    assert result.rows is not None
+    return np.sum([result.rows.array(f"thrust_{f.name}").astype(float) for f in result.robot.fans], axis=0)
+
+
+def write_route(o: RouteOutcome, maps: dict[str, BalanceMap], folder: Path, wall: dict[str, float]
+                ) -> tuple[dict, list[str]]:
+    """Write the plan folder with the route's files (after the plan's self-check); (summary, files kept)."""
+    summary = plan_summary(o.result)
+    summary["route"] = route_summary(o, maps, wall)
+    d = drawing(o, maps)
+    extra = {"route.yaml": o.text.encode("utf-8"), "route.mcap": route_mcap(d), "route.png": route_png(d)}
+    _, kept = write_plan(o.result, folder.parent, summary, check=lambda text: self_check(text, o.result, summary,
+                                                                                          False),
+                         folder=folder, extra=extra, own=ROUTE_OWN)
+    return summary, kept
