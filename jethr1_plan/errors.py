@@ -2,7 +2,26 @@
 
 from __future__ import annotations
 
-__all__ = ["ExpectationFailed", "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed"]
+__all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "ExpectationFailed",
+           "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed"]
+
+EXIT_VERIFY_FINDING = 5
+"""``jethr1 verify`` found rows or files that do not hold."""
+EXIT_REHEARSAL_FELL = 6
+"""``jethr1 simulate``: at least one rehearsal run fell or ended off the cartons."""
+
+EXIT_CODES: dict[int, str] = {
+    0: "done: the output was written (and, for verify and simulate, everything held)",
+    1: "a bug in jethr1 (a traceback, or the planner's self-check refused its own output): please report it",
+    2: "bad input: one line naming the file, the key and the problem; nothing written",
+    3: "infeasible: no plan (or route) exists under the scenario's policy; the first infeasible sample and its reason",
+    4: "batch: a scenario's `expect:` block did not hold",
+    EXIT_VERIFY_FINDING: "verify: a row or file failed an independent check (each named on stderr)",
+    EXIT_REHEARSAL_FELL: "simulate: a rehearsal run fell or ended off the cartons",
+    130: "interrupted (Ctrl-C): workers stopped, nothing partial left",
+    143: "terminated (SIGTERM): workers stopped, nothing partial left",
+}
+"""Every exit code a ``jethr1`` command returns, and what it means (docs/contract.md is generated from it)."""
 
 
 class Jethr1Error(Exception):

@@ -76,6 +76,7 @@ def files_section() -> list[str]:
     from jethr1_plan.files.plan_folder import PLAN_FILES
     from jethr1_plan.files.plan_mcap import PLAN_TOPICS
     from jethr1_plan.files.plan_table import columns
+    from jethr1_plan.files.route import ROUTE_FILES, ROUTE_TOPICS
     from jethr1_plan.files.simulation import SIMULATION_TOPICS
     from jethr1_plan.files.walk_folder import WALK_FILES, WALK_TOPICS, walk_columns
     from jethr1_plan.robot.model import load_robot
@@ -90,6 +91,9 @@ def files_section() -> list[str]:
            "#### `trajectory.csv` (Jet-HR1)", "", *columns_table(columns(jethr1)),
            "#### `trajectory.mcap`", "", *topics_table(PLAN_TOPICS),
            "#### `simulation.mcap` (`simulate`)", "", *topics_table(SIMULATION_TOPICS),
+           "### Route files (`route`, beside its plan folder's files)", "",
+           "Files: " + ", ".join(f"`{f}`" for f in sorted(ROUTE_FILES)) + ".", "",
+           "#### `route.mcap`", "", *topics_table(ROUTE_TOPICS),
            "### Walk folder (`walk`)", "",
            "Files: " + ", ".join(f"`{f}`" for f in sorted(WALK_FILES)) + ".", "",
            "#### `trajectory.csv` (Dyros-Jet-like)", "", *columns_table(walk_columns(dyros)),

@@ -9,6 +9,7 @@ import numpy as np
 from rich.table import Table
 
 from jethr1_plan.cli.common import SEED, FiniteFloat, Progress, cap_jobs, check_memory, err_console, print_json
+from jethr1_plan.errors import EXIT_REHEARSAL_FELL
 from jethr1_plan.io.json_text import json_text
 
 __all__ = ["simulate_cmd"]
@@ -95,5 +96,5 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
             f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); wrote {plan_dir}/simulation.json")
     err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
     if ok < len(runs):
-        raise click.exceptions.Exit(6)
+        raise click.exceptions.Exit(EXIT_REHEARSAL_FELL)
 

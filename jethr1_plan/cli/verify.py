@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from jethr1_plan.cli.common import err_console, print_json
+from jethr1_plan.errors import EXIT_VERIFY_FINDING
 
 __all__ = ["verify"]
 
@@ -36,7 +37,7 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
     err_console.print(f"checked {_names(checked)}", markup=False, highlight=False)
     if failures:
         err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
-        raise click.exceptions.Exit(5)
+        raise click.exceptions.Exit(EXIT_VERIFY_FINDING)
     err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
 
 
