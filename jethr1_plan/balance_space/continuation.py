@@ -2,8 +2,8 @@
 re-relaxation from a ring of its neighbours' cells in the boundary rounds.
 
 First pass (:func:`search_block`): cells are visited in slices along x, each seeded with the best P_body of
-its neighbour in the previous slice and with generic postures (scored on every cell, searched from on every
-SEED_EVERY-th slice or where they already beat the neighbour's); a compass (pattern) search then shrinks its
+its neighbour in the previous slice, and on every SEED_EVERY-th slice (or where the neighbour has no valid
+posture) with the best of generic postures; a compass (pattern) search then shrinks its
 step from 32 mm (seeds) or 4 mm (neighbours) to 0.5 mm, polling a few directions at a time, the last move's
 first (``optimisers.compass``); Gauss–Seidel relaxation sweeps along x, y and z carry better optima between
 neighbours (a neighbour's optimum, shifted by half the cell offset and moved into every joint limit, is
@@ -138,8 +138,8 @@ class _Search:
     def forward(self, todo: np.ndarray, P_all: np.ndarray, f_all: np.ndarray) -> np.ndarray:
         """The forward pass along +x, in place on P_all, f_all: every cell starts from its -x neighbour's
         optimum (:meth:`shifted`); cells without one, and every SEED_EVERY-th slice, also from the best
-        generic seed (new basins enter there). Returns the cells whose optimum served as a start (the +x
-        relaxation would repeat those searches while it stays the same)."""
+        generic seed (new basins enter there: the relaxation carries them on). Returns the cells whose optimum
+        served as a start (the +x relaxation would repeat those searches while it stays the same)."""
         ev, c = self.ev, self.c
         started = np.zeros(len(f_all), dtype=bool)
         for ix in range(self.shape[0]):
@@ -157,25 +157,24 @@ class _Search:
                     f0, _, _ = ev(c, idx[has], P0)
                     P[has], f[has] = self.compass(idx[has], P0, f0, NEIGHBOUR_STEP_M)
                     started[nb[has]] = True
-            # generic seeds, scored on every cell above zero thrust: searched from on every SEED_EVERY-th slice,
-            # where the neighbour gave nothing, and wherever a seed already scores below the cell's optimum
-            open_ = f > 0.0 if self.settings.skip_zero else np.ones(len(idx), dtype=bool)
-            if open_.any():
-                rows_o = idx[open_]
+            # generic seeds on every SEED_EVERY-th slice and where the neighbour gave no valid posture, but not
+            # at zero thrust: the compass searches from the best (scoring them on every cell, to search from them
+            # where they beat the neighbour's optimum, cost 6 % of the evaluations and changed nothing measured)
+            fresh = ~np.isfinite(f) | (f >= 2000) | (ix % SEED_EVERY == 0)
+            if self.settings.skip_zero:
+                fresh &= f > 0.0
+            if fresh.any():
+                rows_o = idx[fresh]
                 seeds = np.concatenate([generic_seeds(ev, c, rows_o), lens_seeds(ev, c, rows_o)], axis=1)
                 b, k = seeds.shape[:2]
                 rows_k = np.repeat(rows_o, k)
                 seeds = ev.into_reach(c, rows_k, seeds.reshape(-1, 3)).reshape(b, k, 3)
                 obj = ev(c, rows_k, seeds.reshape(-1, 3))[0].reshape(b, k)
                 j = np.argmin(obj, axis=1)
-                best_seed, best_obj = seeds[np.arange(b), j], obj[np.arange(b), j]
-                f_o = f[open_]
-                fresh = ~np.isfinite(f_o) | (f_o >= 2000) | (ix % SEED_EVERY == 0) | (best_obj < f_o)
-                if fresh.any():
-                    P2, f2 = self.compass(rows_o[fresh], best_seed[fresh], best_obj[fresh], SEED_STEP_M)
-                    better = f2 < f_o[fresh]
-                    rows = np.flatnonzero(open_)[np.flatnonzero(fresh)[better]]
-                    P[rows], f[rows] = P2[better], f2[better]
+                P2, f2 = self.compass(rows_o, seeds[np.arange(b), j], obj[np.arange(b), j], SEED_STEP_M)
+                better = f2 < f[fresh]
+                rows = np.flatnonzero(fresh)[better]
+                P[rows], f[rows] = P2[better], f2[better]
             P_all[idx], f_all[idx] = P, f
         return started
 

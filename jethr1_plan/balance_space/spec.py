@@ -102,5 +102,5 @@ class SearchSettings:
     skip_zero: bool = True  # cells at zero thrust are not searched further (nothing is below zero)
     hip_yaw_gate: bool = True  # cells whose body yaw leaves a hip yaw beyond its limits: no search
     block_y_cells: int = 43  # the partition into tasks
-    block_z_layers: int = 4
+    block_z_layers: int = 8
     max_rounds: int = 12  # boundary rounds between blocks at most (they stop when no cell changes)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.geometry import inside_polygon, polygon_margin, sole_polygon
+from jethr1_plan.geometry import inside_polygon, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.physics.balance import (
     Tolerance,
     balance_slack,
@@ -192,3 +192,23 @@ def test_balance_slack_agrees_with_the_window():
     below = ok & (lo > 1.0)
     slack = balance_slack(com[below], fan[below, None], 0.99 * lo[below, None], SOLE, M, tol)
     assert np.all(slack < 0)
+
+
+def test_the_yaw_of_a_left_support_is_the_mirror_of_a_right_one_to_the_bit():
+    """(A-4) for a left support at the mirror image (y → −y) of a right support and its fan: the opposite yaw,
+    to the bit (the left balance space is computed as the exact mirror of the right one), and wrap_angle is
+    odd and leaves angles within (−π, π] as they are."""
+    rng = np.random.default_rng(2)
+    sup = np.array([0.03, -0.1125])
+    fan = np.column_stack([rng.uniform(-1, 1, 5000), rng.uniform(-1, 1, 5000)])
+    flip = np.array([1.0, -1.0])
+    right = body_yaw_eq4(sup, fan, "right")
+    left = body_yaw_eq4(sup * flip, fan * flip, "left")
+    np.testing.assert_array_equal(left, -right)
+    a = rng.uniform(-20, 20, 10000)
+    w = wrap_angle(a)
+    np.testing.assert_array_equal(wrap_angle(-a), -w)
+    assert np.all((w > -np.pi) & (w <= np.pi)) and wrap_angle(-np.pi) == np.pi
+    np.testing.assert_allclose(np.exp(1j * w), np.exp(1j * a), atol=1e-12)
+    inside = rng.uniform(-np.pi, np.pi, 1000)
+    np.testing.assert_array_equal(wrap_angle(inside), inside)

@@ -27,6 +27,7 @@ from jethr1_plan.optimisers.search import (
     lens_seeds,
 )
 from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
+from jethr1_plan.physics.compiled.objective import balance_objective
 from jethr1_plan.physics.compiled.reach import into_reach
 from jethr1_plan.reasons import Reason, balances
 from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
@@ -251,3 +252,78 @@ def test_the_search_slides_along_the_knee_limit_to_the_exhaustive_optimum():
     q, reach = _leg_joints(ev, cells, idx, ends[INTO_ROLL_KNEE][0])["swing"]
     k0 = 0 if ev.stance.swing_side == "left" else 6
     assert np.all(reach) and np.all(ev.params.limits[1, k0 + 3] - q[:, 3] < 1e-3)  # knee within 1 mrad of its limit
+
+
+def test_the_fast_paths_give_the_same_bits_as_the_angles():
+    """The objective decides joint limits on the joints' cosines and sines and the edge angle on a tangent
+    where those settle it; forced to compute every angle instead (limit arcs no joint can satisfy by the
+    margin test, no tangent), it gives the same objective, thrust and reason to the bit, on candidates near the
+    optima (where the shortcuts apply) and far from them (where they do not)."""
+    spec = SweepSpec(thrust_max_n=18.0)
+    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
+    rng = np.random.default_rng(8)
+    swing = np.column_stack([rng.uniform(-0.6, 0.7, 300), rng.uniform(-0.2, 0.7, 300), rng.uniform(0.0, 0.3, 300)])
+    cells = ev.cells(swing)
+    idx = np.flatnonzero(ev.reach_possible(cells))
+    seeds = np.concatenate([generic_seeds(ev, cells, idx), lens_seeds(ev, cells, idx)], axis=1)
+    rows = np.repeat(idx, seeds.shape[1])
+    S = ev.into_reach(cells, rows, seeds.reshape(-1, 3))
+    P = np.concatenate([S, S + rng.normal(0, 0.01, S.shape), S + rng.normal(0, 0.1, S.shape)])
+    rows = np.tile(rows, 3)
+    fast = ev(cells, rows, P)
+    slow_params = ev.params._replace(arcs=np.tile([1.0, 0.0, 1.0, 0.0, 0.0], (12, 1)),
+                                     scalars=np.concatenate([ev.params.scalars[:8], [-1.0]]))
+    slow = balance_objective(np.ascontiguousarray(P), rows, cells.swing, cells.yaw_cs, cells.fan, *slow_params)
+    assert set(np.unique(fast[2])) >= {Reason.OK, Reason.JOINT_LIMIT, Reason.EDGE_ANGLE, Reason.THRUST_MAX}
+    for a, b in zip(fast, slow, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def _mirrored(side_spec: SweepSpec):
+    """Evaluators of a right support and of its mirror image (a left support at y → −y)."""
+    right = SweepSpec(support_side="right", support_xyz=side_spec.support, thrust_max_n=side_spec.thrust_max_n)
+    x, y, z = side_spec.support
+    left = SweepSpec(support_side="left", support_xyz=(x, -y, z), thrust_max_n=side_spec.thrust_max_n)
+    robot = load_robot(right.robot)
+    return Evaluator(robot, right.support_stance()), Evaluator(robot, left.support_stance())
+
+
+FLIP = np.array([1.0, -1.0, 1.0])
+
+
+def test_the_objective_and_the_compass_of_a_left_support_mirror_a_right_ones_to_the_bit():
+    """Jet-HR1 is symmetric: the objective at the mirror image (y → −y) of a right support's candidate, with the
+    left sole supporting, is the same to the bit; so is a compass search from mirrored starts (its poll
+    directions mirrored) and where it ends, mirrored."""
+    ev_r, ev_l = _mirrored(SweepSpec(support_xyz=(0.0, -0.1125, 0.0), thrust_max_n=23.0))
+    rng = np.random.default_rng(9)
+    swing = np.column_stack([rng.uniform(-0.5, 0.7, 200), rng.uniform(-0.1, 0.6, 200), rng.uniform(0.0, 0.3, 200)])
+    c_r, c_l = ev_r.cells(swing), ev_l.cells(swing * FLIP)
+    np.testing.assert_array_equal(c_l.yaw, -c_r.yaw)
+    idx = np.repeat(np.flatnonzero(ev_r.reach_possible(c_r)), 50)
+    P = (ev_r.support + swing[idx]) / 2 + np.column_stack([rng.normal(0, 0.06, len(idx)), rng.normal(0, 0.06, len(idx)),
+                                                           rng.uniform(0.2, 0.45, len(idx))])
+    for a, b in zip(ev_r(c_r, idx, P), ev_l(c_l, idx, P * FLIP), strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(ev_l.into_reach(c_l, idx, P * FLIP), ev_r.into_reach(c_r, idx, P) * FLIP)
+    rows = np.unique(idx)[:60]
+    P0 = ev_r.into_reach(c_r, rows, (ev_r.support + swing[rows]) / 2 + np.array([0.0, 0.0, 0.35]))
+    f0 = ev_r(c_r, rows, P0)[0]
+    P_r, f_r = compass_search(ev_r, c_r, rows, P0, f0, np.full(len(rows), 0.032), 0.0005)
+    P_l, f_l = compass_search(ev_l, c_l, rows, P0 * FLIP, f0, np.full(len(rows), 0.032), 0.0005)
+    assert np.any(f_r < f0 - 1.0)
+    np.testing.assert_array_equal(f_l, f_r)
+    np.testing.assert_array_equal(P_l, P_r * FLIP)
+
+
+def test_the_exhaustive_search_of_a_left_support_mirrors_a_right_ones_to_the_bit():
+    """The exhaustive search's grids are mirrored for a left support: its answer at a mirrored cell is the mirror
+    of the right support's, to the bit."""
+    ev_r, ev_l = _mirrored(SweepSpec(support_xyz=(0.0, -0.1125, 0.0), thrust_max_n=23.0))
+    swing = np.array([[0.35, 0.05, 0.12], [0.1, 0.25, 0.22]])
+    c_r, c_l = ev_r.cells(swing), ev_l.cells(swing * FLIP)
+    for i in range(len(swing)):
+        p_r, f_r, r_r = exhaustive_cell(ev_r, c_r, i, 0.01)
+        p_l, f_l, r_l = exhaustive_cell(ev_l, c_l, i, 0.01)
+        assert (f_l, r_l) == (f_r, r_r) and r_r == Reason.OK
+        np.testing.assert_array_equal(p_l, p_r * FLIP)
