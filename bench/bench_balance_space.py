@@ -1,26 +1,67 @@
-"""The default balance-space sweep (1 cm over the default volume, both spaces) on both cores, and the
-continuation search's agreement with the exhaustive one on randomly sampled cells."""
+"""The balance-space sweep (issue 28): each figure a ratio measured in this run, plus absolute times.
+
+Sections (all by default; name some on the command line to run only those):
+
+* ``kernel``: the compiled objective against the numpy functions it fuses.
+* ``search``: four layers of the 1 cm grid with each of the search's savings switched off, against the default
+  (evaluations and CPU time; whether the cells stay the same).
+* ``timing``: ``jethr1 balance-space`` at 1 cm as a whole command on 2 processes (wall time, peak memory of the
+  command and its workers), then both supports' sweeps in process (CPU time of every task; the wall time two quiet
+  cores would take, scheduled from those times).
+* ``mirror``: the left support's space against the right's at the mirror image, every cell.
+* ``agreement``: the continuation against the exhaustive search on both supports: 1,000 random cells each, and
+  the cells where the two most likely disagree (``balance_space.agreement.suspect_cells``).
+* ``scale``: the 0.5 cm sweep on 2 processes; a local Dask cluster of 1, 2, ... workers at 1 cm (as many as
+  there are cores: more cannot run faster here); the speed-up 1, 2, 4, 8, 16 workers would get, from the
+  measured task times (critical path and greedy schedule: ``balance_space.blocks.makespan``).
+
+CPU times are per task (``time.process_time`` in the worker): other programs on the machine inflate wall times,
+not these (much). ``python bench/bench_balance_space.py timing mirror`` runs two sections.
+"""
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
+import tempfile
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
-from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep, sweep_layers
-from jethr1_plan.optimisers.search import Evaluator, exhaustive_cell
+from jethr1_plan.balance_space.agreement import (
+    AGREE_N,
+    REFERENCE_GRID_M,
+    agree,
+    exhaustive_cells,
+    mirror_report,
+    searchable,
+    suspect_cells,
+)
+from jethr1_plan.balance_space.blocks import TaskTimes, makespan
+from jethr1_plan.balance_space.spec import SearchSettings
+from jethr1_plan.balance_space.sweep import SweepResult, SweepSpec, sweep, sweep_layers
+from jethr1_plan.optimisers.search import FINE_DIRECTIONS, INTO_REACH, Evaluator
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.physics.test_compiled import numpy_objective  # the numpy path the test compares with
 
+WORKERS = (1, 2, 4, 8, 16)
+JETHR1 = str(Path(sys.executable).with_name("jethr1"))
 
-def kernel_speed(spec: SweepSpec, n: int = 200_000) -> None:
-    """The compiled objective against the numpy functions it fuses, on the same random candidates."""
-    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
+
+def spec_of(side: str, resolution: float) -> SweepSpec:
+    """The command's default sweep of ``side``'s support (the left's grid the mirror image of the right's)."""
+    return SweepSpec(resolution_m=resolution, support_side=side,
+                     y_range=(-0.9, 0.8) if side == "right" else (-0.8, 0.9))
+
+
+def kernel_speed(n: int = 200_000) -> None:
+    spec = spec_of("right", 0.01)
+    ev = Evaluator(spec.model, spec.support_stance())
     rng = np.random.default_rng(0)
     swing = np.column_stack([rng.uniform(-0.6, 0.7, 2000), rng.uniform(-0.7, 0.6, 2000), rng.uniform(0, 0.3, 2000)])
     cells = ev.cells(swing)
@@ -32,135 +73,195 @@ def kernel_speed(spec: SweepSpec, n: int = 200_000) -> None:
     for name, fn in (("compiled", lambda: ev(cells, idx, P)), ("numpy", lambda: numpy_objective(ev, cells, idx, P))):
         times = []
         for _ in range(5):
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             fn()
-            times.append(time.perf_counter() - t0)
-        best[name] = min(times) / n * 1e6
-    print(f"objective per candidate (best of 5, {n:,} candidates, one core): compiled {best['compiled']:.3f} µs, "
-          f"numpy {best['numpy']:.3f} µs, ratio {best['numpy'] / best['compiled']:.1f}")
+            times.append(time.process_time() - t0)
+        best[name] = min(times) / n * 1e9
+    print(f"objective per candidate (best of 5, {n:,} candidates, CPU time): compiled {best['compiled']:.0f} ns, "
+          f"numpy {best['numpy']:.0f} ns, ratio {best['numpy'] / best['compiled']:.1f}")
 
 
-def _four_layers(spec: SweepSpec):
-    """The layers z = 0.02..0.05 m swept on one core: (result, wall [s])."""
-    zs = tuple(float(z) for z in spec.axes()[2][2:6])
+def search_savings() -> None:
+    """Four layers (z = 0.08..0.11 m) of the 1 cm grid in one block, each saving switched off in turn."""
+    spec = spec_of("right", 0.01)
+    zs = tuple(float(z) for z in spec.axes()[2][8:12])
+    base = sweep_layers(spec, zs)
+    print(f"search, 4 layers ({len(base.swing):,} cells, one block, one process): default {base.evaluations:,} "
+          f"evaluations, {base.cpu_s:.1f} s CPU, {np.count_nonzero(base.reason == Reason.OK)} members")
+    variants = {
+        "offer every optimum on every pass": SearchSettings(offer_once=False),
+        "complete compass polls": SearchSettings(poll_chunk=len(FINE_DIRECTIONS)),
+        "search into the reach balls only": SearchSettings(search_level=INTO_REACH, polish_level=INTO_REACH),
+        "no forward-pass marks": SearchSettings(forward_marks=False),
+        "search cells at zero thrust": SearchSettings(skip_zero=False),
+        "no hip-yaw gate": SearchSettings(hip_yaw_gate=False),
+    }
+    for name, settings in variants.items():
+        r = sweep_layers(spec, zs, settings)
+        same = agree(base.thrust, base.reason, r.thrust, r.reason)
+        both = (base.reason == Reason.OK) & (r.reason == Reason.OK)
+        print(f"  {name}: {r.evaluations / base.evaluations:.2f}x evaluations, {r.cpu_s / base.cpu_s:.2f}x CPU; "
+              f"members {np.count_nonzero(r.reason == Reason.OK)}, {np.count_nonzero(~same)} cells differ "
+              f"(> {AGREE_N} N or membership), mean thrust of common members "
+              f"{np.mean(r.thrust[both] - base.thrust[both]):+.4f} N")
+
+
+class TreeMemory:
+    """The peak memory of a process and all its descendants, sampled every 50 ms: the sum of their RSS (shared
+    pages counted in each) and of their PSS (shared pages divided among their sharers: the true footprint)."""
+
+    def __init__(self, pid: int):
+        import psutil
+
+        self.root = psutil.Process(pid)
+        self.rss = self.pss = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._poll, daemon=True)
+        self._thread.start()
+
+    def _poll(self) -> None:
+        import psutil
+
+        while not self._stop.is_set():
+            try:
+                procs = [self.root, *self.root.children(recursive=True)]
+            except psutil.Error:
+                break
+            rss = pss = 0
+            for p in procs:
+                try:
+                    m = p.memory_full_info()
+                except psutil.Error:
+                    continue
+                rss, pss = rss + m.rss, pss + m.pss
+            self.rss, self.pss = max(self.rss, rss), max(self.pss, pss)
+            self._stop.wait(0.05)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def whole_command(resolution: float, jobs: int, side: str = "right") -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        args = [JETHR1, "balance-space", "--support", side, "--resolution", str(resolution), "-j", str(jobs),
+                "--no-progress", "-o", str(Path(tmp) / "out")]
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        mem = TreeMemory(proc.pid)
+        _, err = proc.communicate()
+        wall = time.perf_counter() - t0
+        mem.stop()
+        if proc.returncode:
+            raise RuntimeError(err)
+        print(f"jethr1 balance-space --resolution {resolution} -j {jobs} (whole command): {wall:.1f} s wall; peak "
+              f"memory of the command and its workers {mem.pss / 2**20:.0f} MB PSS ({mem.rss / 2**20:.0f} MB RSS "
+              f"summed; target < 300 MB)")
+
+
+def timed_sweep(side: str, resolution: float, jobs: int, executor: str = "loky") -> tuple[SweepResult, float]:
     t0 = time.perf_counter()
-    return sweep_layers(spec, zs), time.perf_counter() - t0
+    r = sweep(spec_of(side, resolution), jobs=jobs, executor=executor)
+    return r, time.perf_counter() - t0
 
 
-def relaxation_ratio(spec: SweepSpec, default) -> None:
-    """Four layers with the relaxation offering each optimum once per direction (``default``: result, wall),
-    against offering it on every pass (the previous method), in this run: the same cells, fewer evaluations."""
-    import jethr1_plan.balance_space.sweep as bs
-
-    bs.OFFER_ONCE = False
-    old, t_old = _four_layers(spec)
-    bs.OFFER_ONCE = True
-    new, t_new = default
-    same = all(np.array_equal(getattr(old, f), getattr(new, f), equal_nan=True) for f in ("thrust", "p_body", "reason"))
-    print(f"relaxation, 4 layers ({len(new.swing)} cells), one core: offered once {new.evaluations:,} evaluations "
-          f"{t_new:.1f} s, every pass (previous) {old.evaluations:,} evaluations {t_old:.1f} s; ratio "
-          f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; same cells: {same}")
+def describe_times(label: str, times: TaskTimes, wall: float, jobs: int, target_s: float | None = None) -> None:
+    stages = ", ".join(str(len(s)) for s in times.stages)
+    pass1 = np.array(times.stages[0])
+    two = makespan(times, 2)
+    goal = f" (target < {target_s:.0f} s)" if target_s else ""
+    print(f"{label}: {wall:.1f} s wall on {jobs} processes; tasks {times.total_s:.1f} s CPU in all, stages of "
+          f"[{stages}] tasks, the first pass's {pass1.sum():.1f} s (longest task {pass1.max():.2f} s), boundary "
+          f"rounds {times.total_s - pass1.sum():.1f} s; on 2 quiet cores (scheduled from the task times) "
+          f"{two:.1f} s{goal}; wall/2-core schedule {wall / two:.2f}")
 
 
-def polling_ratio(spec: SweepSpec, default) -> None:
-    """Four layers with the compass polling a few directions at a time, the last move's first (``default``:
-    result, wall), against complete polls (every direction, then the best: the previous method), in this run."""
-    from jethr1_plan import search
-
-    chunk = search.POLL_CHUNK
-    search.POLL_CHUNK = len(search.FINE_DIRECTIONS)
-    old, t_old = _four_layers(spec)
-    search.POLL_CHUNK = chunk
-    new, t_new = default
-    m_old, m_new = old.reason == Reason.OK, new.reason == Reason.OK
-    both = m_old & m_new
-    gap = new.thrust[both].mean() - old.thrust[both].mean()
-    print(f"compass polls, 4 layers ({len(new.swing)} cells), one core: {chunk} at a time {new.evaluations:,} "
-          f"evaluations {t_new:.1f} s, complete (previous) {old.evaluations:,} evaluations {t_old:.1f} s; ratio "
-          f"{old.evaluations / new.evaluations:.2f}x evaluations, {t_old / t_new:.2f}x time; members {m_new.sum()} "
-          f"against {m_old.sum()}, mean thrust of common members {gap:+.4f} N")
+def section_timing(results: dict) -> None:
+    whole_command(0.01, 2)
+    for side in ("right", "left"):
+        r, wall = timed_sweep(side, 0.01, 2)
+        results[side] = r
+        w = int(np.count_nonzero(r.with_thrust))
+        describe_times(f"sweep 1 cm, {side} support ({len(r.reason):,} cells, {w:,} members, {r.evaluations:,} "
+                       f"evaluations)", r.extra["task_times"], wall, 2, 30.0)
 
 
-def projection_ratio(spec: SweepSpec, default) -> None:
-    """Four layers with the searches moving the pelvis into the legs' joint limits (``default``: result,
-    wall), against the reach balls only (the previous release's projection), in this run."""
-    import jethr1_plan.balance_space.sweep as bs
-    from jethr1_plan import search
-
-    level, polish = search.SEARCH_LEVEL, bs.POLISH_LEVEL
-    search.SEARCH_LEVEL = bs.POLISH_LEVEL = search.INTO_REACH
-    old, t_old = _four_layers(spec)
-    search.SEARCH_LEVEL, bs.POLISH_LEVEL = level, polish
-    new, t_new = default
-    m_old, m_new = old.reason == Reason.OK, new.reason == Reason.OK
-    both = m_old & m_new
-    lower = np.mean(new.thrust[both] < old.thrust[both] - 1e-6)
-    print(f"projection, 4 layers ({len(new.swing)} cells), one core: into the joint limits {new.evaluations:,} "
-          f"evaluations {t_new:.1f} s, reach balls only (previous) {old.evaluations:,} evaluations {t_old:.1f} s; "
-          f"ratio {new.evaluations / old.evaluations:.2f}x evaluations, {t_new / t_old:.2f}x time; members "
-          f"{m_new.sum()} against {m_old.sum()}; of the common members {lower:.1%} lower, mean thrust "
-          f"{new.thrust[both].mean() - old.thrust[both].mean():+.4f} N")
+def section_mirror(results: dict) -> None:
+    for side in ("right", "left"):
+        if side not in results:
+            results[side] = timed_sweep(side, 0.01, 2)[0]
+    r, lft = results["right"], results["left"]
+    m = mirror_report(r.spec, r.thrust, r.reason, r.p_body, lft.spec, lft.thrust, lft.reason, lft.p_body)
+    print(f"mirror, 1 cm, every cell ({m.cells:,}): {m.membership_differs} differ in membership, {m.beyond_n} "
+          f"by more than {AGREE_N} N (worst {m.worst_n:.3g} N), {m.bitwise:,} the same to the bit (thrust, reason, "
+          f"mirrored posture)")
 
 
-def main(resolution: float = 0.01, samples: int = 1000) -> None:
-    spec = SweepSpec(resolution_m=float(resolution))
-    kernel_speed(spec)
+def section_agreement(results: dict, samples: int = 1000, suspects: int = 200) -> None:
+    for k, side in enumerate(("right", "left")):
+        if side not in results:
+            results[side] = timed_sweep(side, 0.01, 2)[0]
+        r = results[side]
+        rng = np.random.default_rng(11 + k)
+        ok = searchable(r.spec, r.swing, r.reason)
+        random = rng.choice(np.flatnonzero(ok), samples, replace=False)
+        suspect = suspect_cells(r.spec, r.thrust, r.reason, suspects)
+        for name, picks in (("random", random), ("suspect", suspect)):
+            t0 = time.process_time()
+            c0 = time.perf_counter()
+            f_ex, r_ex = exhaustive_cells(r.spec, r.swing[picks], jobs=2)
+            same = agree(r.thrust[picks], r.reason[picks], f_ex, r_ex)
+            members = int(np.count_nonzero(r_ex == Reason.OK))
+            print(f"agreement with exhaustive (P_body grid {REFERENCE_GRID_M * 1000:.0f} mm), {side} support, "
+                  f"{len(picks)} {name} cells ({members} members by exhaustive; {time.perf_counter() - c0:.0f} s "
+                  f"wall on 2 processes, parent {time.process_time() - t0:.0f} s CPU): {int(same.sum())} agree "
+                  f"(same membership, within {AGREE_N} N)")
+            for i, fe, re_ in zip(picks[~same], f_ex[~same], r_ex[~same], strict=True):
+                print(f"  differs at swing {np.round(r.swing[i], 3)} m: continuation {r.thrust[i]:.3f} N "
+                      f"({Reason(r.reason[i]).name}), exhaustive {fe:.3f} N ({Reason(re_).name})")
+
+
+def speedups(label: str, times: TaskTimes) -> None:
+    one = makespan(times, 1)
+    cells = ", ".join(f"{n}: {makespan(times, n):.1f} s ({one / makespan(times, n):.1f}x)" for n in WORKERS)
+    print(f"{label}, from the measured task times (greedy schedule per stage): {cells}; critical path "
+          f"{times.critical_path_s:.1f} s (bound {one / times.critical_path_s:.1f}x)")
+
+
+def section_scale(results: dict) -> None:
+    r, wall = timed_sweep("right", 0.005, 2)
+    times = r.extra["task_times"]
+    describe_times(f"sweep 0.5 cm, right support ({len(r.reason):,} cells, {int(r.with_thrust.sum()):,} members)",
+                   times, wall, 2, 240.0)
+    speedups("  0.5 cm: workers", times)
+    del r
+    if "right" in results:
+        speedups("  1 cm: workers", results["right"].extra["task_times"])
+    cores = os.cpu_count() or 1
+    walls = {}
+    for n in WORKERS:
+        if n > cores:
+            break
+        _, walls[n] = timed_sweep("right", 0.01, n, executor="dask")
+    print("  1 cm on a local Dask cluster (processes, measured, cluster start-up included): " + ", ".join(
+        f"{n} workers {w:.1f} s ({walls[1] / w:.2f}x)" for n, w in walls.items()) + f"; {cores} cores here")
+
+
+SECTIONS = {"kernel": lambda results: kernel_speed(), "search": lambda results: search_savings(),
+            "timing": section_timing, "mirror": section_mirror, "agreement": section_agreement,
+            "scale": section_scale}
+
+
+def main(names: list[str]) -> None:
+    unknown = set(names) - set(SECTIONS)
+    if unknown:
+        raise SystemExit(f"unknown sections {sorted(unknown)}: choose from {list(SECTIONS)}")
     sweep_layers(SweepSpec(resolution_m=0.05), (0.0,))  # compile (or load) every kernel before timing
-    default = _four_layers(spec)  # the default search, the reference of both ratios
-    relaxation_ratio(spec, default)
-    polling_ratio(spec, default)
-    projection_ratio(spec, default)
-    t0 = time.perf_counter()
-    result = sweep(spec, jobs=2)
-    wall = time.perf_counter() - t0
-    s = summary(result)
-    print(f"sweep at {spec.resolution_m} m: {s['cells']} cells, {s['evaluations']:,} evaluations, {wall:.1f} s "
-          f"on 2 processes (target < 30 s)")
-    for name in ("with_thrust", "without_thrust"):
-        w = s[name]
-        print(f"  {name}: {w['cells']} cells, {w['volume_m3']:.4f} m^3, forward {w['max_forward_m']} m, "
-              f"sideways {w['max_sideways_m']} m")
-    robot = load_robot(spec.robot)
-    ev = Evaluator(robot, spec.support_stance())
-    cells = ev.cells(result.swing)
-    rng = np.random.default_rng(1)
-    candidates = np.flatnonzero((result.reason != Reason.OVERLAP) & ev.reach_possible(cells))
-    picks = rng.choice(candidates, int(samples), replace=False)
-    t0 = time.perf_counter()
-    reference = _exhaustive(spec, result.swing[picks])
-    agree, differ = 0, []
-    for i, (f_ex, r_ex) in zip(picks, reference, strict=True):
-        same = (result.reason[i] == Reason.OK) == (r_ex == Reason.OK)
-        gap = result.thrust[i] - f_ex if same and r_ex == Reason.OK else 0.0
-        if same and abs(gap) <= 0.1:
-            agree += 1
-        else:
-            differ.append((result.swing[i], result.thrust[i], f_ex))
-    print(f"agreement with exhaustive (P_body grid {REFERENCE_GRID_M * 1000:.0f} mm) on {len(picks)} sampled reachable "
-          f"cells ({time.perf_counter() - t0:.0f} s on 2 processes): {agree} same membership and within 0.1 N")
-    for swing, f_cont, f_ex in differ:
-        print(f"  differs at swing {np.round(swing, 3)} m: continuation {f_cont:.3f} N, exhaustive {f_ex:.3f} N")
-
-
-REFERENCE_GRID_M = 0.005  # the reference's P_body grid: finer than the sweep's default (1 cm), which misses members
-
-
-def _exhaustive_part(spec: SweepSpec, swing: np.ndarray) -> list[tuple[float, int]]:
-    ev = Evaluator(load_robot(spec.robot), spec.support_stance())
-    cells = ev.cells(swing)
-    return [exhaustive_cell(ev, cells, i, REFERENCE_GRID_M)[1:] for i in range(len(swing))]
-
-
-def _exhaustive(spec: SweepSpec, swing: np.ndarray) -> list[tuple[float, int]]:
-    """The exhaustive search's (thrust [N], reason) of every swing sole position, on 2 processes."""
-    from joblib import Parallel, delayed
-
-    parts = Parallel(n_jobs=2)(delayed(_exhaustive_part)(spec, swing[k::2]) for k in range(2))
-    out: list[tuple[float, int]] = [(0.0, 0)] * len(swing)
-    for k, part in enumerate(parts):
-        out[k::2] = part
-    return out
+    results: dict = {}
+    for name, fn in SECTIONS.items():
+        if not names or name in names:
+            fn(results)
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:])
+    main(sys.argv[1:])

@@ -120,12 +120,17 @@ def makespan(times: TaskTimes, workers: int) -> float:
 Runner = Callable[[Iterable[tuple]], Iterable[BlockResult]]
 
 
-def _pass1(spec: SweepSpec, settings: SearchSettings, box, flat) -> BlockResult:
-    return search_block(spec, settings, box, flat)
+def _pass1(task: int, spec: SweepSpec, settings: SearchSettings, box, flat) -> BlockResult:
+    r = search_block(spec, settings, box, flat)
+    r.task = task
+    return r
 
 
-def _round(spec: SweepSpec, settings: SearchSettings, box, inner, flat, P_box, f_box, changed) -> BlockResult:
-    return relax_box(spec, settings, box, inner, flat, P_box, f_box, changed)
+def _round(task: int, spec: SweepSpec, settings: SearchSettings, box, inner, flat, P_box, f_box,
+           changed) -> BlockResult:
+    r = relax_box(spec, settings, box, inner, flat, P_box, f_box, changed)
+    r.task = task
+    return r
 
 
 def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
@@ -139,11 +144,11 @@ def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
     blocks = partition((nx, ny, nz), settings, spec.support_side == "left")
     times = TaskTimes()
     evaluations = 0
-    tasks = [(_pass1, (spec, settings, b.box, flat_indices(state.shape, b.box))) for b in blocks]
-    stage: list[float] = []
+    tasks = [(_pass1, (k, spec, settings, b.box, flat_indices(state.shape, b.box))) for k, b in enumerate(blocks)]
+    stage = [0.0] * len(tasks)
     for k, r in enumerate(run(tasks)):
         state.put(r)
-        stage.append(r.cpu_s)
+        stage[r.task] = r.cpu_s
         evaluations += r.evaluations
         if progress:
             progress(f"blocks ({len(blocks)})", k + 1, len(tasks))
@@ -159,11 +164,11 @@ def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
         # applied together once all are in: every task reads the previous stage's state
         answers = list(run(_round_tasks(spec, settings, due, state, changed)))
         changed[:] = False
-        stage, improved = [], 0
+        stage, improved = [0.0] * len(due), 0
         for r in answers:
             state.put(r)
             changed[r.cells] = True
-            stage.append(r.cpu_s)
+            stage[r.task] = r.cpu_s
             evaluations += r.evaluations
             improved += len(r.cells)
         times.stages.append(stage)
@@ -184,7 +189,8 @@ def _due(block: Block, state: SweepState, changed: np.ndarray) -> bool:
 
 
 def _round_tasks(spec, settings, blocks: list[Block], state: SweepState, changed: np.ndarray) -> Iterator[tuple]:
-    for b in blocks:
+    for k, b in enumerate(blocks):
         box, inner = b.ring(state.shape)
         flat = flat_indices(state.shape, box)
-        yield _round, (spec, settings, box, inner, flat, state.p_body[flat], state.objective[flat], changed[flat])
+        yield _round, (k, spec, settings, box, inner, flat, state.p_body[flat], state.objective[flat],
+                       changed[flat])

@@ -53,6 +53,9 @@ NEIGHBOUR_STEP_M = 0.004  # ... from a neighbour's optimum
 POLISH_ABOVE_N = 1.0  # cells up to this above the fan's maximum get the final polish
 POLISH_STEP_M = 0.004  # ... starting at this compass step
 POLISH_FROM_M = 0.15  # ... with the swing sole at least this high above the support
+EDGE_ABOVE_N = 0.02  # cells at most this above the fan's maximum (their membership turns on millinewtons) ...
+EDGE_STEP_M = 0.001  # ... get a compass from this step ...
+EDGE_MIN_STEP_M = 0.00005  # ... down to this one (the exhaustive search's finest grid is 0.04 mm)
 
 
 @functools.lru_cache(maxsize=8)
@@ -84,6 +87,7 @@ class BlockResult:
     checked: int  # members re-checked by PlaCo (recheck.check_members)
     evaluations: int
     cpu_s: float  # the task's CPU time [s] (one process)
+    task: int = -1  # its place in its stage's task list (blocks.run_blocks)
 
 
 class _Search:
@@ -258,6 +262,15 @@ class _Search:
                                   fine_dirs=self.ev.all_dirs, levels=(lv, lv))
             better = f2 < f_all[near] - 1e-9
             P_all[near[better]], f_all[near[better]] = P2[better], f2[better]
+        fmax = self.spec.fan_limit_n
+        edge = cells[(f_all[cells] > fmax) & (f_all[cells] <= fmax + EDGE_ABOVE_N)]
+        if len(edge):
+            lv = self.settings.polish_level
+            P2, f2 = compass_search(self.ev, self.c, edge, P_all[edge], f_all[edge], np.full(len(edge), EDGE_STEP_M),
+                                    EDGE_MIN_STEP_M, axis_dirs=self.ev.all_dirs, fine_dirs=self.ev.all_dirs,
+                                    chunk=self.settings.poll_chunk, levels=(lv, lv))
+            better = f2 < f_all[edge] - 1e-9
+            P_all[edge[better]], f_all[edge[better]] = P2[better], f2[better]
 
     def finish(self, idx: np.ndarray, P_all: np.ndarray, f_all: np.ndarray):
         """The cells ``idx``'s answer: posture (NaN where none is valid), objective, reason; members re-checked
