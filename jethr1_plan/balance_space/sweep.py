@@ -106,6 +106,10 @@ class SweepResult:
         i, j, k = np.unravel_index(np.flatnonzero(mask), tuple(len(a) for a in axes))
         return np.column_stack([axes[0][i], axes[1][j], axes[2][k]])
 
+    def yaw_at(self, mask: np.ndarray) -> np.ndarray:
+        """The body yaw (A-4) [rad] of the cells ``mask`` selects, without building all of :attr:`yaw`."""
+        return _cell_yaw(self.spec, self.swing_at(mask))
+
     @property
     def with_thrust(self) -> np.ndarray:
         return self.reason == Reason.OK
