@@ -8,7 +8,9 @@ step from 32 mm (seeds) or 4 mm (neighbours) to 0.5 mm, polling a few directions
 first (``optimisers.compass``); Gauss–Seidel relaxation sweeps along x, y and z carry better optima between
 neighbours (a neighbour's optimum, shifted by half the cell offset and moved into every joint limit, is
 searched from); last, the cells that are members or nearly, with the swing sole 0.15 m or more above the
-support, are polished by a compass polling all 26 directions with the pitch limits in the projection too.
+support, are polished by a compass polling all 26 directions with the pitch limits in the projection too, and
+the cells up to EDGE_ABOVE_N above the fan's maximum (whose membership turns on millinewtons) by one whose step
+falls to EDGE_MIN_STEP_M.
 
 Boundary rounds (:func:`relax_box`): the block's cells are offered the optima of a one-cell ring around it
 that changed in the previous round (read from that round's state only), relaxed as in the first pass, and
