@@ -235,7 +235,7 @@ def dump_yaml(doc: dict, header: str = "") -> str:
     return lines + body
 
 
-def random_terrain(seed: int, cartons: int = 6, gaps_m: tuple[float, float] = (0.05, 0.25),
+def random_terrain(seed: int, cartons: int = 4, gaps_m: tuple[float, float] = (0.05, 0.15),
                    heights_m: float = 0.04, side_m: float = 0.08, policy: str = "robust",
                    robot: str = "jethr1", sole_margin_m: float = 0.005) -> str:
     """A seeded carton field as terrain YAML: the same arguments give the same text.
