@@ -57,7 +57,8 @@ def side_step_plan(tmp_path_factory):
     return out / "side_step"
 
 
-#: a small carton field for ``jethr1 route`` (coarse 5 cm maps, 10 samples a swing, short timing: seconds)
+#: a small carton field for ``jethr1 route`` (coarse 5 cm maps, 10 samples a swing, short timing: seconds; soles
+#: 5 mm inside the carton edges, as on the random terrains: the twin survives it feed-forward)
 SMALL_TERRAIN = """\
 name: small
 robot: jethr1
@@ -73,7 +74,7 @@ terrain:
     - {name: b, top_centre_m: [0.3, -0.1125, 0.0]}
     - {name: goal, top_centre_m: [0.6, 0.0, 0.0], size_m: [0.21, 0.4, 0.14]}
 goal: {region: {x_m: [0.495, 0.705], y_m: [-0.2, 0.2]}}
-balance: {policy: robust, thrust_max_n: 23.0}
+balance: {policy: robust, thrust_max_n: 23.0, sole_margin_m: 0.005}
 timing: {swing_s: 2.0, transfer_s: 1.0, rate_hz: 20.0}
 route: {map_resolution_m: 0.05, samples: 10}
 """

@@ -30,9 +30,9 @@ def _gaps(text: str) -> tuple[float, float]:
 
 @terrain.command("random")
 @click.option("--seed", type=SEED, required=True, help="The seed: the same seed (and options) gives the same file.")
-@click.option("--cartons", type=click.IntRange(1, 60), default=6, show_default=True,
+@click.option("--cartons", type=click.IntRange(1, 60), default=4, show_default=True,
               help="Cartons between the start and the goal.")
-@click.option("--gaps", default="0.05:0.25", show_default=True, metavar="LOW:HIGH",
+@click.option("--gaps", default="0.05:0.15", show_default=True, metavar="LOW:HIGH",
               help="Widths of the ditches between rows of cartons [m].")
 @click.option("--heights", type=FiniteFloat(0.0, 0.1), default=0.04, show_default=True,
               help="Largest change of carton height from one row to the next [m].")

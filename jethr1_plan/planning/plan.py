@@ -41,6 +41,7 @@ __all__ = [
     "reachable_tolerance",
     "row_solver",
     "standing_pose",
+    "step_key",
     "yaw_schedule",
 ]
 
@@ -106,6 +107,15 @@ def optimise_step(job: StepJob, solver: PostureSolver | None = None, progress: P
     return StepResult(si, step.swing, support, step.path_m, samples, fans), first_bad
 
 
+def step_key(job: StepJob) -> tuple:
+    """What a step's optimisation depends on beyond the scenario's other parts: its index, the swing foot,
+    its path, both soles at its start, the seed, the optimiser, the kinematics and the MPC's yaws."""
+    yaw = None if job.sample_yaw is None else np.asarray(job.sample_yaw, dtype=float).tobytes()
+    return (job.index, job.scenario.steps[job.index].swing, np.asarray(job.scenario.steps[job.index].path_m,
+            dtype=float).tobytes(), *(np.asarray(job.feet[k], dtype=float).tobytes() for k in sorted(job.feet)),
+            job.seed, repr(job.config), job.kinematics, job.keep_going, yaw)
+
+
 def plan(*args, **kwargs) -> PlanResult:
     """:func:`_plan` with BLAS on one thread, as in joblib's worker processes: a multi-threaded BLAS
     sums in another order (measured: sqp's P_body moved by 4.6 mm at one sample of the robust trial
@@ -120,7 +130,7 @@ def plan(*args, **kwargs) -> PlanResult:
 def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
           progress: Progress | None = None, keep_going: bool = False,
           build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
-          kinematics: str = "placo", strict_torque: bool = False) -> PlanResult:
+          kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -134,6 +144,10 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
         kinematics: ``placo`` (PlaCo's IK, the default) or ``analytic`` (closed form, same results
             to 1e-9 m, several times faster).
         strict_torque: rows whose static torque exceeds a servo limit are infeasible (else flagged).
+        step_memo: steps optimised by earlier calls, filled by this one (:func:`step_key`); only for
+            scenarios that differ in their steps alone (the route re-plans a route whose steps changed
+            after the first k: those k are not optimised again). Each step has a solver of its own, so
+            a remembered step is the one this call would compute, bit for bit.
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -152,19 +166,34 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
                for si in range(len(scenario.steps))]
     total = sum(len(s.path_m) for s in scenario.steps)
     n = len(scenario.steps)
+    memo = step_memo if step_memo is not None and given is None else None
+    keys = [step_key(job) for job in jobs_of] if memo is not None else []
     if jobs > 1 and n > 1:
         from joblib import Parallel, delayed
 
+        todo = [k for k in range(n) if memo is None or keys[k] not in memo]
+        fresh = iter(Parallel(n_jobs=min(jobs, len(todo)), return_as="generator")(
+            delayed(optimise_step)(jobs_of[k]) for k in todo)) if todo else iter(())
         outcomes = []
-        for k, out in enumerate(Parallel(n_jobs=min(jobs, n), return_as="generator")(
-                delayed(optimise_step)(job) for job in jobs_of)):
+        for k in range(n):
+            if memo is not None and keys[k] in memo:
+                out = memo[keys[k]]
+            else:
+                out = next(fresh)
+                if memo is not None:
+                    memo[keys[k]] = out
             outcomes.append(out)
             if progress:
                 progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
     else:
         outcomes, done = [], 0
-        for job in jobs_of:
-            out = optimise_step(job, given, progress, done, total)
+        for k, job in enumerate(jobs_of):
+            if memo is not None and keys[k] in memo:
+                out = memo[keys[k]]
+            else:
+                out = optimise_step(job, given, progress, done, total)
+                if memo is not None:
+                    memo[keys[k]] = out
             outcomes.append(out)
             done += len(out[0].samples)
             if out[1] is not None and not keep_going:
@@ -186,7 +215,8 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule)
+        rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
+                                       stop_at_infeasible=not keep_going)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -283,8 +313,10 @@ def yaw_schedule(scenario: Scenario, robot: RobotModel):
 
 
 def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
-                   schedule=None) -> tuple[Rows, dict | None]:
-    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate."""
+                   schedule=None, stop_at_infeasible: bool = False) -> tuple[Rows, dict | None]:
+    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate; with
+    ``stop_at_infeasible``, only up to the end of the phase holding the first infeasible row (the plan
+    is refused then: the rows after it would be discarded)."""
     tm = scenario.timing
     b = scenario.balance
     seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
@@ -299,7 +331,11 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
         seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
                      FanThrust(st.fan_thrust(0, nf), st.fan_index))
+        if stop_at_infeasible and seq.first_infeasible is not None:
+            return seq.rows, seq.first_infeasible
         seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s)
+        if stop_at_infeasible and seq.first_infeasible is not None:
+            return seq.rows, seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
         p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
         thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)

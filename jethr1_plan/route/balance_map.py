@@ -10,8 +10,10 @@ assumes.
 
 **Cache.** Maps are kept in ``<cache>/balance_space/<robot>-<side>-<key>.npz``; ``<cache>`` is
 ``--cache DIR``, else ``$JETHR1_CACHE``, else ``$XDG_CACHE_HOME/jethr1``, else ``~/.cache/jethr1``.
-The key is the SHA-256 of the robot's URDF and YAML bytes, every setting of the sweep and the
-package's version: a change to any of them computes a new map. Files are written atomically.
+The key is the SHA-256 of the robot's URDF and YAML bytes, every setting of the sweep, the
+package's version and the source of the code that computes a map (the balance_space, physics,
+kinematics and optimisers packages): a change to any of them computes a new map, so a map is never
+one an older sweep computed. Files are written atomically.
 
 **Lookup** (:meth:`BalanceMap.lookup`): a point is in the space when the 8 grid nodes around it all
 are (conservative: the space is sampled, and a point between a member and a non-member may be
@@ -78,11 +80,28 @@ class MapSettings:
                 "z_range_m": list(self.z_range), "method": "continuation"}
 
 
-def map_key(robot: RobotModel, settings: MapSettings) -> str:
-    """The cache key: SHA-256 of the robot's URDF and YAML bytes, the settings and the package version."""
+SWEEP_CODE = ("balance_space", "physics", "kinematics", "optimisers")  # the packages that compute a map
+
+
+def sweep_code_digest() -> bytes:
+    """SHA-256 of the source files (names and bytes, in name order) of the packages that compute a map."""
+    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for part in (f"jethr1-plan {__version__} map format {FORMAT}".encode(), Path(robot.urdf_path).read_bytes(),
-                 Path(robot.yaml_path).read_bytes(), json.dumps(settings.as_dict(), sort_keys=True).encode()):
+    for package in SWEEP_CODE:
+        for path in sorted((root / package).rglob("*.py")):
+            rel = path.relative_to(root).as_posix().encode()
+            data = path.read_bytes()
+            h.update(len(rel).to_bytes(8, "little") + rel + len(data).to_bytes(8, "little") + data)
+    return h.digest()
+
+
+def map_key(robot: RobotModel, settings: MapSettings) -> str:
+    """The cache key: SHA-256 of the robot's URDF and YAML bytes, the settings, the package version and
+    the source of the sweep's code (:func:`sweep_code_digest`)."""
+    h = hashlib.sha256()
+    for part in (f"jethr1-plan {__version__} map format {FORMAT}".encode(), sweep_code_digest(),
+                 Path(robot.urdf_path).read_bytes(), Path(robot.yaml_path).read_bytes(),
+                 json.dumps(settings.as_dict(), sort_keys=True).encode()):
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest()

@@ -4,7 +4,9 @@
 2. The search (:mod:`.search`): the least-cost route on the maps.
 3. The route as an ordinary scenario (``route.yaml``), loaded by the scenario loader and planned by
    the project's planner (:func:`jethr1_plan.planning.plan.plan`). A step the loader refuses or the
-   planner cannot balance is blacklisted and the search resumes (at most :data:`MAX_REPLANS` times).
+   planner cannot balance is blacklisted and the search resumes (at most :data:`MAX_REPLANS` times);
+   the steps a new route shares with an earlier one from its start are not optimised again (the
+   planner's ``step_memo``: the same steps, bit for bit).
 4. The plan folder: the plan's own files (re-checked by ``verify`` before they are written, as
    ``jethr1 plan`` does) with the route's (``route.yaml``, ``route.mcap``, ``route.png``) in one commit.
 """
@@ -154,6 +156,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
     searches: list[SearchResult] = []
     blacklisted: list[dict] = []
     plan_s = 0.0
+    memo: dict = {}  # the steps optimised so far: a re-planned route does not optimise its unchanged first steps again
     for _ in range(MAX_REPLANS + 1):
         found = astar(model)
         searches.append(found)
@@ -174,7 +177,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress)
+            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo)
         except InfeasiblePlan as exc:
             plan_s += time.perf_counter() - t0
             first = (exc.summary or {}).get("first_infeasible") or {}

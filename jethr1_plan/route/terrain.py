@@ -97,7 +97,7 @@ class RouteOptions:
 
     foothold_spacing_m: float = 0.02  # candidate sole centres on a carton top, this far apart [m]
     edge_margin_m: float = 0.005  # each candidate sole lies this far inside its carton's top [m] (the twin lands
-    #                               3 to 5 mm off a first foothold: docs/route.md)
+    #                               2 to 5 mm off a first foothold: docs/route.md)
     clearances_m: tuple[float, ...] = (0.1, 0.07, 0.05)  # the arcs tried for each step, in this order (sagitta) [m]
     samples: int = 25  # swing samples per step (route.yaml's arcs)
     map_resolution_m: float = 0.02  # the balance-space map's grid [m] (docs/route.md: measured)
@@ -235,7 +235,7 @@ def dump_yaml(doc: dict, header: str = "") -> str:
     return lines + body
 
 
-def random_terrain(seed: int, cartons: int = 6, gaps_m: tuple[float, float] = (0.05, 0.25),
+def random_terrain(seed: int, cartons: int = 4, gaps_m: tuple[float, float] = (0.05, 0.15),
                    heights_m: float = 0.04, side_m: float = 0.08, policy: str = "robust",
                    robot: str = "jethr1", sole_margin_m: float = 0.005) -> str:
     """A seeded carton field as terrain YAML: the same arguments give the same text.
@@ -246,7 +246,7 @@ def random_terrain(seed: int, cartons: int = 6, gaps_m: tuple[float, float] = (0
     ``heights_m`` [m] above or below the row before (every carton stands on the floor at z = −0.14 m);
     last, across one more ditch, a wide carton (0.21 × 0.40 m) whose top is the goal region. The balance
     policy keeps the ZMP ``sole_margin_m`` inside the support sole beyond the tolerance: over a route of
-    several steps the twin's landings drift by up to ~1 cm (docs/route.md).
+    several steps the twin's landings drift by up to ~2 cm (docs/route.md).
     """
     rng = np.random.default_rng([seed, 29])
     size = DEFAULT_CARTON_M

@@ -310,3 +310,28 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     first = min(m[3] for m in msgs)
     assert first == EPOCH_NS
     assert datetime.datetime.fromtimestamp(first / 1e9, datetime.UTC).isoformat() == "2000-01-01T00:00:00+00:00"
+
+
+def test_a_remembered_step_is_the_step_planned_afresh(tmp_path, monkeypatch):
+    """``step_memo`` (the route's re-plans): a scenario whose first step is unchanged re-uses it and
+    optimises only the changed one, and its rows are the rows of a plan made without the memo."""
+    import jethr1_plan.planning.plan as planning
+    from jethr1_plan.scenario import load_scenario_text
+
+    text = _small_two_step(tmp_path).read_text()
+    doc = yaml.safe_load(text)
+    doc["steps"][1]["landing_m"] = [0.46, -0.1125, 0.0]  # another second landing, the same first step
+    other = load_scenario_text(yaml.safe_dump(doc), "other")
+    calls: list[int] = []
+    real = planning.optimise_step
+    monkeypatch.setattr(planning, "optimise_step", lambda job, *a, **k: calls.append(job.index) or real(job, *a, **k))
+    memo: dict = {}
+    planning.plan(load_scenario_text(text, "small"), step_memo=memo)
+    with_memo = planning.plan(other, step_memo=memo)
+    assert calls == [0, 1, 1] and len(memo) == 3
+    fresh = planning.plan(other)
+    assert calls[3:] == [0, 1]
+    assert set(with_memo.rows.columns) == set(fresh.rows.columns)
+    for name, col in fresh.rows.columns.items():
+        a, b = np.asarray(with_memo.rows.columns[name]), np.asarray(col)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name

@@ -70,6 +70,17 @@ def test_the_cache_key_changes_with_the_robot_files_the_settings_and_the_version
     assert map_key(robot, _tiny()) != key
 
 
+def test_the_cache_key_changes_with_the_sweep_code(monkeypatch):
+    """A map an older sweep computed is not reused: the key covers the source of the code computing it."""
+    robot = load_robot("jethr1")
+    key, digest = map_key(robot, _tiny()), bm.sweep_code_digest()
+    assert bm.sweep_code_digest() == digest
+    monkeypatch.setattr(bm, "SWEEP_CODE", ("balance_space",))  # fewer files read: another digest
+    assert bm.sweep_code_digest() != digest
+    monkeypatch.setattr(bm, "sweep_code_digest", lambda: b"an edited sweep")
+    assert map_key(robot, _tiny()) != key
+
+
 def test_a_map_is_computed_once_and_then_read_from_the_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("JETHR1_CACHE", str(tmp_path / "env"))
     assert cache_dir() == tmp_path / "env"

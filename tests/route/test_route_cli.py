@@ -5,6 +5,7 @@ exit 3 naming the frontier, a bad terrain is one line and exit 2 with nothing wr
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -55,6 +56,19 @@ def test_the_maps_are_computed_once_and_the_route_is_the_same(small_route, route
     assert len(list((route_cache / "balance_space").glob("*.npz"))) == 2
     for name in ("route.yaml", "trajectory.csv", "trajectory.mcap", "route.mcap"):  # the same for any -j
         assert (tmp_path / "small" / name).read_bytes() == (small_route / name).read_bytes(), name
+
+
+def test_the_route_survives_the_twin_feed_forward_at_nominal(small_route, tmp_path, capfd):
+    """``simulate`` works on the route's folder as on any plan: the twin (MuJoCo, not the planner's model)
+    walks the chosen steps without a fall and ends with both soles on carton tops, each landing within 2 cm."""
+    folder = tmp_path / "small"
+    shutil.copytree(small_route, folder)
+    capfd.readouterr()
+    assert run(["simulate", str(folder), "--json", "--no-progress"]) == 0
+    (r,) = json.loads(capfd.readouterr().out)["runs"]
+    assert r["survived"] and r["fell"] is None and all(r["soles_on_cartons_at_end"].values())
+    steps = len(load_scenario(folder / "route.yaml").steps)
+    assert len(r["landing_errors_m"]) == steps and max(e["xy_m"] for e in r["landing_errors_m"]) < 0.02
 
 
 def test_route_mcap_carries_the_terrain_footholds_route_and_slices(small_route):
