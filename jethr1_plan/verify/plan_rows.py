@@ -141,49 +141,73 @@ class RowData:
             return (w * self.fk["com"][:, :2] - moment) / (w - self.thrust.sum(axis=1))[:, None]
 
     @cached_property
-    def polygons(self) -> list[np.ndarray]:
-        """Per row, the real support polygon: the support sole, or the hull of both soles."""
-        out = []
-        for i in range(self.n):
-            soles = [SIDES.index(self.support[i])] if self.single[i] and self.support[i] in SIDES else [0, 1]
-            polys = [sole_polygon(self.pos[SIDES[k]][i, :2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m)
-                     for k in soles]
-            out.append(polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys)))
-        return out
+    def on_one_sole(self) -> np.ndarray:
+        """(n,) rows supported by one sole: their support polygon is that sole's rectangle."""
+        return self.single & np.isin(self.support.astype(str), SIDES)
+
+    @cached_property
+    def sole_centre(self) -> np.ndarray:
+        """(n, 2) the support sole's centre [m] in the rows on one sole (the right sole's elsewhere)."""
+        return np.where((self.support == "left")[:, None], self.pos["left"][:, :2], self.pos["right"][:, :2])
+
+    def centred_sole(self, margin_m: float = 0.0) -> np.ndarray:
+        """(4, 2) a sole's rectangle about the origin, shrunk by ``margin_m`` [m]: a row on one sole has this
+        polygon moved by :attr:`sole_centre` (its checks move the points instead, the polygon staying here)."""
+        return sole_polygon((0.0, 0.0), 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
+
+    @cached_property
+    def polygons(self) -> dict[int, np.ndarray]:
+        """Per row not on one sole (double support), the real support polygon: the hull of both soles."""
+        return {int(i): convex_hull(np.vstack([sole_polygon(self.pos[s][i, :2], 0.0, self.robot.sole_length_m,
+                                                            self.robot.sole_width_m) for s in SIDES]))
+                for i in np.flatnonzero(~self.on_one_sole)}
 
     @cached_property
     def windows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per row, the thrust window [N] of the fans that carry thrust, in their shares (in a swing row
         without thrust: the first fan the swing may use, its sole's), and where it was computed (a row
-        with a written window, a ZMP and a fan to share)."""
+        with a written window, a ZMP and a fan to share). Rows on one sole are computed together, per set
+        of carrying fans, about the sole's centre."""
         from jethr1_plan.physics.balance import shared_window, thrust_window
 
         robot = self.robot
+        nf = len(robot.fans)
         fmax = np.array([f.max_thrust_n for f in robot.fans])
         lo, hi, computed = np.full(self.n, np.nan), np.full(self.n, np.nan), np.zeros(self.n, dtype=bool)
         written = self.c["thrust_window_lo_n"].astype(float)
-        com = self.fk["com"][:, :2]
-        for i, poly in enumerate(self.polygons):
-            if not (np.all(np.isfinite(self.zmp[i])) and np.isfinite(written[i])):
-                continue
-            total = float(np.sum(self.thrust[i]))
+        com, fans = self.fk["com"][:, :2], self.fk["fans"]
+        total = self.thrust.sum(axis=1)
+        shares = np.zeros((self.n, nf))
+        for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1) & np.isfinite(written)):
             share = None
-            if total > 0:
-                share = self.thrust[i] / total
+            if total[i] > 0:
+                share = self.thrust[i] / float(np.sum(self.thrust[i]))
             elif self.single[i] and self.support[i] in SIDES:
                 usable = robot.swing_fans(other_side(self.support[i]))
                 if usable:
-                    share = np.isin(np.arange(len(fmax)), usable[:1]).astype(float)
-            if share is None:
-                continue
-            computed[i] = True
-            carry = np.flatnonzero(share > 0)
+                    share = np.isin(np.arange(nf), usable[:1]).astype(float)
+            if share is not None:
+                computed[i], shares[i] = True, share
+
+        def window(rows: np.ndarray, poly: np.ndarray, origin: np.ndarray) -> None:
+            """The window of ``rows`` (one set of carrying fans) in ``poly`` with the points moved by -``origin``."""
+            carry = np.flatnonzero(shares[rows[0]] > 0)
+            c, f = com[rows] - origin, fans[rows][:, carry] - origin[:, None]
             if len(carry) == 1:
-                w_lo, w_hi = thrust_window(com[i], self.fk["fans"][i, carry[0]], poly, robot.mass_kg)
-                lo[i], hi[i] = float(w_lo), min(float(w_hi), float(fmax[carry[0]]))
+                w_lo, w_hi = thrust_window(c, f[:, 0], poly, robot.mass_kg)
+                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, fmax[carry[0]])
             else:
-                w_lo, w_hi = shared_window(com[i], self.fk["fans"][i, carry], share[carry], poly, robot.mass_kg)
-                lo[i], hi[i] = float(w_lo), min(float(w_hi), float(np.min(fmax[carry] / share[carry])))
+                sh = shares[rows][:, carry]
+                w_lo, w_hi = shared_window(c, f, sh, poly, robot.mass_kg)
+                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, np.min(fmax[carry] / sh, axis=1))
+
+        one = computed & self.on_one_sole
+        carrying = shares > 0
+        for pattern in np.unique(carrying[one], axis=0):
+            at = np.flatnonzero(one & np.all(carrying == pattern, axis=1))
+            window(at, self.centred_sole(), self.sole_centre[at])
+        for i in np.flatnonzero(computed & ~self.on_one_sole):
+            window(np.array([i]), self.polygons[int(i)], np.zeros((1, 2)))
         return lo, hi, computed
 
     @cached_property
