@@ -13,8 +13,9 @@ most 1 unit.
 
 Usage: ``python bench/bench_commands.py [--repeats N] [--jethr1 PREFIX] [--baseline PREFIX]``: a prefix is
 the command that runs a jethr1 (default: this venv's); ``--baseline`` times a second one (another checkout,
-e.g. ``"env PYTHONPATH=../old .venv/bin/python -c 'from jethr1_plan.cli import entry; entry()'"``) in the
-same run, interleaved, for a before/after table.
+e.g. ``"env PYTHONPATH=/path/to/old .venv/bin/python -P -c 'from jethr1_plan.cli import entry; entry()'"``;
+``-P``: the commands run in this repository, whose own package ``python -c`` would import first) in the same
+run, interleaved, for a before/after table.
 """
 
 from __future__ import annotations
