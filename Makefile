@@ -38,6 +38,7 @@ bench: install
 	$(BIN)/python bench/bench_simulate.py
 	$(BIN)/python bench/bench_walk.py
 	$(BIN)/python bench/bench_route.py
+	$(BIN)/python bench/bench_commands.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

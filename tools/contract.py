@@ -35,8 +35,11 @@ def commands_section() -> list[str]:
 
     def walk(cmd: click.Command, path: list[str]) -> None:
         if isinstance(cmd, click.Group):
-            for name in sorted(cmd.commands):
-                walk(cmd.commands[name], [*path, name])
+            ctx = click.Context(cmd)
+            for name in sorted(cmd.list_commands(ctx)):
+                sub = cmd.get_command(ctx, name)
+                assert sub is not None
+                walk(sub, [*path, name])
             return
         ctx = click.Context(cmd, info_name=" ".join(path))
         out.append(f"### `{' '.join(path)}`")

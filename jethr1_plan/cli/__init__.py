@@ -8,40 +8,57 @@ JSON document on stdout.
 from __future__ import annotations
 
 import errno
+import importlib
 import os
 import sys
 
 import click
 
-from jethr1_plan.cli.balance_space import balance_space
-from jethr1_plan.cli.batch import batch
 from jethr1_plan.cli.common import StdoutError
-from jethr1_plan.cli.compare import compare_cmd
-from jethr1_plan.cli.ditch_curve import ditch_curve_cmd
-from jethr1_plan.cli.plan import plan
-from jethr1_plan.cli.reach import reach_cmd
-from jethr1_plan.cli.robot import robot
-from jethr1_plan.cli.route import route_cmd
-from jethr1_plan.cli.simulate import simulate_cmd
-from jethr1_plan.cli.terrain import terrain
-from jethr1_plan.cli.verify import verify
-from jethr1_plan.cli.view import view_cmd
-from jethr1_plan.cli.walk import walk_cmd, walk_sweep_cmd
 from jethr1_plan.errors import Jethr1Error
 
 __all__ = ["entry", "main", "run"]
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: every command: its name → (its module in this package, the click command there). A command's module, and
+#: what it imports, is loaded only when that command runs (or ``--help`` lists them all): ``jethr1 plan``
+#: pays for no simulator, plotting or viewer library
+COMMANDS: dict[str, tuple[str, str]] = {
+    "balance-space": ("balance_space", "balance_space"),
+    "batch": ("batch", "batch"),
+    "compare": ("compare", "compare_cmd"),
+    "ditch-curve": ("ditch_curve", "ditch_curve_cmd"),
+    "plan": ("plan", "plan"),
+    "reach": ("reach", "reach_cmd"),
+    "robot": ("robot", "robot"),
+    "route": ("route", "route_cmd"),
+    "simulate": ("simulate", "simulate_cmd"),
+    "terrain": ("terrain", "terrain"),
+    "verify": ("verify", "verify"),
+    "view": ("view", "view_cmd"),
+    "walk": ("walk", "walk_cmd"),
+    "walk-sweep": ("walk", "walk_sweep_cmd"),
+}
+
+
+class LazyGroup(click.Group):
+    """A click group whose commands (:data:`COMMANDS`) are imported when asked for."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return None
+        module, attr = COMMANDS[cmd_name]
+        command: click.Command = getattr(importlib.import_module(f"jethr1_plan.cli.{module}"), attr)
+        return command
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="jethr1-plan")
 def main() -> None:
     """Plan thrust-assisted steps over ditches for the Jet-HR1 biped (SI units throughout)."""
-
-
-
-for _command in (robot, plan, balance_space, batch, verify, compare_cmd, reach_cmd, ditch_curve_cmd, simulate_cmd,
-                 walk_cmd, walk_sweep_cmd, view_cmd, route_cmd, terrain):
-    main.add_command(_command)
 
 
 def run(argv: list[str] | None = None) -> int:

@@ -61,7 +61,8 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     else:
         perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
     with Progress(not no_progress, f"simulate {plan_dir}") as progress:
-        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw)
+        runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw,
+                        track=track)
     from jethr1_plan.control.thrust_feedback import Gains
 
     ok = sum(r.survived for r in runs)

@@ -14,7 +14,7 @@ from jethr1_plan.files.plan_table import (
     is_plan_column,
     plan_table,
 )
-from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
+from jethr1_plan.io.csv_table import csv_text, number_text, numbers_text, read_csv_table
 from jethr1_plan.planning.sequence import Rows
 from jethr1_plan.robot.model import RobotModel
 
@@ -37,7 +37,7 @@ def table_csv(table: dict[str, np.ndarray], header: list[str]) -> str:
         elif name == "time_s":  # times to 1e-9 s: the rows' clock, not its rounding
             cells.append([number_text(round(float(v), 9)) for v in col])
         else:
-            cells.append([number_text(v) for v in col.tolist()])
+            cells.append(numbers_text(col.tolist()))
     return csv_text(header, zip(*cells, strict=True))
 
 

@@ -192,27 +192,23 @@ def _phases(ax, result: WalkResult) -> None:
 
 
 def _png(fig) -> bytes:
-    import matplotlib.pyplot as plt
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, metadata={"Software": None})
-    plt.close(fig)
     return buf.getvalue()
 
 
 def walk_figures(result: WalkResult) -> dict[str, bytes]:
-    """Paper B's figures that apply to one walk, as PNG bytes by file name."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """Paper B's figures that apply to one walk, as PNG bytes by file name (drawn by matplotlib's Agg
+    renderer on figures of their own: no pyplot, no window, nothing left open)."""
+    from matplotlib.figure import Figure
 
     walk, a = result.walk, result.analysis
     title = f"{result.spec.name}: {result.spec.robot.name}, steps of {result.spec.footsteps.step_length_m:g} m, " \
             f"pelvic rotation {result.spec.rotation.mode}"
     t = walk.t
     out = {}
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    fig = Figure(figsize=(9, 6), constrained_layout=True)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.plot(t, np.degrees(walk.yaw_ref), color="0.5", ls="--", label="reference (B-30)")
     ax1.plot(t, np.degrees(walk.yaw), color="tab:red", label="yaw MPC (B-34..B-38)")
     ax1.set_ylabel("pelvic yaw [deg]")
@@ -226,7 +222,8 @@ def walk_figures(result: WalkResult) -> dict[str, bytes]:
     fig.suptitle(f"Pelvic rotation (Figs. 8, 9)\n{title}", fontsize=10)
     out["yaw.png"] = _png(fig)
 
-    fig, ax = plt.subplots(figsize=(9, 4), constrained_layout=True)
+    fig = Figure(figsize=(9, 4), constrained_layout=True)
+    ax = fig.subplots()
     ax.plot(t, walk.h_low, color="tab:blue", label="lower body (B-41)")
     ax.plot(t, walk.h_up, color="tab:green", label="arms (B-42)")
     ax.plot(t, walk.h_low + walk.h_up, color="k", lw=1.5, label="total")
@@ -242,7 +239,8 @@ def walk_figures(result: WalkResult) -> dict[str, bytes]:
     ax.set_title(f"Yaw momentum about the CoM (Figs. 12, 16)\n{title}", fontsize=10)
     out["momentum.png"] = _png(fig)
 
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    fig = Figure(figsize=(9, 6), constrained_layout=True)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.semilogy(t, a.kappa, color="tab:purple", label="κ(J_low) (B-45)")
     ax2.axhline(result.spec.success.knee_margin_rad, color="0.3", ls=":", lw=1,
                 label=f"margin {result.spec.success.knee_margin_rad:g} rad")

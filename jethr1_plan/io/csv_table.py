@@ -13,7 +13,7 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 
-__all__ = ["MAX_CSV_BYTES", "csv_text", "number_text", "read_csv_table"]
+__all__ = ["MAX_CSV_BYTES", "csv_text", "number_text", "numbers_text", "read_csv_table"]
 
 MAX_CSV_BYTES = 200_000_000  # a trajectory is ~1 MB per 1,000 rows; anything larger is not one
 
@@ -74,14 +74,31 @@ def read_csv_table(text: str, source: str, known: Callable[[str], bool], text_co
                 raise InputError(source, f"row {bad + 1} {name}", f"{_short(col[bad])!r} is not true or false")
             out[name] = np.array([v == "true" for v in col], dtype=bool)
         else:
-            values = np.empty(len(col))
-            for i, v in enumerate(col):
-                try:
-                    values[i] = float(v) if v != "" else np.nan
-                except ValueError:
-                    raise InputError(source, f"row {i + 1} {name}", f"{_short(v)!r} is not a number") from None
-            out[name] = values
+            out[name] = _numbers(col, source, name)
     return out
+
+
+def _numbers(col: list[str], source: str, name: str) -> np.ndarray:
+    """A column's cells as floats (NaN where empty), each read as Python's ``float`` reads it.
+
+    Raises:
+        InputError: the first cell that is not a number.
+    """
+    try:  # the whole column at once (numpy reads each text as float() does)
+        return np.array([float(v) if v != "" else np.nan for v in col], dtype=float)
+    except ValueError:
+        pass
+    for i, v in enumerate(col):
+        try:
+            float(v) if v != "" else None
+        except ValueError:
+            raise InputError(source, f"row {i + 1} {name}", f"{_short(v)!r} is not a number") from None
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def numbers_text(values: Iterable[float]) -> list[str]:
+    """:func:`number_text` of every value (the same texts, without a call per value)."""
+    return ["" if x != x else (repr(x) if x != 0 else "0.0") for x in map(float, values)]
 
 
 def _short(text: str, limit: int = 40) -> str:

@@ -278,7 +278,8 @@ def _geometry_height(urdf: Path, robot, soles: list[str]) -> float:
 def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
     """Load a robot by name (a folder of ``robots/``), directory or YAML path; a model is returned as is.
 
-    Models are cached: loading the same name twice gives the same object.
+    Models are cached by their YAML file: loading a robot by name and then by its YAML's path (as a plan
+    folder's summary names it) gives the same object, loaded once.
 
     Raises:
         RobotModelError: missing, malformed or inconsistent files (exit 2): the YAML against its
@@ -286,12 +287,11 @@ def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
     """
     if isinstance(name_or_path, RobotModel):
         return name_or_path
-    return _load(name_or_path)
+    return _load(_resolve(name_or_path))
 
 
 @functools.lru_cache(maxsize=16)
-def _load(name_or_path: str | Path) -> RobotModel:
-    yaml_path = _resolve(name_or_path)
+def _load(yaml_path: Path) -> RobotModel:
     src = str(yaml_path)
     doc = read_robot_yaml(yaml_path)
     urdf = yaml_path.parent / doc["urdf"]

@@ -330,9 +330,12 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         max_thrust = max(max_thrust, float(cmd.max(initial=0.0)))
         d.xfrc_applied[:] = 0.0
         for f_idx, body in enumerate(fan_ids):
-            force = np.array([0.0, 0.0, applied[f_idx]])
-            d.xfrc_applied[body, :3] = force
-            d.xfrc_applied[body, 3:] = np.cross(d.xpos[body] - d.xipos[body], force)
+            fz = float(applied[f_idx])
+            d.xfrc_applied[body, :3] = (0.0, 0.0, fz)
+            # the moment about the body's CoM of the vertical force at its origin: r × (0, 0, fz), written out as
+            # np.cross computes it (the same floats, without its per-call cost)
+            rx, ry, rz = (d.xpos[body] - d.xipos[body]).tolist()
+            d.xfrc_applied[body, 3:] = (ry * fz - rz * 0.0, rz * 0.0 - rx * fz, rx * 0.0 - ry * 0.0)
         mujoco.mj_step(m, d, nsub)
         # measurements
         R = d.xmat[twin.trunk]
@@ -405,10 +408,11 @@ def _run_one(folder: str, controller: str, perturbation: Perturbation, record: b
 
 
 def simulate(folder: Path, controller: str, perturbations: list[Perturbation], jobs: int = 1,
-             progress=None, compensate: bool = True) -> list[RunResult]:
+             progress=None, compensate: bool = True, track: PlanTrack | None = None) -> list[RunResult]:
     """Every perturbation's run of the plan in ``folder`` (the first one recorded), in order; the
-    results do not depend on ``jobs``."""
-    track = load_plan(folder)  # bad input fails here, before any worker starts
+    results do not depend on ``jobs``. ``track``: the folder's plan if the caller has read it already."""
+    if track is None:
+        track = load_plan(folder)  # bad input fails here, before any worker starts
     if jobs <= 1 or len(perturbations) == 1:
         out = []
         for k, p in enumerate(perturbations):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["TOL_M", "TOL_RAD", "TOL_T", "Failure", "csv_header"]
+__all__ = ["TOL_M", "TOL_RAD", "TOL_T", "Failure", "csv_header", "is_walk"]
 
 TOL_M = 1e-6  # written against recomputed positions [m] (the IK tolerance; floats round-trip exactly)
 TOL_RAD = 1e-6  # written against recomputed angles [rad]
@@ -32,3 +32,10 @@ def csv_header(path: Path) -> list[str] | None:
             return f.readline(100_000).strip().split(",")
     except (OSError, UnicodeDecodeError):
         return None
+
+
+def is_walk(summary: dict | None, header: list[str] | None = None) -> bool:
+    """Whether a folder's files are a walk's (summary kind, or a walk's CSV header)."""
+    if summary is not None:
+        return summary.get("kind") == "walk"
+    return header is not None and "yaw_ref_rad" in header

@@ -7,9 +7,8 @@ from pathlib import Path
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import TRAJECTORY_FILES, read_json, read_plan
-from jethr1_plan.verify.common import Failure, csv_header
+from jethr1_plan.verify.common import Failure, csv_header, is_walk
 from jethr1_plan.verify.plan import verify_plan
-from jethr1_plan.verify.walk import is_walk, verify_walk
 
 __all__ = ["verify_path"]
 
@@ -32,6 +31,8 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
             raise InputError(str(summary_path), "", "a walk is verified against its summary.json, which is missing")
         if scenario is not None:
             raise InputError(str(scenario), "--scenario", "a walk has no scenario (its summary.json states the walk)")
+        from jethr1_plan.verify.walk import verify_walk  # (the walk's verifier and what it needs: walks only)
+
         files = [folder / f for f in TRAJECTORY_FILES if (folder / f).is_file()]
         n, failures, what = verify_walk(folder, summary, files)
         return n, failures, what, [summary_path, folder / "trajectory.csv"]

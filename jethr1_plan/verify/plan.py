@@ -24,8 +24,6 @@ A failing row gives one line; a file that cannot be read as this format is bad i
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from jethr1_plan.files.plan_folder import PlanFolder
@@ -38,11 +36,19 @@ __all__ = ["verify_plan", "verify_rows"]
 
 def verify_plan(plan: PlanFolder) -> tuple[int, list[Failure]]:
     """Every row of every trajectory file of ``plan`` (and, with both, the CSV against the MCAP);
-    (rows, failures sorted by row)."""
+    (rows, failures sorted by row). The checks are a function of what they read: a file whose rows,
+    numbers and swing paths are those of a file already checked has that file's findings (the MCAP
+    of a plan carries the CSV's very floats), and its rows are not checked a second time."""
     n, failures = 0, []
+    done: list[tuple[dict, list | None, tuple[int, list[Failure]]]] = []
     for f, table in plan.tables.items():
-        k, fails = verify_rows(table, plan.robot, swing_paths=plan.swing_paths.get(f), summary=plan.summary,
-                               scenario=plan.scenario)
+        paths = plan.swing_paths.get(f)
+        # (the files' swing paths are read only without a scenario)
+        seen = next((res for t, sp, res in done if _same_table(t, table)
+                     and (plan.scenario is not None or _same_paths(sp, paths))), None)
+        k, fails = seen if seen is not None else verify_rows(table, plan.robot, swing_paths=paths,
+                                                             summary=plan.summary, scenario=plan.scenario)
+        done.append((table, paths, (k, fails)))
         n = max(n, k)
         failures += [Failure(x.row, x.time_s, x.check, f"{f.name}: {x.detail}" if len(plan.tables) > 1 else x.detail)
                      for x in fails]
@@ -53,28 +59,59 @@ def verify_plan(plan: PlanFolder) -> tuple[int, list[Failure]]:
     return n, failures
 
 
+def _same_table(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
+    """The same columns in the same order, with the same values (NaN where NaN; the CSV reads integers
+    as floats: the same numbers are the same) and the same texts."""
+    if list(a) != list(b):
+        return False
+    for k in a:
+        x, y = np.asarray(a[k]), np.asarray(b[k])
+        if x.shape != y.shape:
+            return False
+        if x.dtype.kind in "fiub" and y.dtype.kind in "fiub":
+            if not np.array_equal(x.astype(float), y.astype(float), equal_nan=True):
+                return False
+        elif x.dtype.kind != y.dtype.kind or not np.array_equal(x, y):
+            return False
+    return True
+
+
+def _same_paths(a: list | None, b: list | None) -> bool:
+    if a is None or b is None:
+        return a is b
+    return len(a) == len(b) and all(np.shape(x) == np.shape(y) and np.array_equal(x, y)
+                                    for x, y in zip(a, b, strict=True))
+
 
 def _compare_files(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> list[Failure]:
-    """Rows of the CSV (a) and the MCAP (b) that differ (the numbers written are the same floats)."""
+    """Rows of the CSV (a) and the MCAP (b) that differ (the numbers written are the same floats): per
+    row, the first column (in the CSV's order) that differs."""
     out = []
     n = min(len(a["time_s"]), len(b["time_s"]))
     if len(a["time_s"]) != len(b["time_s"]):
         out.append(Failure(n, float(a["time_s"][n - 1]) if n else 0.0, "CSV and MCAP differ",
                            f"{len(a['time_s'])} rows in the CSV, {len(b['time_s'])} in the MCAP"))
-    for i in range(n):
-        for k in a:
-            if k not in b:
-                continue
-            x, y = a[k][i], b[k][i]
-            if isinstance(x, float | np.floating):
-                x, y = float(x), float(y)
-                same = x == y or (math.isnan(x) and math.isnan(y)) or abs(x - y) <= 1e-12 * max(1.0, abs(x))
-            else:
-                same = x == y
-            if not same:
-                out.append(Failure(i, float(a["time_s"][i]), "CSV and MCAP differ", f"{k}: {x!r} against {y!r}"))
-                break
+    keys = [k for k in a if k in b]
+    differ = np.zeros((n, len(keys)), dtype=bool)
+    for j, k in enumerate(keys):
+        differ[:, j] = _differ(np.asarray(a[k])[:n], np.asarray(b[k])[:n])
+    for i in np.flatnonzero(differ.any(axis=1)):
+        k = keys[int(np.argmax(differ[i]))]
+        x, y = a[k][i], b[k][i]
+        if isinstance(x, float | np.floating):
+            x, y = float(x), float(y)
+        out.append(Failure(int(i), float(a["time_s"][i]), "CSV and MCAP differ", f"{k}: {x!r} against {y!r}"))
     return out
+
+
+def _differ(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(n,) where two columns differ: floats beyond 1e-12 (relative above 1) unless both NaN; others unequal."""
+    if x.dtype.kind == "f":
+        yf = y.astype(float)
+        with np.errstate(invalid="ignore"):
+            same = (x == yf) | (np.isnan(x) & np.isnan(yf)) | (np.abs(x - yf) <= 1e-12 * np.maximum(1.0, np.abs(x)))
+        return ~same
+    return np.array([u != v for u, v in zip(x.tolist(), y.tolist(), strict=True)], dtype=bool)
 
 
 def verify_rows(c: dict[str, np.ndarray], robot: RobotModel, swing_paths: list[np.ndarray] | None = None,

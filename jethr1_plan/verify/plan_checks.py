@@ -304,13 +304,14 @@ def _zmp_column(x: RowData) -> list[Finding]:
        needs=("thrust_window_lo_n", "zmp_margin_m"))
 def _margin_column(x: RowData) -> list[Finding]:
     margin_w = x.c["zmp_margin_m"].astype(float)
-    out = []
-    for i, poly in enumerate(x.polygons):
-        if np.all(np.isfinite(x.zmp[i])):
-            margin = float(polygon_margin(x.zmp[i], poly))
-            if not abs(margin - margin_w[i]) <= TOL_M:
-                out.append((i, f"written {margin_w[i]:.6f} m, recomputed {margin:.6f} m"))
-    return out
+    margin = np.full(x.n, np.nan)
+    one = x.on_one_sole  # about the sole's centre, all at once
+    margin[one] = polygon_margin(x.zmp[one] - x.sole_centre[one], x.centred_sole())
+    for i, poly in x.polygons.items():
+        margin[i] = polygon_margin(x.zmp[i], poly)
+    check = np.isfinite(x.zmp).all(axis=1)
+    return rows(check & ~(np.abs(margin - margin_w) <= TOL_M), lambda i: f"written {margin_w[i]:.6f} m, recomputed "
+                f"{margin[i]:.6f} m")
 
 
 @check("thrust window column wrong", "the written thrust window is the posture's", needs=("thrust_window_lo_n",))
@@ -348,19 +349,19 @@ def _tolerance(x: RowData) -> list[Finding]:
     tol = Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
     shrink = float(x.balance.get("sole_margin_m", 0.0))
     com = x.fk["com"][:, :2]
-    out = []
-    for i in range(x.n):
-        if not np.all(np.isfinite(x.zmp[i])):
-            continue
-        soles = [x.support[i]] if x.single[i] and x.support[i] in SIDES else list(SIDES)
-        shrunk = [sole_polygon(x.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink) for s in soles]
-        region = shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))
-        slack = float(balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, r.mass_kg, tol))
-        if slack < -SLACK_TOL_NM:
-            out.append((i, f"the written thrust keeps the ZMP in the support only without ±{100 * tol.thrust:g} % "
-                        f"thrust, ±{100 * tol.mass:g} % mass and {1000 * tol.com_m:g} mm CoM error "
-                        f"({-slack:.4f} N·m short)"))
-    return out
+    slack = np.full(x.n, np.nan)
+    check = np.isfinite(x.zmp).all(axis=1)
+    one = check & x.on_one_sole  # about the sole's centre, all at once
+    centre = x.sole_centre[one]
+    slack[one] = balance_slack(com[one] - centre, x.fk["fans"][one] - centre[:, None], x.thrust[one],
+                               x.centred_sole(shrink), r.mass_kg, tol)
+    for i in np.flatnonzero(check & ~x.on_one_sole):
+        region = convex_hull(np.vstack([sole_polygon(x.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink)
+                                        for s in SIDES]))
+        slack[i] = balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, r.mass_kg, tol)
+    return rows(check & (slack < -SLACK_TOL_NM), lambda i: f"the written thrust keeps the ZMP in the support only "
+                f"without ±{100 * tol.thrust:g} % thrust, ±{100 * tol.mass:g} % mass and {1000 * tol.com_m:g} mm CoM "
+                f"error ({-slack[i]:.4f} N·m short)")
 
 
 # --- the analysis ------------------------------------------------------------------------------

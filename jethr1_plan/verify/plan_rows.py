@@ -14,8 +14,8 @@ import numpy as np
 from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, other_side, pose_from_quaternion, sole_polygon
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["OPTIONAL", "TEXT", "RowData", "distance_to_polyline", "expected_sequence", "ground_references",
-           "scenario_feet"]
+__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
+           "ground_references", "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
 OPTIONAL = ("swing_", "thrust_window_")  # empty (NaN) where there is no swing sole, or no window
@@ -78,38 +78,49 @@ class RowData:
         """Per row, from the written pelvis pose and joints (fresh PlaCo robot): both sole poses (n, 4, 4),
         the CoM (n, 3), every fan's ground point (n, F, 2); with the torque columns also the static
         torques under the written thrust (n, J) and each leg's κ (n, 2). A row whose pose is not finite
-        is left at zero (NaN torques): it fails "not a number"."""
-        from jethr1_plan.physics.statics import leg_condition_numbers, static_torques
+        is left at zero (NaN torques): it fails "not a number".
 
+        PlaCo gives each row's frames, CoM, gravity torques and Jacobians; the torques and κ are then
+        solved for every row at once (:func:`batched_statics`), as ``physics.statics`` does row by row."""
         robot, c, n = self.robot, self.c, self.n
         wrapper = robot.wrapper()
+        nf, nv = len(robot.fans), 6 + len(robot.joint_names)
         out: dict[str, Any] = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES},
-                               "fans": np.zeros((n, len(robot.fans), 2)), "com": np.zeros((n, 3)),
+                               "fans": np.zeros((n, nf, 2)), "com": np.zeros((n, 3)),
                                "tau": np.full((n, len(robot.joint_names)), np.nan), "kappa": np.full((n, 2), np.nan)}
         pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]], axis=1).astype(float)
         posed = np.isfinite(pelvis).all(axis=1) & np.isfinite(self.q_written).all(axis=1)
-        for i in np.flatnonzero(posed):
-            quat = self.quat[i]
-            norm = math.sqrt(float(quat @ quat))
-            if not math.isfinite(norm) or norm < 1e-9:
-                continue
-            wrapper.set_T_world_fbase(pose_from_quaternion(pelvis[i].tolist(), (quat / norm).tolist()))
+        norms = np.array([math.sqrt(float(q @ q)) for q in self.quat])
+        posed &= np.isfinite(norms) & (norms >= 1e-9)
+        rows_posed = np.flatnonzero(posed)
+        statics = self.statics
+        gravity = np.zeros((n, nv))
+        jac = {s: np.zeros((n, 6, nv)) for s in SIDES}
+        fan_z = np.zeros((n, nf, nv))  # the vertical-force row of each fan's Jacobian
+        soles = [robot.legs[s].sole for s in SIDES]
+        fan_frames = [fan.frame for fan in robot.fans]
+        feet, fans_xy, com = out["feet"], out["fans"], out["com"]
+        for i in rows_posed.tolist():
+            quat = self.quat[i] / norms[i]
+            wrapper.set_T_world_fbase(pose_from_quaternion(pelvis[i].tolist(), quat.tolist()))
             wrapper.state.q[7:] = self.q[i]
             wrapper.update_kinematics()
-            for s in SIDES:
-                out["feet"][s][i] = wrapper.get_T_world_frame(robot.legs[s].sole)
-            for k, fan in enumerate(robot.fans):
-                out["fans"][i, k] = wrapper.get_T_world_frame(fan.frame)[:2, 3]
-            out["com"][i] = wrapper.com_world()
-            if self.statics:
-                sup = c["support"][i]
-                supports = SIDES if sup == "both" else ((sup,) if sup in SIDES else ())
-                if supports:
-                    thrust = self.thrust[i]
-                    out["tau"][i], _ = static_torques(robot, wrapper, np.where(np.isfinite(thrust), thrust, 0.0),
-                                                      supports)
-                kappa = leg_condition_numbers(robot, wrapper)
-                out["kappa"][i] = kappa["left"], kappa["right"]
+            for s, sole in zip(SIDES, soles, strict=True):
+                feet[s][i] = wrapper.get_T_world_frame(sole)
+            for k, frame in enumerate(fan_frames):
+                fans_xy[i, k] = wrapper.get_T_world_frame(frame)[:2, 3]
+            com[i] = wrapper.com_world()
+            if statics:
+                gravity[i] = wrapper.generalized_gravity()
+                for s, sole in zip(SIDES, soles, strict=True):
+                    jac[s][i] = wrapper.frame_jacobian(sole, "local_world_aligned")
+                for k, frame in enumerate(fan_frames):
+                    fan_z[i, k] = wrapper.frame_jacobian(frame, "local_world_aligned")[2]
+        if statics and len(rows_posed):
+            thrust = np.where(np.isfinite(self.thrust), self.thrust, 0.0)
+            tau, kappa = batched_statics(robot, gravity[rows_posed], {s: jac[s][rows_posed] for s in SIDES},
+                                         fan_z[rows_posed], thrust[rows_posed], self.support[rows_posed])
+            out["tau"][rows_posed], out["kappa"][rows_posed] = tau, kappa
         return out
 
     @cached_property
@@ -130,49 +141,73 @@ class RowData:
             return (w * self.fk["com"][:, :2] - moment) / (w - self.thrust.sum(axis=1))[:, None]
 
     @cached_property
-    def polygons(self) -> list[np.ndarray]:
-        """Per row, the real support polygon: the support sole, or the hull of both soles."""
-        out = []
-        for i in range(self.n):
-            soles = [SIDES.index(self.support[i])] if self.single[i] and self.support[i] in SIDES else [0, 1]
-            polys = [sole_polygon(self.pos[SIDES[k]][i, :2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m)
-                     for k in soles]
-            out.append(polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys)))
-        return out
+    def on_one_sole(self) -> np.ndarray:
+        """(n,) rows supported by one sole: their support polygon is that sole's rectangle."""
+        return self.single & np.isin(self.support.astype(str), SIDES)
+
+    @cached_property
+    def sole_centre(self) -> np.ndarray:
+        """(n, 2) the support sole's centre [m] in the rows on one sole (the right sole's elsewhere)."""
+        return np.where((self.support == "left")[:, None], self.pos["left"][:, :2], self.pos["right"][:, :2])
+
+    def centred_sole(self, margin_m: float = 0.0) -> np.ndarray:
+        """(4, 2) a sole's rectangle about the origin, shrunk by ``margin_m`` [m]: a row on one sole has this
+        polygon moved by :attr:`sole_centre` (its checks move the points instead, the polygon staying here)."""
+        return sole_polygon((0.0, 0.0), 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
+
+    @cached_property
+    def polygons(self) -> dict[int, np.ndarray]:
+        """Per row not on one sole (double support), the real support polygon: the hull of both soles."""
+        return {int(i): convex_hull(np.vstack([sole_polygon(self.pos[s][i, :2], 0.0, self.robot.sole_length_m,
+                                                            self.robot.sole_width_m) for s in SIDES]))
+                for i in np.flatnonzero(~self.on_one_sole)}
 
     @cached_property
     def windows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per row, the thrust window [N] of the fans that carry thrust, in their shares (in a swing row
         without thrust: the first fan the swing may use, its sole's), and where it was computed (a row
-        with a written window, a ZMP and a fan to share)."""
+        with a written window, a ZMP and a fan to share). Rows on one sole are computed together, per set
+        of carrying fans, about the sole's centre."""
         from jethr1_plan.physics.balance import shared_window, thrust_window
 
         robot = self.robot
+        nf = len(robot.fans)
         fmax = np.array([f.max_thrust_n for f in robot.fans])
         lo, hi, computed = np.full(self.n, np.nan), np.full(self.n, np.nan), np.zeros(self.n, dtype=bool)
         written = self.c["thrust_window_lo_n"].astype(float)
-        com = self.fk["com"][:, :2]
-        for i, poly in enumerate(self.polygons):
-            if not (np.all(np.isfinite(self.zmp[i])) and np.isfinite(written[i])):
-                continue
-            total = float(np.sum(self.thrust[i]))
+        com, fans = self.fk["com"][:, :2], self.fk["fans"]
+        total = self.thrust.sum(axis=1)
+        shares = np.zeros((self.n, nf))
+        for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1) & np.isfinite(written)):
             share = None
-            if total > 0:
-                share = self.thrust[i] / total
+            if total[i] > 0:
+                share = self.thrust[i] / float(np.sum(self.thrust[i]))
             elif self.single[i] and self.support[i] in SIDES:
                 usable = robot.swing_fans(other_side(self.support[i]))
                 if usable:
-                    share = np.isin(np.arange(len(fmax)), usable[:1]).astype(float)
-            if share is None:
-                continue
-            computed[i] = True
-            carry = np.flatnonzero(share > 0)
+                    share = np.isin(np.arange(nf), usable[:1]).astype(float)
+            if share is not None:
+                computed[i], shares[i] = True, share
+
+        def window(rows: np.ndarray, poly: np.ndarray, origin: np.ndarray) -> None:
+            """The window of ``rows`` (one set of carrying fans) in ``poly`` with the points moved by -``origin``."""
+            carry = np.flatnonzero(shares[rows[0]] > 0)
+            c, f = com[rows] - origin, fans[rows][:, carry] - origin[:, None]
             if len(carry) == 1:
-                w_lo, w_hi = thrust_window(com[i], self.fk["fans"][i, carry[0]], poly, robot.mass_kg)
-                lo[i], hi[i] = float(w_lo), min(float(w_hi), float(fmax[carry[0]]))
+                w_lo, w_hi = thrust_window(c, f[:, 0], poly, robot.mass_kg)
+                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, fmax[carry[0]])
             else:
-                w_lo, w_hi = shared_window(com[i], self.fk["fans"][i, carry], share[carry], poly, robot.mass_kg)
-                lo[i], hi[i] = float(w_lo), min(float(w_hi), float(np.min(fmax[carry] / share[carry])))
+                sh = shares[rows][:, carry]
+                w_lo, w_hi = shared_window(c, f, sh, poly, robot.mass_kg)
+                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, np.min(fmax[carry] / sh, axis=1))
+
+        one = computed & self.on_one_sole
+        carrying = shares > 0
+        for pattern in np.unique(carrying[one], axis=0):
+            at = np.flatnonzero(one & np.all(carrying == pattern, axis=1))
+            window(at, self.centred_sole(), self.sole_centre[at])
+        for i in np.flatnonzero(computed & ~self.on_one_sole):
+            window(np.array([i]), self.polygons[int(i)], np.zeros((1, 2)))
         return lo, hi, computed
 
     @cached_property
@@ -244,3 +279,36 @@ def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
     return float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
+
+
+def batched_statics(robot: RobotModel, gravity: np.ndarray, jac: dict[str, np.ndarray], fan_z: np.ndarray,
+                    thrust_n: np.ndarray, support: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Static torques (m, J) [N·m] and each leg's κ (m, 2) of m postures at once, from PlaCo's
+    generalised gravity (m, 6+J), the soles' world-aligned Jacobians (m, 6, 6+J) per side and the
+    vertical-force row of each fan's (m, F, 6+J), under thrusts (m, F) [N] with ``support`` (m,) on the
+    ground: the equations of ``physics.statics.static_torques`` (the six floating-base rows fix the
+    support wrench, exactly on one sole, least-norm on both) and ``leg_condition_numbers``. A row whose
+    support is neither sole nor both keeps NaN torques."""
+    m, nj = len(gravity), gravity.shape[1] - 6
+    rhs = gravity - np.einsum("mf,mfv->mv", thrust_n, fan_z)
+    tau = np.full((m, nj), np.nan)
+    for sup in (*SIDES, "both"):
+        at = np.flatnonzero(support == sup)
+        if not len(at):
+            continue
+        jc = np.concatenate([jac[s][at] for s in (SIDES if sup == "both" else (sup,))], axis=1)  # (k, 6c, 6+J)
+        a = np.transpose(jc[:, :, :6], (0, 2, 1))  # (k, 6, 6c): base rows of J_cᵀ
+        b = rhs[at, :6]
+        if sup == "both":  # the least-norm wrench: w = Aᵀ (A Aᵀ)⁻¹ b
+            y = np.linalg.solve(a @ np.transpose(a, (0, 2, 1)), b[..., None])
+            w = (np.transpose(a, (0, 2, 1)) @ y)[..., 0]
+        else:
+            w = np.linalg.solve(a, b[..., None])[..., 0]
+        tau[at] = rhs[at, 6:] - np.einsum("kcj,kc->kj", jc[:, :, 6:], w)
+    kappa = np.empty((m, 2))
+    for k, side in enumerate(SIDES):
+        legs = jac[side][:, :, 6 + np.asarray(robot.legs[side].index)]
+        sv = np.linalg.svd(legs, compute_uv=False)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kappa[:, k] = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+    return tau, kappa

@@ -33,7 +33,7 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
-from jethr1_plan.verify.common import TOL_M, TOL_T, Failure
+from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
 from jethr1_plan.walking.analysis import ACCELERATION_TOL, EDGE_ROWS, SuccessCriteria
 from jethr1_plan.walking.ik import IKSettings
 from jethr1_plan.walking.timeline import Timeline, polygon_of
@@ -42,13 +42,6 @@ __all__ = ["is_walk", "verify_walk"]
 
 TOL_ZMP_M = 1e-5  # the recomputed ZMP differentiates written numbers twice [m]
 TOL_TAU_NM = 1e-6  # and so do the recomputed torques [N·m]
-
-
-def is_walk(summary: dict | None, header: list[str] | None = None) -> bool:
-    """Whether a folder's files are a walk's (summary kind, or a walk's CSV header)."""
-    if summary is not None:
-        return summary.get("kind") == "walk"
-    return header is not None and "yaw_ref_rad" in header
 
 
 def _number(summary: dict, key: str, src: str) -> float:

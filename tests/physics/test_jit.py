@@ -86,3 +86,25 @@ def test_kernels_leave_other_librarys_cache_setting_alone(monkeypatch):
     assert numba.config.CACHE_DIR == ""
     assert k._cache._cache_path.startswith(cache_dir())
 
+
+
+def test_a_second_process_loads_the_kernels_from_the_cache_without_compiling():
+    """Issue 28: a command pays for loading compiled kernels, never for compiling them again."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import numpy as np\n"
+            "from jethr1_plan.geometry import sole_polygon\n"
+            "from jethr1_plan.kinematics.closed_form import solve_postures\n"
+            "from jethr1_plan.physics.balance import thrust_window\n"
+            "from jethr1_plan.robot.model import load_robot\n"
+            "thrust_window(np.zeros((2, 2)), np.ones((2, 2)), sole_polygon((0, 0), 0.0, 0.2, 0.1), 6.8)\n"
+            "feet = {'left': (np.array([0.0, 0.09, 0.0]), 0.0), 'right': (np.array([0.0, -0.09, 0.0]), 0.0)}\n"
+            "solve_postures(load_robot('jethr1'), np.array([[0.0, 0.0, 0.3]]), 0.0, feet)\n")
+    env = {**os.environ, "NUMBA_DEBUG_CACHE": "1"}
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+            for _ in range(2)]  # the first may compile (a cold cache); the second must not
+    said = [line for line in (runs[1].stdout + runs[1].stderr).splitlines() if line.startswith("[cache]")]
+    assert sum(line.startswith("[cache] data loaded") for line in said) == 2  # both kernels from the cache
+    assert all(" loaded from " in line for line in said)  # nothing saved: nothing was compiled

@@ -95,3 +95,11 @@ def test_a_robot_yaml_missing_a_key_is_rejected(tmp_path):
 
     with pytest.raises(RobotModelError, match=r"servos\.stall_torque_nm"):
         load_robot(str(d))
+
+
+def test_a_robot_named_and_the_same_robot_by_its_yaml_path_are_loaded_once():
+    from jethr1_plan.robot.model import ROBOTS_DIR, load_robot
+
+    by_name = load_robot("jethr1")
+    assert load_robot(ROBOTS_DIR / "jethr1" / "jethr1.yaml") is by_name  # (a plan folder names its robot so)
+    assert load_robot(str(ROBOTS_DIR / "jethr1")) is by_name

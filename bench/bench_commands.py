@@ -1,0 +1,153 @@
+"""Whole commands as users feel them, against a bare PlaCo loop measured in the same run.
+
+Each command runs as a shell would run it (a fresh process: interpreter start, imports, compiled
+kernels loaded from numba's cache, the work, the files written), ``repeats`` times, interleaved with
+the yardstick so that both see the same load; the best wall time of each is kept, and the CPU time
+(user + system) of that run is printed beside it.
+
+The yardstick (issue 28): 60,000 bare PlaCo evaluations in this process, each one candidate as the
+planner's evaluator sees it: the trunk put at a candidate pose, the legs warm-started from the previous
+candidate, three IK iterations (``update_kinematics`` + ``solve``) on the two sole tasks, then
+``update_kinematics`` + ``com_world`` (docs/benchmarks.md). Target: ``jethr1 plan`` of the trial at
+most 1 unit.
+
+Usage: ``python bench/bench_commands.py [--repeats N] [--jethr1 PREFIX] [--baseline PREFIX]``: a prefix is
+the command that runs a jethr1 (default: this venv's); ``--baseline`` times a second one (another checkout,
+e.g. ``"env PYTHONPATH=/path/to/old .venv/bin/python -P -c 'from jethr1_plan.cli import entry; entry()'"``;
+``-P``: the commands run in this repository, whose own package ``python -c`` would import first) in the same
+run, interleaved, for a before/after table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+EVALUATIONS = 60_000
+IK_ITERATIONS = 3
+
+
+def bare_evaluations_seconds(n: int = EVALUATIONS, iterations: int = IK_ITERATIONS) -> tuple[float, float]:
+    """(wall [s], CPU [s]) of ``n`` bare PlaCo evaluations (trunk pose, warm IK, CoM) of Jet-HR1."""
+    import placo
+
+    from jethr1_plan.robot.model import load_robot
+
+    model = load_robot("jethr1")
+    robot = model.wrapper()
+    solver = placo.KinematicsSolver(robot)
+    solver.mask_fbase(True)
+    tasks = []
+    for side in ("left", "right"):
+        sole = model.legs[side].sole
+        task = solver.add_frame_task(sole, np.eye(4))
+        task.configure(sole, "soft", 1.0, 1.0)
+        T = np.eye(4)
+        T[:3, 3] = (0.0, 0.09 if side == "left" else -0.09, 0.0)
+        task.T_world_frame = T
+        tasks.append(task)
+    q = np.clip(np.zeros(len(model.joint_names)), model.lower_rad, model.upper_rad)
+    for side in ("left", "right"):  # bent knees: the planner's seed
+        q[np.asarray(model.legs[side].index)] = (0.0, 0.0, -0.5, 1.0, -0.5, 0.0)
+    robot.state.q[7:] = q
+    rng = np.random.default_rng(0)
+    trunk = np.tile(np.eye(4), (n, 1, 1))
+    trunk[:, :3, 3] = np.array([0.0, 0.0, 0.30]) + rng.uniform(-0.03, 0.03, (n, 3))
+    w0, c0 = time.perf_counter(), time.process_time()
+    for k in range(n):
+        robot.set_T_world_fbase(trunk[k])
+        for _ in range(iterations):
+            robot.update_kinematics()
+            solver.solve(True)
+        robot.update_kinematics()
+        robot.com_world()
+    return time.perf_counter() - w0, time.process_time() - c0
+
+
+def run_command(argv: list[str], cwd: Path) -> tuple[float, float, int]:
+    """(wall [s], CPU of the process and its children [s], exit code) of one command."""
+    w0 = time.perf_counter()
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - w0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    if proc.stderr:
+        proc.stderr.close()
+    if proc.returncode not in (0, 5, 6):
+        raise SystemExit(f"{shlex.join(argv)} exited {proc.returncode}:\n{err[-2000:]}")
+    return wall, usage.ru_utime + usage.ru_stime, proc.returncode
+
+
+def commands(jethr1: list[str], out: Path) -> dict[str, list[str]]:
+    """The whole commands timed (in order: later ones read what earlier ones wrote)."""
+    py = [sys.executable, "-c"]
+    return {
+        "imports only: numpy, placo, numba, scipy.optimize, mcap":
+            [*py, "import numpy, placo, numba, scipy.optimize, mcap"],
+        "jethr1 --help": [*jethr1, "--help"],
+        "jethr1 plan configs/jet_hr1_trial.yaml": [*jethr1, "plan", "configs/jet_hr1_trial.yaml", "-o",
+                                                   str(out), "--no-progress"],
+        "jethr1 verify <the trial's plan>": [*jethr1, "verify", str(out / "jet_hr1_trial")],
+        "jethr1 simulate <the trial's plan>": [*jethr1, "simulate", str(out / "jet_hr1_trial"), "--no-progress"],
+        "jethr1 walk configs/walks/jethr1_walk.yaml": [*jethr1, "walk", "configs/walks/jethr1_walk.yaml", "-o",
+                                                       str(out)],
+        "jethr1 verify <the walk>": [*jethr1, "verify", str(out / "jethr1_walk")],
+        "jethr1 robot show": [*jethr1, "robot", "show"],
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each (the best is kept)")
+    ap.add_argument("--jethr1", default=None, help="command prefix that runs jethr1 (default: this venv's)")
+    ap.add_argument("--baseline", default=None, help="command prefix of another jethr1 (e.g. an older checkout), "
+                    "timed in the same run beside this one")
+    args = ap.parse_args()
+    kinds = {"": shlex.split(args.jethr1) if args.jethr1 else [str(Path(sys.executable).with_name("jethr1"))]}
+    if args.baseline:
+        kinds = {"baseline": shlex.split(args.baseline), "this": kinds[""]}
+    out = Path(tempfile.mkdtemp(prefix="bench_commands_"))
+    best: dict[tuple[str, str], tuple[float, float]] = {}
+    bare: list[tuple[float, float]] = []
+    try:
+        cmds = {kind: commands(prefix, out / (kind or "this")) for kind, prefix in kinds.items()}
+        for kind in kinds:  # warm the OS's file cache and numba's
+            run_command(cmds[kind]["jethr1 plan configs/jet_hr1_trial.yaml"], ROOT)
+        for _ in range(args.repeats):
+            bare.append(bare_evaluations_seconds())
+            for kind in kinds:
+                for name, argv in cmds[kind].items():
+                    if kind == "baseline" and name.startswith("imports only"):
+                        continue
+                    wall, cpu, _ = run_command(argv, ROOT)
+                    if (kind, name) not in best or wall < best[kind, name][0]:
+                        best[kind, name] = (wall, cpu)
+        unit_wall, unit_cpu = min(bare)
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    print(f"whole commands, a fresh process each, best of {args.repeats} (its wall time, and the CPU time of that "
+          f"run), against {EVALUATIONS:,} bare PlaCo evaluations ({IK_ITERATIONS} IK iterations + CoM each) in this "
+          "process in the same run (1 unit; CPU against CPU, the steadier figure on a shared machine):")
+    print(f"  {'command':58s} {'wall [s]':>9s} {'CPU [s]':>8s} {'units (wall)':>13s} {'units (CPU)':>12s}")
+    print(f"  {'bare loop, 60k evaluations':58s} {unit_wall:9.2f} {unit_cpu:8.2f} {1.0:13.2f} {1.0:12.2f}")
+    for (kind, name), (wall, cpu) in sorted(best.items(), key=lambda kv: (list(cmds[kv[0][0]]).index(kv[0][1]),
+                                                                         kv[0][0])):
+        label = f"{name} ({kind})" if kind else name
+        target = "  target <= 1" if name.startswith("jethr1 plan") else ""
+        print(f"  {label:58s} {wall:9.2f} {cpu:8.2f} {wall / unit_wall:13.2f} {cpu / unit_cpu:12.2f}{target}")
+    print(f"  one bare evaluation: {unit_wall / EVALUATIONS * 1e6:.1f} us wall, "
+          f"{unit_cpu / EVALUATIONS * 1e6:.1f} us CPU")
+
+if __name__ == "__main__":
+    main()
