@@ -20,6 +20,7 @@ from jethr1_plan.cli.compare import compare_cmd
 from jethr1_plan.cli.ditch_curve import ditch_curve_cmd
 from jethr1_plan.cli.plan import plan
 from jethr1_plan.cli.reach import reach_cmd
+from jethr1_plan.cli.replan_steps import replan_steps_cmd
 from jethr1_plan.cli.robot import robot
 from jethr1_plan.cli.route import route_cmd
 from jethr1_plan.cli.simulate import simulate_cmd
@@ -40,7 +41,7 @@ def main() -> None:
 
 
 for _command in (robot, plan, balance_space, batch, verify, compare_cmd, reach_cmd, ditch_curve_cmd, simulate_cmd,
-                 walk_cmd, walk_sweep_cmd, view_cmd, route_cmd, terrain):
+                 replan_steps_cmd, walk_cmd, walk_sweep_cmd, view_cmd, route_cmd, terrain):
     main.add_command(_command)
 
 
