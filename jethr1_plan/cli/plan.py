@@ -105,7 +105,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
     share = rob.get("tolerance_share")
     if share is not None:
         at, tol = share["least_at"], share["tolerance"]
-        if share["least"] >= 1.0:
+        if share["rows_below_full"] == 0:
             c.print("tolerance share 1 on every row: the whole tolerance holds")
         else:
             c.print(f"least tolerance share {share['least']:.3f} (step {at['step']} {at['phase']} row {at['row']}, "

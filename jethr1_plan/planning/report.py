@@ -13,7 +13,8 @@ from jethr1_plan.physics.statics import KAPPA_WARNING
 from jethr1_plan.planning.results import PlanResult
 from jethr1_plan.planning.sequence import Rows
 
-__all__ = ["describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "share_summary", "smoothness"]
+__all__ = ["FULL_SHARE", "describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "share_summary",
+           "smoothness"]
 
 
 def smoothness(p_body: np.ndarray, thrust_n: np.ndarray) -> dict:
@@ -71,9 +72,15 @@ def robustness_summary(rows: Rows, fans: list[str]) -> dict:
     return out
 
 
+#: a row share at least this is the whole tolerance: a row whose thrust sits exactly on its window's end
+#: under the whole tolerance bisects to 1 − 1e-13 (``physics.share.row_shares``, to 1e-12)
+FULL_SHARE = 1.0 - 1e-9
+
+
 def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
     """The least tolerance share over the rows (``tolerance_share``), where it occurs, the tolerance it
-    means (the plan's tolerance × the share), and how many rows hold less than all of it; None where
+    means (the plan's tolerance × the share), and how many rows hold less than all of it (below
+    ``FULL_SHARE``); None where
     the rows carry no share (the minimal policy)."""
     share = rows.array("tolerance_share").astype(float)
     if not np.isfinite(share).any():
@@ -83,7 +90,7 @@ def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
     t = tol.scaled(least)
     return {"least": least, "least_at": _where(rows, i),
             "tolerance": {"thrust_error": t.thrust, "mass_error": t.mass, "com_error_m": t.com_m},
-            "rows_below_full": int(np.sum(share < 1.0))}
+            "rows_below_full": int(np.sum(share < FULL_SHARE))}
 
 
 def plan_summary(result: PlanResult) -> dict:
