@@ -7,6 +7,7 @@ planned from where the previous rehearsal measured the soles). docs/robust_plann
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
@@ -18,9 +19,11 @@ JETHR1 = str(ROOT / ".venv" / "bin" / "jethr1")
 
 
 def main(argv: list[str]) -> int:
-    args = [a for a in argv if not a.startswith("--")]
-    config = Path(args[0]) if args else ROOT / "configs" / "scattered_steps.yaml"
-    controller = "feedback" if "--controller" in argv and "feedback" in argv else "feedforward"
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("config", nargs="?", type=Path, default=ROOT / "configs" / "scattered_steps.yaml")
+    ap.add_argument("--controller", choices=("feedforward", "feedback"), default="feedforward")
+    args = ap.parse_args(argv)
+    config, controller = args.config, args.controller
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([JETHR1, "plan", str(config), "-o", tmp, "--no-progress"], check=True, capture_output=True)
         folder = next(p for p in Path(tmp).iterdir() if p.is_dir())

@@ -194,7 +194,8 @@ def curve_png(doc: dict) -> bytes:
     top.plot(gaps * 1000, share, "o-", ms=4, color="tab:green")
     top.set_ylabel("largest share of the tolerance")
     top.set_ylim(-0.02, 1.05)
-    top.set_title(f"{doc['robot']}, {doc['optimiser']}: the most robust crossing of each ditch (tolerance {whole})")
+    top.set_title(f"{doc['robot']}, {doc['optimiser']}: the most robust crossing of each ditch\n"
+                  f"(shares of the tolerance {whole})")
     top.grid(alpha=0.3)
     peak = np.array([np.nan if r["share"] is None else r["max_thrust_n"] for r in rob])
     ax.plot(gaps * 1000, peak, "o-", ms=4, color="tab:green", lw=2, label="most robust plan (share above)")
