@@ -57,3 +57,11 @@ def test_the_twin_measures_the_planned_soles_on_the_plans_first_row(tmp_path):
     for side in ("left", "right"):
         np.testing.assert_allclose(soles[side][0], sc.start[side], atol=1e-6)
         assert abs(soles[side][1]) < 1e-6
+
+
+def test_a_bad_scenario_is_exit_2_with_nothing_written(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nsteps: 3\n")
+    for path in (tmp_path / "missing.yaml", bad):
+        assert run(["replan-steps", str(path), "-o", str(tmp_path / "out"), "--no-progress"]) == 2
+    assert not (tmp_path / "out").exists()
