@@ -65,3 +65,21 @@ def test_a_bad_scenario_is_exit_2_with_nothing_written(tmp_path):
     for path in (tmp_path / "missing.yaml", bad):
         assert run(["replan-steps", str(path), "-o", str(tmp_path / "out"), "--no-progress"]) == 2
     assert not (tmp_path / "out").exists()
+
+
+def test_replan_steps_plans_rehearses_and_measures_a_step_in_the_twin(tmp_path, capsys):
+    """side_step end to end: the step's plan folder verifies, the rehearsal survives, and the landing measured
+    in the twin lies within 10 mm of the scenario's landing (its error the measured sole's, not the plan's)."""
+    import json
+
+    out = tmp_path / "rs"
+    assert run(["replan-steps", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--json",
+                "--no-progress"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert json.loads((out / "side_step" / "replan_steps.json").read_text()) == doc
+    (step,) = doc["steps"]
+    assert doc["all_survived"] and step["survived"] and step["feasible"]
+    landed, target = np.array(step["landed_m"]), np.array(step["landing_target_m"])
+    assert step["landing_error_m"] == pytest.approx(np.hypot(*(landed - target)[:2]))
+    assert 0.0 < step["landing_error_m"] < 0.010 and abs(landed[2] - target[2]) < 0.002
+    assert run(["verify", str(out / "side_step" / step["folder"])]) == 0
