@@ -113,7 +113,8 @@ SCHEMA = _obj({
                      "policy": {"enum": list(POLICIES)},
                      "robust": _obj({"thrust_error": {"type": "number", "minimum": 0, "maximum": 0.9},
                                      "mass_error": {"type": "number", "minimum": 0, "maximum": 0.9},
-                                     "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1}})}),
+                                     "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1},
+                                     "min_share": _prob})}),
     "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": {"type": "number", "minimum": -7, "maximum": 7},
                       "horizon_s": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
                       "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
@@ -176,7 +177,9 @@ class BalanceConfig:
     ``policy`` chooses the thrust of every posture: ``minimal`` is Paper A's least thrust H(P_body)
     (the ZMP on the sole's edge); ``robust`` the least thrust whose ZMP stays in the sole under
     every model error within ``robust`` (``balance.thrust_window``), and the optimisers choose
-    P_body for it.
+    P_body for it; where no posture of a sample reaches that tolerance, the sample takes the largest
+    share of it one does (``tolerance_share``), and a share below ``min_share`` makes the plan
+    infeasible.
     """
 
     thrust_max_n: float = math.inf  # the limit on every fan [N]; a scenario's defaults to its robot's largest fan
@@ -184,6 +187,7 @@ class BalanceConfig:
     sole_margin_m: float = 0.0
     policy: str = "robust"
     robust: Tolerance = ROBUST_DEFAULT
+    min_share: float = 0.0  # the least share of ``robust`` a plan may take at any sample (0: any margin beats none)
 
     @property
     def tolerance(self) -> Tolerance:
@@ -315,9 +319,11 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")
-    robust = {TOLERANCE_KEYS[k]: v for k, v in bal.pop("robust", {}).items()}
+    robust_doc = dict(bal.pop("robust", {}))
+    min_share = robust_doc.pop("min_share", 0.0)
+    robust = {TOLERANCE_KEYS[k]: v for k, v in robust_doc.items()}
     balance = fill_dataclass(BalanceConfig(thrust_max_n=fan_max), bal,
-                             robust=fill_dataclass(BalanceConfig().robust, robust))
+                             robust=fill_dataclass(BalanceConfig().robust, robust), min_share=min_share)
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
     timing = fill_dataclass(Timing(), doc.get("timing", {}))

@@ -30,6 +30,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "ditch-curve": ("ditch_curve", "ditch_curve_cmd"),
     "plan": ("plan", "plan"),
     "reach": ("reach", "reach_cmd"),
+    "replan-steps": ("replan_steps", "replan_steps_cmd"),
     "robot": ("robot", "robot"),
     "route": ("route", "route_cmd"),
     "simulate": ("simulate", "simulate_cmd"),

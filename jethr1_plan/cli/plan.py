@@ -102,6 +102,16 @@ def _report_plan(summary: dict, folder: Path) -> None:
             line += (f"; narrowest thrust window [{lo:.2f}, {hi:.2f}] N (step {at['step']} {at['phase']} row "
                      f"{at['row']}, t = {at['time_s']:.2f} s)")
         c.print(line)
+    share = rob.get("tolerance_share")
+    if share is not None:
+        at, tol = share["least_at"], share["tolerance"]
+        if share["rows_below_full"] == 0:
+            c.print("tolerance share 1 on every row: the whole tolerance holds")
+        else:
+            c.print(f"least tolerance share {share['least']:.3f} (step {at['step']} {at['phase']} row {at['row']}, "
+                    f"t = {at['time_s']:.2f} s): there the plan holds ±{100 * tol['thrust_error']:.1f} % thrust, "
+                    f"±{100 * tol['mass_error']:.1f} % mass, {1000 * tol['com_error_m']:.1f} mm of CoM error; "
+                    f"{share['rows_below_full']} rows below the whole tolerance")
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
     c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
             "file's /robot_description; its rehearsal, simulation.mcap, plays beside it); Rerun: jethr1 view "

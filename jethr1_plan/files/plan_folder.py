@@ -172,9 +172,9 @@ class PlanFolder:
         return out
 
 
-#: number columns that may be empty (NaN): no swing sole in a transfer, no thrust window
+#: number columns that may be empty (NaN): no swing sole in a transfer, no thrust window, no tolerance
 OPTIONAL_PREFIXES = ("swing_", "thrust_window_")
-OPTIONAL_NUMBER_COLUMNS = frozenset({"zmp_margin_m"})
+OPTIONAL_NUMBER_COLUMNS = frozenset({"zmp_margin_m", "tolerance_share"})
 
 
 def _summary_rows(summary: dict | None) -> int | None:

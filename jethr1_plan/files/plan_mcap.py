@@ -52,7 +52,8 @@ PLAN_TOPICS: dict[str, Topic] = {
                            "(effort)"),
     "/thrust": Topic("jethr1_msgs/msg/Thrust", False,
                      "per row: thrust and command per fan, the thrust window (NaN where none), the ZMP margin, "
-                     "phase, support, step, sample, feasible, reason"),
+                     "the tolerance share (NaN under the minimal policy), phase, support, step, sample, feasible, "
+                     "reason"),
     "/analysis": Topic("jethr1_msgs/msg/LegAnalysis", False, "per row: κ of each leg, yaw momentum"),
     "/p_body": Topic(POSE, False, "per row: the trunk's pose `pelvis_*`"),
     "/com": Topic(POSE, False, "per row: the centre of mass `com_*_m`"),
@@ -100,6 +101,7 @@ def table_mcap(robot: RobotModel, table: dict[str, np.ndarray], cartons, paths,
         "window_lo_n": np.asarray(table["thrust_window_lo_n"], dtype=float),
         "window_hi_n": np.asarray(table["thrust_window_hi_n"], dtype=float),
         "zmp_margin_m": np.asarray(table["zmp_margin_m"], dtype=float),
+        "tolerance_share": np.asarray(table["tolerance_share"], dtype=float),
         "phase": [str(s) for s in table["phase"]], "support": [str(s) for s in table["support"]],
         "step": np.asarray(table["step"], dtype=np.int32), "sample": np.asarray(table["sample"], dtype=np.int32),
         "feasible": np.asarray(table["feasible"], dtype=bool), "reason": [str(s) for s in table["reason"]]})
@@ -176,6 +178,7 @@ def _table(by_topic: dict[str, list], source: str, robot: RobotModel) -> dict[st
     out["thrust_window_lo_n"] = np.array([m.window_lo_n for m in th], dtype=float)
     out["thrust_window_hi_n"] = np.array([m.window_hi_n for m in th], dtype=float)
     out["zmp_margin_m"] = np.array([m.zmp_margin_m for m in th], dtype=float)
+    out["tolerance_share"] = np.array([m.tolerance_share for m in th], dtype=float)
     pose = rows["/p_body"]
     for a in "xyz":
         out[f"pelvis_{a}_m"] = np.array([getattr(m.pose.position, a) for m in pose], dtype=float)

@@ -10,9 +10,11 @@ Per row: ``time_s`` [s], ``step``, ``phase`` (swing/transfer), ``sample``, ``sup
 (left/right/both), ``feasible``; the trunk pose ``pelvis_{x,y,z}_m`` and quaternion
 ``pelvis_q{x,y,z,w}``; the joints ``<joint>_rad`` in URDF order; the swing sole's sample
 ``swing_{x,y,z}_m`` (empty in transfers); per fan ``thrust_<fan>_n``; ``com_{x,y,z}_m``,
-``zmp_{x,y}_m``; the thrust window ``thrust_window_{lo,hi}_n`` (empty where none balances) and
-``zmp_margin_m``; Paper B's ``<joint>_tau_nm``, ``kappa_{left,right}``, ``yaw_momentum_nms``; the
-commands ``<joint>_cmd_rad`` and ``thrust_cmd_<fan>_n``; ``reason`` (empty on feasible rows).
+``zmp_{x,y}_m``; the thrust window ``thrust_window_{lo,hi}_n`` (empty where none balances),
+``zmp_margin_m`` and ``tolerance_share`` (the largest share of the plan's tolerance under which the
+row's posture and thrust keep the ZMP in the support, at most 1; empty under the minimal policy);
+Paper B's ``<joint>_tau_nm``, ``kappa_{left,right}``, ``yaw_momentum_nms``; the commands
+``<joint>_cmd_rad`` and ``thrust_cmd_<fan>_n``; ``reason`` (empty on feasible rows).
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ def plan_columns(joints: Sequence[str], fans: Sequence[str]) -> list[str]:
             *(f"{j}_rad" for j in joints),
             "swing_x_m", "swing_y_m", "swing_z_m", *(f"thrust_{f}_n" for f in fans),
             "com_x_m", "com_y_m", "com_z_m", "zmp_x_m", "zmp_y_m",
-            "thrust_window_lo_n", "thrust_window_hi_n", "zmp_margin_m",
+            "thrust_window_lo_n", "thrust_window_hi_n", "zmp_margin_m", "tolerance_share",
             *(f"{j}_tau_nm" for j in joints), "kappa_left", "kappa_right", "yaw_momentum_nms",
             *(f"{j}_cmd_rad" for j in joints), *(f"thrust_cmd_{f}_n" for f in fans), "reason"]
 
@@ -118,6 +120,7 @@ def plan_table(robot: RobotModel, rows: Rows) -> dict[str, np.ndarray]:
     put(("zmp_x_m", "zmp_y_m"), "zmp")
     put(("thrust_window_lo_n", "thrust_window_hi_n"), "window")
     out["zmp_margin_m"] = np.asarray(c["zmp_margin"], dtype=float)
+    out["tolerance_share"] = np.asarray(c["tolerance_share"], dtype=float)
     put([f"{j}_tau_nm" for j in joints], "tau")
     put(("kappa_left", "kappa_right"), "kappa")
     out["yaw_momentum_nms"] = np.asarray(c["yaw_momentum"], dtype=float)

@@ -72,6 +72,7 @@ float64[] thrust_cmd_n   # command to each fan, its first-order lag compensated 
 float64 window_lo_n      # least total thrust that keeps the ZMP in the support polygon [N]; NaN: none
 float64 window_hi_n      # most total thrust that keeps the ZMP in the support polygon [N]; NaN: none
 float64 zmp_margin_m     # distance of the ZMP inside the support polygon [m]
+float64 tolerance_share  # largest share of the plan's tolerance the row withstands (<= 1); NaN: minimal policy
 string phase             # swing or transfer
 string support           # left, right or both
 int32 step               # index of the step in the scenario

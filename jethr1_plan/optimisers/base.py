@@ -55,7 +55,8 @@ class SampleResult:
     best: Candidates  # a single evaluated candidate (arrays of length 1)
     fitness: float
     evaluations: int
-    phase: str  # 'initial', 'intermediate', 'exhaustive' or 'restart'
+    phase: str  # 'initial', 'intermediate', 'exhaustive', 'restart', 'sqp', 'sqp-grid', 'sqp-share' or 'share'
+    share: float = 1.0  # the share of the problem's tolerance the sample holds (robust policy; 1: all of it)
 
     @property
     def p_body(self) -> np.ndarray:

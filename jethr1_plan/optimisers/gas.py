@@ -18,13 +18,16 @@ phase is run again at that sample before the sample is declared infeasible.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
 from jethr1_plan.kinematics import PostureSolver
 from jethr1_plan.optimisers.base import GAPhase, OptimiserConfig, PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.problem import Candidates, FitnessConstants, SampleProblem, evaluate_candidates, fitness
-from jethr1_plan.reasons import has_posture
+from jethr1_plan.physics.balance import NOMINAL
+from jethr1_plan.physics.share import largest_shares
+from jethr1_plan.reasons import has_posture, ik_failed
 
 __all__ = [
     "GA_METHODS",
@@ -39,11 +42,14 @@ __all__ = [
     "optimise_path",
     "optimise_sample",
     "run_ga",
+    "share_fitness",
+    "share_phase",
     "single_point_crossover",
     "tournament_select",
 ]
 
 GA_METHODS = ("gas", "ga", "gaex")
+SHARE_BACKOFF = 0.002  # δ: after the share pass the usual phases run at s* − δ
 
 
 # --- binary GA operators (A-14), pure functions -------------------------------------------
@@ -167,16 +173,9 @@ def exhaustive_cube(solver: PostureSolver, problem: SampleProblem, centre: np.nd
     return best, count
 
 
-def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
-                    previous: np.ndarray | None, nominal: np.ndarray) -> SampleResult:
-    """Choose P_body at one sample with ``cfg.method``.
-
-    Args:
-        previous: P_body at the previous sample of the same step, or None at the step's first sample.
-        nominal: centre of the initial phase's search box [m].
-    """
-    if cfg.method not in GA_METHODS:
-        raise ValueError(f"method {cfg.method!r} is not one of the GA family {GA_METHODS}")
+def _gas_sample(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
+                previous: np.ndarray | None, nominal: np.ndarray) -> SampleResult:
+    """Choose P_body at one sample with ``cfg.method`` (the problem's tolerance as it is)."""
     evals = 0
     if previous is None:
         p, f, n = initial_phase(solver, problem, cfg, rng, nominal)
@@ -203,6 +202,75 @@ def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: Optimise
             phase, evals = "restart", evals + n
     best = evaluate_candidates(solver, problem, p[None])
     return SampleResult(best, float(f), evals, phase)
+
+
+def share_fitness(solver: PostureSolver, problem: SampleProblem, k: FitnessConstants, p_body: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The share pass's fitness of candidates ``p_body`` (M, 3) [m] and their largest shares s*(P) (M,):
+
+        f = f1 + f2 + C_s·(1 − s*(P)),   C_s = C4-1,
+
+    f1 and f2 of (A-16), (A-17) (graded as :func:`~jethr1_plan.optimisers.problem.fitness`), s*(P) the
+    largest share of the problem's tolerance under which some thrust within the fans' maxima balances
+    the posture (``physics.share.largest_shares``). A posture no thrust balances even without errors
+    scores C_s·2 plus C4-2 × how far its nominal window is from opening (at most M·g): below every
+    posture that balances, above every one that fails (A-16). No f3: the share comes first; the usual
+    phases then trade thrust for smoothness at the share found."""
+    nominal = evaluate_candidates(solver, replace(problem, tolerance=NOMINAL), p_body)
+    caps = np.minimum(problem.fan_max_n, problem.thrust_max_n)
+    fans = problem.fans_at(p_body)
+    share = largest_shares(nominal.com[:, :2], fans, problem.support_polygon, problem.mass_kg, problem.tolerance, caps)
+    failed = ik_failed(nominal.violation)
+    edge_ok = nominal.edge_excess_rad <= 0
+    f = np.where(failed, k.c1, 0.0) + np.where(edge_ok, 0.0, k.c2)
+    if k.graded:
+        f = f + np.where(~failed & ~edge_ok, k.c4_2 * np.degrees(np.where(failed, 0, nominal.edge_excess_rad)), 0.0)
+    gap = np.minimum(np.where(np.isfinite(nominal.window_gap_n), nominal.window_gap_n, k.weight_n), k.weight_n)
+    f = f + np.where(share >= 0, k.c4_1 * (1.0 - share), k.c4_1 * 2.0 + k.c4_2 * gap)
+    return f, np.where(failed, -1.0, share)
+
+
+def share_phase(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
+                centre: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """GAS's share pass: the initial phase's GA (Table 2's population, generations and box around
+    ``centre``) on :func:`share_fitness`; (P_body [m], its largest share s*, −1 where none balances, evaluations)."""
+    half = cfg.initial.half_range_m
+    p, _, n = run_ga(lambda P: share_fitness(solver, problem, cfg.constants, P)[0], centre - half, centre + half,
+                     cfg.initial, cfg.bits, rng, cfg.tournament_size, cfg.elites)
+    _, s = share_fitness(solver, problem, cfg.constants, p[None])
+    return p, float(s[0]), n + 1
+
+
+def optimise_sample(solver: PostureSolver, problem: SampleProblem, cfg: OptimiserConfig, rng: np.random.Generator,
+                    previous: np.ndarray | None, nominal: np.ndarray) -> SampleResult:
+    """Choose P_body at one sample with ``cfg.method``.
+
+    Under a tolerance no posture reaches (the robust policy), the sample takes the largest share of
+    it that one does: the share pass (:func:`share_phase`) finds a posture P_s and its largest share
+    s*, then the usual phases run again at s* − δ (δ = ``SHARE_BACKOFF``); where they find nothing,
+    P_s itself at that share is the answer.
+
+    Args:
+        previous: P_body at the previous sample of the same step, or None at the step's first sample.
+        nominal: centre of the initial phase's search box [m].
+    """
+    if cfg.method not in GA_METHODS:
+        raise ValueError(f"method {cfg.method!r} is not one of the GA family {GA_METHODS}")
+    res = _gas_sample(solver, problem, cfg, rng, previous, nominal)
+    if res.feasible or problem.tolerance == NOMINAL:
+        return res
+    p_s, s_max, n = share_phase(solver, problem, cfg, rng, nominal if previous is None else previous)
+    evals = res.evaluations + n
+    if s_max < 0:
+        return SampleResult(res.best, res.fitness, evals, res.phase)
+    share = max(0.0, s_max - SHARE_BACKOFF)
+    held = replace(problem, tolerance=problem.tolerance.scaled(share))
+    again = _gas_sample(solver, held, cfg, rng, previous, nominal)
+    evals += again.evaluations
+    if again.feasible:
+        return SampleResult(again.best, again.fitness, evals, "share", share)
+    best = evaluate_candidates(solver, held, p_s[None])
+    return SampleResult(best, float(fitness(best, cfg.constants)[0]), evals + 1, "share", share)
 
 
 def optimise_path(request: PathRequest) -> PathResult:

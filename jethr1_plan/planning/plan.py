@@ -20,7 +20,6 @@ from jethr1_plan.errors import InfeasiblePlan
 from jethr1_plan.geometry import SIDES
 from jethr1_plan.kinematics import PostureSolver, make_posture_solver
 from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
-from jethr1_plan.optimisers.problem import SampleProblem
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.physics.statics import analyse_rows
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
@@ -38,7 +37,6 @@ __all__ = [
     "build_sequence",
     "optimise_step",
     "plan",
-    "reachable_tolerance",
     "row_solver",
     "standing_pose",
     "step_key",
@@ -92,15 +90,20 @@ def optimise_step(job: StepJob, solver: PostureSolver | None = None, progress: P
     samples = optimise_path(request).samples
     fans = tuple(int(k) for k in problems[0].fan_index)
     first_bad = None
+    min_share = scenario.balance.min_share if scenario.balance.tolerance != NOMINAL else 0.0
     for i, res in enumerate(samples):
-        if res.feasible:
+        if res.feasible and res.share >= min_share:
             continue
         first_bad = {"step": si, "phase": "swing", "sample": i, "swing_m": step.path_m[i].tolist(),
                      "p_body_m": res.p_body.tolist(), "thrust_n": finite_or_none(res.best.thrust_n[0]),
                      "reason": message(res.best.violation[0])}
         if problems[i].tolerance != NOMINAL:
-            first_bad["reachable_tolerance"] = reachable_tolerance(robot, problems[i], res.p_body,
-                                                                   job.config.initial.half_range_m)
+            t = problems[i].tolerance.scaled(res.share if res.feasible else 0.0)
+            first_bad["tolerance_share"] = {"share": res.share if res.feasible else 0.0, "thrust_error": t.thrust,
+                                            "mass_error": t.mass, "com_error_m": t.com_m, "min_share": min_share}
+            if res.feasible:
+                first_bad["reason"] = (f"tolerance share {res.share:.3f} below balance.robust.min_share "
+                                       f"{min_share:g}")
         if not job.keep_going:
             return StepResult(si, step.swing, support, step.path_m[:i + 1], samples[:i + 1], fans), first_bad
         break
@@ -273,16 +276,6 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     return first
 
 
-def reachable_tolerance(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, half: float) -> dict:
-    """The largest share of the tolerance a sample reaches (``optimisers.sqp.largest_tolerance``)."""
-    from jethr1_plan.optimisers.sqp import largest_tolerance
-
-    k, p = largest_tolerance(robot, problem, centre, half)
-    t = problem.tolerance.scaled(k)
-    return {"scale": k, "thrust_error": t.thrust, "mass_error": t.mass, "com_error_m": t.com_m,
-            "p_body_m": None if p is None else p.tolist()}
-
-
 def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:
     """P_body [m] over the midpoint of both soles, knees bent.
 
@@ -325,22 +318,25 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
     feet = {k: v.copy() for k, v in scenario.start.items()}
     p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
     thrust_out = None
+    share_out = 1.0  # the share of the tolerance at the end of the previous swing
     nf = len(robot.fans)
     for st in steps:
         yaw_of = yaw_function(scenario, robot, st.support, feet[st.support])
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
+        shares = st.shares
         seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
-                     FanThrust(st.fan_thrust(0, nf), st.fan_index))
+                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(share_out, float(shares[0])))
         if stop_at_infeasible and seq.first_infeasible is not None:
             return seq.rows, seq.first_infeasible
-        seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s)
+        seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares)
         if stop_at_infeasible and seq.first_infeasible is not None:
             return seq.rows, seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
         p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
         thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
+        share_out = float(shares[-1])
     seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
-                 thrust_out, None, include_end=True)
+                 thrust_out, None, include_end=True, share=share_out)
     return seq.rows, seq.first_infeasible
 
 

@@ -8,11 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan import __version__
+from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.physics.statics import KAPPA_WARNING
 from jethr1_plan.planning.results import PlanResult
 from jethr1_plan.planning.sequence import Rows
 
-__all__ = ["describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "smoothness"]
+__all__ = ["FULL_SHARE", "describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "share_summary",
+           "smoothness"]
 
 
 def smoothness(p_body: np.ndarray, thrust_n: np.ndarray) -> dict:
@@ -35,11 +37,11 @@ def describe_infeasible(bad: dict) -> str:
     where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
     pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
     thrust = f", minimal thrust {bad['thrust_n']:.2f} N" if bad.get("thrust_n") is not None else ""
-    reach = bad.get("reachable_tolerance")
-    if reach is not None:
-        thrust += (f"; the most found to hold there: ±{100 * reach['thrust_error']:.1f} % thrust, "
-                   f"±{100 * reach['mass_error']:.1f} % mass, {1000 * reach['com_error_m']:.1f} mm of CoM error "
-                   f"({100 * reach['scale']:.0f} % of the tolerance)" if reach["scale"] > 0 else
+    share = bad.get("tolerance_share")
+    if share is not None:
+        thrust += (f"; the most robust posture found there holds {100 * share['share']:.1f} % of the tolerance "
+                   f"(±{100 * share['thrust_error']:.1f} % thrust, ±{100 * share['mass_error']:.1f} % mass, "
+                   f"{1000 * share['com_error_m']:.1f} mm of CoM error)" if share["share"] > 0 else
                    "; no posture balances this sample even without tolerance")
     return f"infeasible at {where}{pos}: {bad['reason']}{thrust}"
 
@@ -70,6 +72,27 @@ def robustness_summary(rows: Rows, fans: list[str]) -> dict:
     return out
 
 
+#: a row share at least this is the whole tolerance: a row whose thrust sits exactly on its window's end
+#: under the whole tolerance bisects to 1 − 1e-13 (``physics.share.row_shares``, to 1e-12)
+FULL_SHARE = 1.0 - 1e-9
+
+
+def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
+    """The least tolerance share over the rows (``tolerance_share``), where it occurs, the tolerance it
+    means (the plan's tolerance × the share), and how many rows hold less than all of it (below
+    ``FULL_SHARE``); None where
+    the rows carry no share (the minimal policy)."""
+    share = rows.array("tolerance_share").astype(float)
+    if not np.isfinite(share).any():
+        return None
+    i = int(np.nanargmin(share))
+    least = float(share[i])
+    t = tol.scaled(least)
+    return {"least": least, "least_at": _where(rows, i),
+            "tolerance": {"thrust_error": t.thrust, "mass_error": t.mass, "com_error_m": t.com_m},
+            "rows_below_full": int(np.sum(share < FULL_SHARE))}
+
+
 def plan_summary(result: PlanResult) -> dict:
     """summary.json (docs/contract.md): figures over the optimised swing samples, per step and in total."""
     sc = result.scenario
@@ -85,6 +108,8 @@ def plan_summary(result: PlanResult) -> dict:
             **smoothness(st.p_body, thrust),
             "evaluations": int(sum(s.evaluations for s in st.samples)),
             "restarts": sum(s.phase == "restart" for s in st.samples),
+            "least_share": float(min(s.share for s in st.samples)) if st.samples else None,
+            "samples_below_full_share": sum(s.share < 1.0 for s in st.samples),
             "feasible": all(s.feasible for s in st.samples),
         })
         all_thrust.append(fin)
@@ -108,7 +133,8 @@ def plan_summary(result: PlanResult) -> dict:
         "thrust_max_n": sc.balance.thrust_max_n,
         "balance": {"policy": sc.balance.policy, "sole_margin_m": sc.balance.sole_margin_m,
                     "tolerance": {"thrust_error": sc.balance.tolerance.thrust, "mass_error": sc.balance.tolerance.mass,
-                                  "com_error_m": sc.balance.tolerance.com_m}},
+                                  "com_error_m": sc.balance.tolerance.com_m},
+                    "min_share": sc.balance.min_share if sc.balance.policy == "robust" else None},
         "smoothness_m2": float(sum(s["smoothness_m2"] for s in per_step)),
         "max_step_m": max((s["max_step_m"] for s in per_step), default=0.0),
         "max_thrust_jump_n": max((s["max_thrust_jump_n"] for s in per_step), default=0.0),
@@ -126,7 +152,11 @@ def plan_summary(result: PlanResult) -> dict:
                              "duration_s": len(rows) / sc.timing.rate_hz,
                              "max_thrust_n": float(max(v.max() for v in per_fan.values())),
                              "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
-        out["robustness"] = robustness_summary(rows, fans)
+        robustness = robustness_summary(rows, fans)
+        shares = share_summary(rows, sc.balance.tolerance)
+        if shares is not None:
+            robustness["tolerance_share"] = shares
+        out["robustness"] = robustness
         from jethr1_plan.control.thrust_feedback import Gains, law
 
         tol = sc.balance.tolerance

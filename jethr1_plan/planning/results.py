@@ -31,6 +31,11 @@ class StepResult:
         return np.array([s.p_body for s in self.samples])
 
     @property
+    def shares(self) -> np.ndarray:
+        """(N,) the share of the tolerance each sample holds (1: all of it)."""
+        return np.array([s.share for s in self.samples])
+
+    @property
     def thrust_n(self) -> np.ndarray:
         """(N,) the total thrust per sample [N] (inf where none balances)."""
         return np.array([float(s.best.thrust_n[0]) for s in self.samples])

@@ -14,8 +14,14 @@ constraint are marked infeasible with their reason; nothing is patched.
   under every error within the tolerance.
 
 Every row also carries the thrust window of its posture (the nominal balancing interval of the
-fan that carries it, capped by the fan's maximum) and the ZMP's margin: its distance to the
-nearest edge of the real sole (the hull of both soles in double support).
+fan that carries it, capped by the fan's maximum), the ZMP's margin: its distance to the
+nearest edge of the real sole (the hull of both soles in double support), and, under the robust
+policy, its tolerance share: the largest share of the scenario's tolerance under which the row's
+posture and thrust keep the ZMP in the support (``physics.share.row_shares``).
+
+Under the robust policy each swing sample holds a share of the tolerance (1 where a posture reaches
+all of it; ``optimisers``): a swing row is held to the share interpolated between its samples, a
+transfer to the smaller share of the swings at its two ends.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ from jethr1_plan.physics.balance import (
     zmp_with_thrust,
     zmp_with_thrusts,
 )
+from jethr1_plan.physics.share import row_shares
 from jethr1_plan.reasons import Reason, message
 from jethr1_plan.robot.model import RobotModel, fan_ground_xy
 
@@ -112,9 +119,9 @@ class SequenceBuilder:
             lo, hi = float(w_lo), min(float(w_hi), float(np.min(fmax / share[carry])))
         return (lo, hi) if lo <= hi else (np.nan, np.nan)
 
-    def _describe_tolerance(self) -> str:
-        t = self.tolerance
-        if t == NOMINAL:
+    def _describe_tolerance(self, share: float = 1.0) -> str:
+        t = self.tolerance.scaled(share)
+        if self.tolerance == NOMINAL:
             return ""
         return (f" within ±{100 * t.thrust:g} % thrust, ±{100 * t.mass:g} % mass and "
                 f"{1000 * t.com_m:g} mm of CoM error")
@@ -122,6 +129,12 @@ class SequenceBuilder:
     def _fans_xy(self, soles: dict[str, np.ndarray], p_body: np.ndarray, yaw: float) -> np.ndarray:
         """(F, 2) every fan's ground point [m] with the soles and the trunk there."""
         return np.array([fan_ground_xy(f, soles, p_body, yaw) for f in self.robot.fans]).reshape(-1, 2)
+
+    def _row_share(self, com_xy: np.ndarray, fans_xy: np.ndarray, thrust: np.ndarray, region: np.ndarray) -> float:
+        """The row's tolerance share (NaN under the minimal policy)."""
+        if self.tolerance == NOMINAL:
+            return float("nan")
+        return float(row_shares(com_xy, fans_xy, thrust, region, self.robot.mass_kg, self.tolerance))
 
     def _solve(self, stance: Stance, p_body: np.ndarray):
         batch = self.solver.solve_batch(stance, p_body[None], warm=self.q_prev)
@@ -141,13 +154,14 @@ class SequenceBuilder:
 
     def transfer(self, step: int, feet: dict[str, np.ndarray], p0: np.ndarray, yaw0: float, p1: np.ndarray,
                  yaw1: float, duration_s: float, thrust_out: FanThrust | None,
-                 thrust_in: FanThrust | None, include_end: bool = False) -> None:
+                 thrust_in: FanThrust | None, include_end: bool = False, share: float = 1.0) -> None:
         """Double-support rows from (p0, yaw0) to (p1, yaw1), both soles on ``feet``.
 
         ``thrust_out``/``thrust_in``: the thrust per fan [N] of the swing before and after, ramped
         down over the first half and up over the second half. The end posture itself is written
-        only with ``include_end``.
+        only with ``include_end``. ``share``: the share of the tolerance every row must hold.
         """
+        tol = self.tolerance.scaled(share)
         n = max(1, round(duration_s / self.dt))
         hull = convex_hull(np.vstack([self._sole(feet[s], self.margin) for s in ("left", "right")]))
         real_hull = convex_hull(np.vstack([self._sole(feet[s]) for s in ("left", "right")]))
@@ -180,9 +194,10 @@ class SequenceBuilder:
             moment = sum(thrust[j] * fans[j] for j in range(nf))
             zmp = (w * com[:2] - moment) / (w - total)
             # the window of the fans that carry (or are about to carry) the thrust, in their shares
-            share = thrust / total if total > 0 else idle_share
-            window = self._window(com[:2], fans, share, real_hull) if share is not None else (np.nan, np.nan)
-            slack = float(balance_slack(com[:2], fans, thrust, hull, self.robot.mass_kg, self.tolerance))
+            fan_share = thrust / total if total > 0 else idle_share
+            window = (self._window(com[:2], fans, fan_share, real_hull) if fan_share is not None
+                      else (np.nan, np.nan))
+            slack = float(balance_slack(com[:2], fans, thrust, hull, self.robot.mass_kg, tol))
             reason = None
             over = thrust > self.caps
             if status != Reason.OK:
@@ -191,21 +206,23 @@ class SequenceBuilder:
                 j = int(np.argmax(thrust - self.caps))
                 reason = f"thrust {thrust[j]:.3f} N of fan {self.names[j]} above its maximum {self.caps[j]:g} N"
             elif slack < -1e-9:
-                reason = "ZMP outside the hull of both soles" + self._describe_tolerance()
+                reason = "ZMP outside the hull of both soles" + self._describe_tolerance(share)
             if reason:
                 self._mark(step, "transfer", k, reason, {"p_body_m": p.tolist()})
             self._emit(thrust, step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
                        ground_z=min(feet["left"][2], feet["right"][2]),
                        p_body=p, yaw=yaw, q=q, swing=np.full(3, np.nan), com=com, zmp=zmp, window=window,
-                       zmp_margin=float(polygon_margin(zmp, real_hull)), reason=reason or "")
+                       zmp_margin=float(polygon_margin(zmp, real_hull)),
+                       tolerance_share=self._row_share(com[:2], fans, thrust, hull), reason=reason or "")
 
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
-              yaw_fn, duration_s: float) -> None:
+              yaw_fn, duration_s: float, shares: np.ndarray | None = None) -> None:
         """Single-support rows along ``path`` (N, 3) with optimised P_body ``p_samples`` (N, 3).
 
         ``yaw_fn(swing_xyz) -> body yaw [rad]`` gives the trunk yaw at any swing position. The fans of
         the swing sole and the trunk carry the least thrust that balances the row's posture within
-        the tolerance (``balance.thrust_window``; several fans: ``balance.least_thrust``).
+        the tolerance (``balance.thrust_window``; several fans: ``balance.least_thrust``), scaled by
+        the share ``shares`` (N,) of the samples interpolated at the row (all of it without).
         """
         swing_side = other_side(support)
         active = np.array(self.robot.swing_fans(swing_side), dtype=np.int64)
@@ -221,18 +238,20 @@ class SequenceBuilder:
             stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
             q, com, status = self._solve(stance, p)
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
+            share = 1.0 if shares is None else float(np.interp(u, idx, shares))
+            tol = self.tolerance.scaled(share)
             thrust_all = np.zeros(len(self.names))
             if one:  # Paper A: one fan, its window in closed form
                 fan = fans[active[0]]
-                total = float(thrust_window(com[:2], fan, poly, m, self.tolerance)[0])
+                total = float(thrust_window(com[:2], fan, poly, m, tol)[0])
                 over = total > self.thrust_max_n
                 unbalanced = not np.isfinite(total)
                 if not unbalanced:
                     thrust_all[active[0]] = total
             else:
                 caps = self.caps[active]
-                total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, self.tolerance)
-                total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, self.tolerance)
+                total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, tol)
+                total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, tol)
                 over = not np.isfinite(total_b) and np.isfinite(total_f)
                 unbalanced = not np.isfinite(total_f)
                 total = float(total_f if over else total_b)
@@ -243,9 +262,10 @@ class SequenceBuilder:
             if status != Reason.OK:
                 reason = message(status)
             elif unbalanced:
-                reason = "no thrust can balance" + self._describe_tolerance()
+                reason = "no thrust can balance" + self._describe_tolerance(share)
             elif over:
-                reason = f"thrust {total:.3f} N above its maximum {self.thrust_max_n} N" + self._describe_tolerance()
+                reason = (f"thrust {total:.3f} N above its maximum {self.thrust_max_n} N"
+                          + self._describe_tolerance(share))
             elif edge > 0:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
@@ -253,13 +273,14 @@ class SequenceBuilder:
             if one:
                 f = total if np.isfinite(total) else 0.0
                 zmp = zmp_with_thrust(com[:2], fans[active[0]], f, m)
-                share = np.zeros(len(self.names))
-                share[active[0]] = 1.0
+                fan_share = np.zeros(len(self.names))
+                fan_share[active[0]] = 1.0
             else:
                 zmp = zmp_with_thrusts(com[:2], fans, thrust_all, m)
                 t = float(np.sum(thrust_all))
-                share = thrust_all / t if t > 0 else np.isin(np.arange(len(self.names)), active[:1]).astype(float)
+                fan_share = (thrust_all / t if t > 0 else
+                             np.isin(np.arange(len(self.names)), active[:1]).astype(float))
             self._emit(thrust_all, step=step, phase="swing", sample=k, support=support, feasible=reason is None,
                        p_body=p, ground_z=feet[support][2], yaw=yaw, q=q, swing=swing, com=com, zmp=zmp,
-                       window=self._window(com[:2], fans, share, sole), zmp_margin=float(polygon_margin(zmp, sole)),
-                       reason=reason or "")
+                       window=self._window(com[:2], fans, fan_share, sole), zmp_margin=float(polygon_margin(zmp, sole)),
+                       tolerance_share=self._row_share(com[:2], fans, thrust_all, poly), reason=reason or "")

@@ -1,12 +1,22 @@
-"""``jethr1 ditch-curve``: the widest ditch a robot can cross, and the thrust it needs, at each tolerance.
+"""``jethr1 ditch-curve``: how robust a crossing of each ditch can be, and the thrust it needs.
 
 Paper A's forward step (motion 2) over a gap g between two cartons: the right sole supports on
 carton A with its toe on A's front edge (x = 0.080 m, the sole at (0, −0.1125, 0) m of Fig. 6), the
 left sole starts beside it and lands with its heel 5 mm inside carton B, whose rear edge is at
-0.080 + g: the landing sole centre is at (g + 0.165, −0.1125, 0) m. For every gap and every tolerance
-(the scenario's robust tolerance scaled by k; k = 0 is Paper A's minimal thrust) the step is planned
-in full (samples and output rows); a gap is crossable when the plan is feasible. The planner does
-the work: what is crossable is exactly what ``jethr1 plan`` would plan.
+0.080 + g: the landing sole centre is at (g + 0.165, −0.1125, 0) m.
+
+**The robustness curve** (:func:`robustness_curve`): every gap is planned in full under the robust
+policy with the scenario's tolerance T as the objective (``balance.robust``, ``min_share`` 0): each
+swing sample takes the largest share of T a posture reaches within F_max, and the plan's least
+``tolerance_share`` over its rows is the largest share of T with which that gap is crossed (the share
+of the hardest row, usually the landing); beside it the plan's peak and mean thrust. A gap none of
+whose postures balances even without errors is not crossable (share None).
+
+**Fixed tolerances** (:func:`curve`, ``--scales``): every gap planned at k × T for each k (k = 0 is
+Paper A's minimal thrust) with ``min_share`` 1; a gap is crossable at k when that plan is feasible:
+when every row holds the whole of k × T.
+
+The planner does the work: what is reported is exactly what ``jethr1 plan`` would plan.
 """
 
 from __future__ import annotations
@@ -22,7 +32,7 @@ from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.scenario import BalanceConfig, Scenario, Step, Timing
 from jethr1_plan.swing_path import Carton, arc_path
 
-__all__ = ["TOE_X_M", "curve", "curve_png", "ditch_scenario", "landing_x"]
+__all__ = ["TOE_X_M", "curve", "curve_png", "ditch_scenario", "landing_x", "robustness_curve", "share_of_gap"]
 
 TOE_X_M = 0.080  # carton A's front edge: the support sole's toe [m]
 HEEL_INSIDE_M = 0.005  # the landing sole's heel lies this far inside carton B [m]
@@ -34,9 +44,12 @@ def landing_x(gap_m: float, sole_length_m: float) -> float:
     return TOE_X_M + gap_m + HEEL_INSIDE_M + sole_length_m / 2
 
 
-def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_length_m: float) -> Scenario:
+def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_length_m: float,
+                   min_share: float = 0.0) -> Scenario:
     """``base`` (its robot, optimiser, timing, balance limits) on Paper A's ditch of width ``gap_m``,
-    planned with ``tolerance`` (all zero: the minimal policy)."""
+    planned with ``tolerance`` (all zero: the minimal policy) as the objective: where the whole of it
+    is out of reach a sample takes the largest share of it, and a share below ``min_share`` (1: the
+    whole tolerance everywhere) makes the plan infeasible."""
     size = (0.21, 0.11, 0.14)
     landing = np.array([landing_x(gap_m, sole_length_m), SUPPORT_Y_M, 0.0])
     start = {"left": np.array([0.0, -SUPPORT_Y_M, 0.0]), "right": np.array([0.0, SUPPORT_Y_M, 0.0])}
@@ -46,9 +59,49 @@ def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_leng
     path = arc_path(start["left"], landing, 0.06, 60)
     policy = "minimal" if tolerance == Tolerance() else "robust"
     balance = BalanceConfig(base.balance.thrust_max_n, base.balance.rho_rad, base.balance.sole_margin_m, policy,
-                            tolerance)
+                            tolerance, min_share=min_share)
     return replace(base, name=f"ditch_{gap_m:.3f}", start=start, cartons=cartons, steps=(Step("left", path),),
                    balance=balance, expect={})
+
+
+def share_of_gap(scenario: Scenario) -> dict[str, Any]:
+    """One gap under the robust policy with its tolerance as the objective: the plan's least
+    tolerance share, where, what it means, its peak thrust [N] (output rows) and mean thrust [N]
+    (swing samples); share None and the reason where no plan exists."""
+    from jethr1_plan.planning.plan import plan
+    from jethr1_plan.planning.report import share_summary
+
+    try:
+        result = plan(scenario)
+    except InfeasiblePlan as exc:
+        return {"share": None, "reason": str(exc)}
+    if not result.feasible or result.rows is None:
+        return {"share": None, "reason": str((result.first_infeasible or {}).get("reason", "infeasible"))}
+    rows = result.rows
+    fans = [f.name for f in scenario.robot.fans]
+    peak = float(max(np.max(rows.array(f"thrust_{f}")) for f in fans))
+    swing = np.concatenate([st.thrust_n for st in result.steps])
+    shares = share_summary(rows, scenario.balance.tolerance)
+    assert shares is not None  # a robust plan carries a share on every row
+    return {"share": shares["least"], "share_at": shares["least_at"], "tolerance": shares["tolerance"],
+            "rows_below_full": shares["rows_below_full"], "max_thrust_n": peak,
+            "mean_thrust_n": float(np.mean(swing[np.isfinite(swing)])), "reason": None}
+
+
+def robustness_curve(base: Scenario, gaps_m: np.ndarray, sole_length_m: float, jobs: int = 1,
+                     progress=None) -> list[dict[str, Any]]:
+    """Per gap (in order): :func:`share_of_gap` of Paper A's step planned with the base scenario's
+    robust tolerance as the objective, with ``gap_m``."""
+    from joblib import Parallel, delayed
+
+    scenarios = [ditch_scenario(base, float(g), base.balance.robust, sole_length_m) for g in gaps_m]
+    out: list[dict[str, Any]] = []
+    with Parallel(n_jobs=jobs, return_as="generator") as parallel:
+        for g, r in zip(gaps_m, parallel(delayed(share_of_gap)(sc) for sc in scenarios), strict=True):
+            out.append({"gap_m": float(g), **r})
+            if progress:
+                progress(f"{len(out)}/{len(scenarios)} robust plans", len(out), len(scenarios))
+    return out
 
 
 def _feasible_thrust(scenario: Scenario) -> tuple[float | None, str | None]:
@@ -65,12 +118,26 @@ def _feasible_thrust(scenario: Scenario) -> tuple[float | None, str | None]:
 
 def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_length_m: float, jobs: int = 1,
           progress=None) -> dict:
-    """The ditch curve: per tolerance (``scales`` × the scenario's robust tolerance), the max thrust
-    [N] at every gap (None: infeasible), the widest crossable gap [m] and its thrust.
+    """The ditch curve: per gap, the largest share of the scenario's robust tolerance that crosses it
+    and the thrust it needs (``robustness``, :func:`robustness_curve`); and per fixed tolerance
+    (``scales`` × the robust tolerance; none when empty), the max thrust [N] at every gap (None:
+    infeasible), the widest crossable gap [m] and its thrust (``tolerances``).
 
-    Gaps beyond two infeasible ones in a row are not planned (a wider ditch is not easier); they
-    count as infeasible, with that reason.
+    At fixed tolerances, gaps beyond two infeasible ones in a row are not planned (a wider ditch is
+    not easier); they count as infeasible, with that reason.
     """
+    robust = base.balance.robust
+    return {"robot": base.robot.name, "optimiser": base.optimiser.method, "thrust_max_n": base.balance.thrust_max_n,
+            "geometry": {"toe_x_m": TOE_X_M, "heel_inside_m": HEEL_INSIDE_M, "support_y_m": SUPPORT_Y_M},
+            "gaps_m": [float(g) for g in gaps_m],
+            "robust_tolerance": {"thrust_error": robust.thrust, "mass_error": robust.mass, "com_error_m": robust.com_m},
+            "robustness": robustness_curve(base, gaps_m, sole_length_m, jobs, progress),
+            "scales": list(scales), "tolerances": _fixed(base, gaps_m, scales, sole_length_m, jobs, progress)}
+
+
+def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_length_m: float, jobs: int,
+           progress) -> list[dict[str, Any]]:
+    """Per tolerance of ``scales``: the max thrust at every gap, the widest crossable gap and its thrust."""
     from joblib import Parallel, delayed
 
     robust = base.balance.robust
@@ -87,7 +154,8 @@ def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_le
         while pending:
             batch = [(t, pending[t]) for t in sorted(pending)]
             outs = parallel(delayed(_feasible_thrust)(ditch_scenario(base, float(gaps_m[g]), tolerances[t],
-                                                                     sole_length_m)) for t, g in batch)
+                                                                     sole_length_m, min_share=1.0))
+                            for t, g in batch)
             for (t, g), (thrust, reason) in zip(batch, outs, strict=True):
                 rows[t]["max_thrust_n"][g], rows[t]["reason"][g] = thrust, reason
                 misses[t] = 0 if thrust is not None else misses[t] + 1
@@ -104,32 +172,44 @@ def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_le
         ok = [g for g, f in zip(gaps_m, row["max_thrust_n"], strict=True) if f is not None]
         row["widest_gap_m"] = float(max(ok)) if ok else None
         row["thrust_at_widest_n"] = (row["max_thrust_n"][list(gaps_m).index(max(ok))] if ok else None)
-    return {"robot": base.robot.name, "optimiser": base.optimiser.method, "thrust_max_n": base.balance.thrust_max_n,
-            "geometry": {"toe_x_m": TOE_X_M, "heel_inside_m": HEEL_INSIDE_M, "support_y_m": SUPPORT_Y_M},
-            "scales": list(scales), "gaps_m": [float(g) for g in gaps_m], "tolerances": rows}
+    return rows
 
 
 def curve_png(doc: dict) -> bytes:
-    """Max thrust against gap, one line per tolerance, the widest gap of each marked."""
+    """Above: the largest share of the robust tolerance that crosses each gap. Below: the peak thrust
+    that crossing needs, with one line per fixed tolerance (``--scales``), the widest gap of each starred."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 5), constrained_layout=True)
+    fig, (top, ax) = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True, constrained_layout=True,
+                                  gridspec_kw={"height_ratios": [2, 3]})
     gaps = np.array(doc["gaps_m"])
+    rob = doc["robustness"]
+    t = doc["robust_tolerance"]
+    whole = (f"±{100 * t['thrust_error']:.1f} % F, ±{100 * t['mass_error']:.1f} % M, "
+             f"{1000 * t['com_error_m']:.1f} mm CoM")
+    share = np.array([np.nan if r["share"] is None else r["share"] for r in rob])
+    top.plot(gaps * 1000, share, "o-", ms=4, color="tab:green")
+    top.set_ylabel("largest share of the tolerance")
+    top.set_ylim(-0.02, 1.05)
+    top.set_title(f"{doc['robot']}, {doc['optimiser']}: the most robust crossing of each ditch\n"
+                  f"(shares of the tolerance {whole})")
+    top.grid(alpha=0.3)
+    peak = np.array([np.nan if r["share"] is None else r["max_thrust_n"] for r in rob])
+    ax.plot(gaps * 1000, peak, "o-", ms=4, color="tab:green", lw=2, label="most robust plan (share above)")
     for row in doc["tolerances"]:
         f = np.array([np.nan if v is None else v for v in row["max_thrust_n"]])
         label = ("minimal (Paper A)" if row["thrust_error"] == 0 and row["mass_error"] == 0 and row["com_error_m"] == 0
                  else f"±{100 * row['thrust_error']:.1f} % F, ±{100 * row['mass_error']:.1f} % M, "
                       f"{1000 * row['com_error_m']:.1f} mm CoM")
-        line, = ax.plot(gaps * 1000, f, "o-", ms=3, label=label)
+        line, = ax.plot(gaps * 1000, f, "o--", ms=3, lw=1, label=label)
         if row["widest_gap_m"] is not None:
-            ax.plot(row["widest_gap_m"] * 1000, row["thrust_at_widest_n"], "*", ms=14, color=line.get_color())
+            ax.plot(row["widest_gap_m"] * 1000, row["thrust_at_widest_n"], "*", ms=12, color=line.get_color())
     ax.axhline(doc["thrust_max_n"], color="k", ls="--", lw=1, label="fan maximum")
     ax.set_xlabel("ditch width [mm]")
-    ax.set_ylabel("max thrust of the plan [N]")
-    ax.set_title(f"{doc['robot']}: widest ditch per tolerance (stars), {doc['optimiser']}")
+    ax.set_ylabel("peak thrust of the plan [N]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     buf = io.BytesIO()

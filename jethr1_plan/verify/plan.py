@@ -14,7 +14,8 @@ a fresh PlaCo robot, and every row must hold against everything that can be know
 * **balance**: each fan's thrust within [0, F_max] of the fan and of the scenario; the ZMP from the
   written thrust (A-1, A-2) in the support sole (double support: the hull of both); the written
   thrust window and ZMP margin recomputed; under the plan's tolerance, the ZMP in the support for
-  every error within it (``balance.balance_slack``);
+  every error within the row's share of it (``balance.balance_slack``), the share column
+  recomputed (``physics.share.row_shares``) and not below the plan's ``min_share``;
 * **the analysis**: the written CoM and ZMP; the static torques recomputed (``statics``) and within
   the servo limits; κ of each leg; the command columns recomputed (``commands``);
 * **CSV and MCAP together** (a folder with both): the same rows, the same numbers.

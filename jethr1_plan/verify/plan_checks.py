@@ -32,6 +32,9 @@ TOL_TAU = 1e-6  # torque tolerance [N·m] (forward kinematics from the written j
 # balance moment by ~1e-4 N·m.
 WINDOW_TOL_N = 1e-3
 SLACK_TOL_NM = 1e-4
+# the share of a row moves with its slack at about 0.7..3 N·m per unit of share: the FK's 1e-4 N·m
+# moves it by less than 2e-4
+SHARE_TOL = 1e-3
 
 Finding = tuple[int, str]  # (row, detail)
 
@@ -134,7 +137,7 @@ def _phases(x: RowData) -> list[Finding]:
     return out
 
 
-@check("not a number", "every number of the row finite (the swing sample and the window may be empty)")
+@check("not a number", "every number of the row finite (the swing sample, the window and the share may be empty)")
 def _numbers(x: RowData) -> list[Finding]:
     return rows(~x.finite, lambda i: "a value of the row is empty or not finite")
 
@@ -337,31 +340,75 @@ def _in_window(x: RowData) -> list[Finding]:
     return rows(bad, detail)
 
 
-@check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within it",
-       needs=("thrust_window_lo_n",))
-def _tolerance(x: RowData) -> list[Finding]:
-    from jethr1_plan.physics.balance import Tolerance, balance_slack
+def _tolerance_regions(x: RowData):
+    """The plan's tolerance and, per row with a finite ZMP, the support region shrunk by its sole margin."""
+    from jethr1_plan.physics.balance import Tolerance
 
-    if x.balance is None:
-        return []
     r = x.robot
+    assert x.balance is not None
     tol_doc = x.balance.get("tolerance", {})
     tol = Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
     shrink = float(x.balance.get("sole_margin_m", 0.0))
+    for i in range(x.n):
+        if not np.all(np.isfinite(x.zmp[i])):
+            continue
+        soles = [x.support[i]] if x.single[i] and x.support[i] in SIDES else list(SIDES)
+        shrunk = [sole_polygon(x.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink) for s in soles]
+        yield i, tol, shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))
+
+
+@check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within the "
+       "row's share of it (the whole of it where the plan has no shares)", needs=("thrust_window_lo_n",))
+def _tolerance(x: RowData) -> list[Finding]:
+    from jethr1_plan.physics.balance import NOMINAL, balance_slack
+
+    if x.balance is None:
+        return []
     com = x.fk["com"][:, :2]
-    slack = np.full(x.n, np.nan)
-    check = np.isfinite(x.zmp).all(axis=1)
-    one = check & x.on_one_sole  # about the sole's centre, all at once
-    centre = x.sole_centre[one]
-    slack[one] = balance_slack(com[one] - centre, x.fk["fans"][one] - centre[:, None], x.thrust[one],
-                               x.centred_sole(shrink), r.mass_kg, tol)
-    for i in np.flatnonzero(check & ~x.on_one_sole):
-        region = convex_hull(np.vstack([sole_polygon(x.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink)
-                                        for s in SIDES]))
-        slack[i] = balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, r.mass_kg, tol)
-    return rows(check & (slack < -SLACK_TOL_NM), lambda i: f"the written thrust keeps the ZMP in the support only "
-                f"without ±{100 * tol.thrust:g} % thrust, ±{100 * tol.mass:g} % mass and {1000 * tol.com_m:g} mm CoM "
-                f"error ({-slack[i]:.4f} N·m short)")
+    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
+    out = []
+    for i, tol, region in _tolerance_regions(x):
+        share = float(shares[i]) if np.isfinite(shares[i]) and tol != NOMINAL else 1.0
+        held = tol.scaled(share)
+        slack = float(balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, x.robot.mass_kg, held))
+        if slack < -SLACK_TOL_NM:
+            out.append((i, f"the written thrust keeps the ZMP in the support only without ±{100 * held.thrust:g} % "
+                        f"thrust, ±{100 * held.mass:g} % mass and {1000 * held.com_m:g} mm CoM error "
+                        f"({-slack:.4f} N·m short)"
+                        + (f" ({share:.4f} of the plan's tolerance)" if share < 1.0 else "")))
+    return out
+
+
+@check("tolerance share column wrong", "under a tolerance, the written share is the largest share of it the row's "
+       "thrust holds (recomputed, ``physics.share.row_shares``)", needs=("tolerance_share",))
+def _share_column(x: RowData) -> list[Finding]:
+    from jethr1_plan.physics.balance import NOMINAL
+    from jethr1_plan.physics.share import row_shares
+
+    if x.balance is None:
+        return []
+    com = x.fk["com"][:, :2]
+    written = x.c["tolerance_share"].astype(float)
+    out = []
+    for i, tol, region in _tolerance_regions(x):
+        if tol == NOMINAL:
+            return []
+        if not np.isfinite(written[i]):
+            out.append((i, "empty under a tolerance"))
+            continue
+        again = float(row_shares(com[i], x.fk["fans"][i], x.thrust[i], region, x.robot.mass_kg, tol))
+        if abs(again - written[i]) > SHARE_TOL:
+            out.append((i, f"written {written[i]:.6f}, recomputed {again:.6f}"))
+    return out
+
+
+@check("below the least share", "every row's tolerance share at least the plan's ``min_share``",
+       needs=("tolerance_share",))
+def _least_share(x: RowData) -> list[Finding]:
+    least = float((x.balance or {}).get("min_share") or 0.0)
+    written = x.c["tolerance_share"].astype(float)
+    return rows(np.isfinite(written) & (written < least - SHARE_TOL),
+                lambda i: f"tolerance share {written[i]:.4f} below the plan's min_share {least:g}")
 
 
 # --- the analysis ------------------------------------------------------------------------------

@@ -18,7 +18,8 @@ __all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyli
            "ground_references", "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
-OPTIONAL = ("swing_", "thrust_window_")  # empty (NaN) where there is no swing sole, or no window
+# empty (NaN) where there is no swing sole, no window, or no tolerance (the share: its own check)
+OPTIONAL = ("swing_", "thrust_window_", "tolerance_share")
 
 
 class RowData:

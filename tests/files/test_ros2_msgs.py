@@ -48,5 +48,6 @@ def test_own_types_resolve_and_name_their_units():
         types = parse_schema(name, schema_text(name))
         assert set(types) == {name, *dependencies(name)}
         numbers = [f for f in types[name] if f.type.startswith("float")]
+        # a unit in the name, or a ratio named as one (a condition number, a share of the tolerance)
         assert numbers and all(f.name.endswith(("_n", "_m", "_nms", "_rad", "_s", "_rad_s")) or
-                               f.name.startswith("kappa") for f in numbers), name
+                               f.name.startswith("kappa") or f.name.endswith("_share") for f in numbers), name

@@ -73,3 +73,22 @@ def test_ga_finds_the_minimum_of_a_bowl_and_is_reproducible():
     assert np.array_equal(p1, p2) and f1 == f2 and n1 == n2
     assert np.linalg.norm(p1 - target) < 0.003  # 0.3 mm grid; within a few steps of the optimum
     assert n1 <= 200 * 50  # cached: each genome evaluated once
+
+
+def test_gas_takes_the_largest_share_where_the_tolerance_cannot_be_reached(tmp_path):
+    """GAS on the robust 450 mm ditch: where its phases find no posture for the whole tolerance, the
+    share pass finds one and the sample carries that share; the plan is feasible and the independent
+    re-check holds every row to its written share."""
+    import json
+
+    from jethr1_plan.cli import run
+    from tests.conftest import ROOT
+
+    out = tmp_path / "p"
+    assert run(["plan", str(ROOT / "configs" / "forward_ditch_450.yaml"), "--optimiser", "gas", "-o", str(out),
+                "--no-progress"]) == 0
+    s = json.loads((out / "forward_ditch_450" / "summary.json").read_text())
+    step = s["steps"][0]
+    assert s["optimiser"] == "gas" and 0.2 < step["least_share"] < 0.9 and 3 <= step["samples_below_full_share"] <= 15
+    assert s["max_thrust_n"] <= 23.0 and s["robustness"]["tolerance_share"]["least_at"]["sample"] > 200
+    assert run(["verify", str(out / "forward_ditch_450")]) == 0

@@ -11,7 +11,7 @@ import yaml
 
 from jethr1_plan.cli import run
 from jethr1_plan.geometry import GRAVITY
-from jethr1_plan.optimisers import sqp
+from jethr1_plan.optimisers import sqp, sqp_sample
 from jethr1_plan.optimisers.exhaustive import exhaustive_cell
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.problems import feet_before_each_step, path_problems
@@ -22,10 +22,16 @@ from tests.conftest import ROOT
 DITCH = ROOT / "configs" / "forward_ditch_450.yaml"
 
 
+def _paper_a():
+    """The 450 mm ditch as Paper A planned it (the minimal policy: the least thrust)."""
+    sc = load_scenario(DITCH)
+    return replace(sc, balance=replace(sc.balance, policy="minimal"))
+
+
 @pytest.fixture(scope="module")
 def ditch_plans():
     """GAS, sqp with smoothness a tie-break (ε = 10 N/m²: the least thrust's path) and sqp at its default ε."""
-    sc = load_scenario(DITCH)
+    sc = _paper_a()
     tie = replace(sc, optimiser=replace(sc.optimiser, sqp_smoothness_n_per_m2=10.0))
     return sc, {"gas": plan(sc, method="gas", build_rows=False), "sqp": plan(tie, method="sqp", build_rows=False),
                 "default": plan(sc, build_rows=False)}
@@ -38,10 +44,10 @@ def _problem(sc, robot, i):
 def test_smooth_balance_rows_reproduce_the_exact_minimal_thrust(robot, monkeypatch):
     """With the thrust as a variable, the polygon rows b(1−u) − n·(CoM − u·P_T) ≥ 0 hold from
     u = F*/(M·g) on, F* being the exact ray-clipping thrust (A-5), and fail just below it."""
-    monkeypatch.setattr(sqp, "ZMP_MARGIN_M", 0.0)
-    sc = load_scenario(DITCH)
+    monkeypatch.setattr(sqp_sample, "ZMP_MARGIN_M", 0.0)
+    sc = _paper_a()
     prob = _problem(sc, robot, 55)
-    sample = sqp.AnalyticSample(robot, prob, None)
+    sample = sqp_sample.AnalyticSample(robot, prob, None)
     rng = np.random.default_rng(3)
     P = np.array([0.11, -0.12, 0.21]) + rng.uniform(-0.01, 0.01, (40, 3))
     com, _, thrust = sample.posture_terms(P)
@@ -60,14 +66,14 @@ def test_smooth_balance_rows_reproduce_the_exact_minimal_thrust(robot, monkeypat
 
 
 def test_restore_brings_a_slightly_infeasible_posture_back(robot):
-    sc = load_scenario(DITCH)
-    sample = sqp.AnalyticSample(robot, _problem(sc, robot, 59), None)
+    sc = _paper_a()
+    sample = sqp_sample.AnalyticSample(robot, _problem(sc, robot, 59), None)
     found = plan(sc, method="sqp", build_rows=False).steps[0].samples[59].p_body
     # push the pelvis 0.5 mm away from the swing ankle: the swing (left) leg overstretches
     away = found - (sample.feet["left"][0] + sample.up)
     pushed = found + 0.0005 * away / np.linalg.norm(away)
     _, cons, _ = sample.posture_terms(pushed[None])
-    assert cons.min() < -sqp.MARGIN
+    assert cons.min() < -sqp_sample.MARGIN
     ok, _ = sample.feasible(sample.restore(pushed))
     assert ok
 
@@ -141,7 +147,7 @@ def test_sqp_plans_every_config_and_its_rows_between_samples_hold(tmp_path, name
 
 def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
     """Two feasible postures whose straight-line interpolation leaves the (A-10) cone are flagged."""
-    sc = load_scenario(DITCH)
+    sc = _paper_a()
     problem_at = path_problems(sc, robot, 0, feet_before_each_step(sc)[0])
 
     def between(i, lam):
@@ -153,7 +159,7 @@ def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
     assert evals.sum() > 0
     # a detour at one sample: its own posture moved to where it still holds, far from both neighbours
     i = 30
-    sample = sqp.AnalyticSample(robot, _problem(sc, robot, i), None, margin_scale=0.0)
+    sample = sqp_sample.AnalyticSample(robot, _problem(sc, robot, i), None, margin_scale=0.0)
     rng = np.random.default_rng(0)
     for _ in range(2000):
         p = found[i].p + rng.uniform(-0.06, 0.06, 3)

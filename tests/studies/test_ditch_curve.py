@@ -1,12 +1,18 @@
-"""`jethr1 ditch-curve`: the widest ditch per tolerance, from plans the planner itself makes."""
+"""`jethr1 ditch-curve`: the most robust crossing of each ditch and the widest ditch per tolerance, from plans the
+planner itself makes."""
 
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from jethr1_plan.cli import run
+from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning.report import share_summary
 from jethr1_plan.scenario import ROBUST_DEFAULT
 from jethr1_plan.studies.ditch_curve import default_base, ditch_scenario, landing_x
 from jethr1_plan.swing_path import sole_on_carton
@@ -44,3 +50,32 @@ def test_bad_gaps_are_exit_2(tmp_path):
     for gaps in ("0.3:0.2:0.01", "a:b:c", "0.3:0.5:0", "0.3:nan:0.01", "0.001:100:0.0001"):
         assert run(["ditch-curve", "--gaps", gaps, "-o", str(tmp_path / "x"), "--no-progress"]) == 2
     assert not (tmp_path / "x").exists()
+
+
+def test_the_share_reported_for_a_gap_is_one_a_plan_holds_and_wider_gaps_hold_less(tmp_path, capsys):
+    """The default optimiser (sqp) on 0.40, 0.43, 0.46 m: the share falls (or stays) as the gap widens and
+    stays in (0, 1); at the widest gap, the whole of share × T planned as a fixed tolerance is feasible with
+    every row holding all of it, and asking the objective plan for 0.02 more share than reported is exit 3."""
+    out = tmp_path / "dc"
+    assert run(["ditch-curve", "--gaps", "0.40:0.46:0.03", "--scales", "", "-j", "2", "-o", str(out), "--json",
+                "--no-progress"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["optimiser"] == "sqp" and doc["tolerances"] == []
+    rob = doc["robustness"]
+    assert [r["gap_m"] for r in rob] == [0.40, 0.43, 0.46]
+    shares = [r["share"] for r in rob]
+    assert all(s is not None and 0.0 < s < 1.0 for s in shares), shares
+    assert shares[0] >= shares[1] >= shares[2], shares
+    assert all(r["max_thrust_n"] <= 23.0 + 1e-9 and r["mean_thrust_n"] < r["max_thrust_n"] for r in rob)
+    held = rob[2]["tolerance"]
+    assert held["thrust_error"] == pytest.approx(0.1 * shares[2])
+    assert held["com_error_m"] == pytest.approx(0.01 * shares[2])
+
+    base = default_base()
+    fixed = ditch_scenario(base, 0.46, base.balance.robust.scaled(shares[2] - 1e-3), 0.16)
+    result = plan(replace(fixed, balance=replace(fixed.balance, min_share=1.0)))
+    assert result.feasible
+    assert share_summary(result.rows, fixed.balance.tolerance)["least"] > 1.0 - 1e-3
+    greedy = ditch_scenario(base, 0.46, base.balance.robust, 0.16)
+    with pytest.raises(InfeasiblePlan, match="min_share"):
+        plan(replace(greedy, balance=replace(greedy.balance, min_share=shares[2] + 0.02)))

@@ -37,6 +37,7 @@ KERNEL_SOURCES = (
     "physics/compiled/reach.py",
     "physics/compiled/objective.py",
     "physics/compiled/sample.py",
+    "physics/share.py",
     "optimisers/compass.py",
 )
 

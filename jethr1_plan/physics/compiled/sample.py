@@ -21,7 +21,7 @@ __all__ = ["sample_terms"]
 @kernel
 def sample_terms(P, yaw, feet, feet_yaw, geom, trunk, joints, links, limits, mask, margins, origin, ankle, rho, fan,
                  normals, offsets, weight, tol_thrust, tol_mass, tol_com):
-    """One swing sample's terms for trunk positions P (M, 3) [m] (``optimisers.sqp.AnalyticSample``):
+    """One swing sample's terms for trunk positions P (M, 3) [m] (``optimisers.sqp_sample.AnalyticSample``):
     the CoM (M, 3) [m]; the P-only constraints (M, 3 + mask.sum()), ≥ 0 when held: ρ − (A-10) error
     − margins[0] [rad], each leg's L² − ‖hip − ankle‖² − margins[1] [m²] (left, right), then the rows
     q − lower, upper − q of the 24 (legs' joints by role) selected by ``mask``, less margins[2] [rad]
