@@ -255,7 +255,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     side_index = {s: k for k, s in enumerate(SIDES)}
     applied = np.zeros(len(fans))
     caps = np.array([min(f.max_thrust_n, track.thrust_max_n) for f in fans])  # each fan's limit [N]
-    integral = 0.0
+    law = ctl.ThrustFeedback(gains)
     buf = np.zeros(6)
     n_rows = len(track)
     duration = float(track.time_s[-1])
@@ -266,8 +266,6 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     least_margin, least_at = math.inf, None
     fell = None
     landing: list[dict] = []
-    lo_gain = (1 - track.mass_error) / (1 + track.thrust_error)
-    hi_gain = (1 + track.mass_error) / (1 - track.thrust_error)
     judge = _landing_rows(track)
     weight = GRAVITY * float(m.body_mass.sum())
     wall0 = time.perf_counter()
@@ -298,26 +296,19 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
                 least_margin, least_at = margin, track.where(i)
         cmd = ff.copy()
         if controller == "feedback" and alone and k >= n_settle:
-            same = track.phase[j] == track.phase[i] and track.step[j] == track.step[i]
-            zref = (1 - a) * track.zmp[i] + a * track.zmp[j] if same else track.zmp[i]
-            # the law acts on the total thrust of the fans that carry it, in their planned shares (the
-            # window's direction); without planned thrust, on the swing sole's first fan
+            # the law acts on the total thrust of the fans that carry it, in their planned shares;
+            # without planned thrust, on the swing sole's first fan. Its saturation is the whole
+            # thrust the fans are given: [0, the total at which a carrying fan reaches its limit]
             ff_total = float(ff.sum())
             carry = (np.flatnonzero(ff > 0) if ff_total > 0
                      else np.array(robot.swing_fans(other_side(sup))[:1], dtype=int))
             share = ff[carry] / ff_total if ff_total > 0 else np.ones(len(carry))
             if len(carry):
-                top = float(np.min(caps[carry] / share))  # the total at which a carrying fan reaches its limit
-                lo, hi = track.window[i]
-                if not np.isfinite(lo):
-                    lo, hi = 0.0, top
+                top = float(np.min(caps[carry] / share))
                 point = sum(share[n] * d.xpos[fan_ids[k]][:2] for n, k in enumerate(carry))
-                e = ctl.band_error(loads[sup][1][:2], zref, point, poly, gains.band_margin_m)
-                total_cmd, integral = ctl.step(gains, integral, e, float(ff[carry].sum()), lo * lo_gain,
-                                               min(top, hi * hi_gain))
-                cmd[carry] = share * total_cmd
+                cmd[carry] = share * law.step(loads[sup][1][:2], point, poly, float(ff[carry].sum()), top)
         else:  # double support: the planned thrust; the integral leaks away
-            _, integral = ctl.step(gains, integral, 0.0, 0.0, 0.0, 0.0)
+            law.idle()
         applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)
         # the thrust the feedback adds to the plan, as the robot estimates it (its fans' nominal lag):
         # the servos that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
