@@ -35,7 +35,8 @@ from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
 from jethr1_plan.swing_path import Carton, sole_on_carton
 
-__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "Perturbation", "PlanTrack", "RunResult", "load_plan", "rehearse"]
+__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "Perturbation", "PlanTrack", "RunResult", "held_tolerance", "load_plan",
+           "rehearse"]
 
 SETTLE_S = 0.5  # the first posture is held this long before the plan's clock starts [s]
 HOLD_S = 1.0  # the last posture is held this long after the plan ends [s]
@@ -58,14 +59,39 @@ class Perturbation:
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> Perturbation:
-        """A randomised trial: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, lag 30..80 ms, and
-        servo stiffness 0.8..1.25 (log-uniform: the sag compensation then under- or overshoots)."""
-        mass = float(rng.uniform(0.95, 1.05))
-        r, a = 0.005 * math.sqrt(float(rng.uniform())), float(rng.uniform(0.0, 2 * math.pi))
-        gain = float(rng.uniform(0.8, 1.1))
+        """A randomised trial, the default (wider) randomisation: mass ±5 %, CoM within 5 mm, thrust
+        gain 0.8..1.1, lag 30..80 ms, and servo stiffness 0.8..1.25 (log-uniform: the sag
+        compensation then under- or overshoots). Uniform; the CoM offset uniform over the disc."""
+        return cls._draw(rng, 0.05, 0.005, (0.8, 1.1))
+
+    @classmethod
+    def draw_within(cls, rng: np.random.Generator, tolerance: dict) -> Perturbation:
+        """A randomised trial inside a plan's ``tolerance`` (:func:`held_tolerance`): thrust gain
+        uniform in 1 ± thrust_error, mass scale in 1 ± mass_error, the CoM offset uniform over the
+        disc of radius com_error_m; lag and servo stiffness as :meth:`draw` (the plan's tolerance
+        does not cover them: the twin's own spread)."""
+        x = float(tolerance["thrust_error"])
+        return cls._draw(rng, float(tolerance["mass_error"]), float(tolerance["com_error_m"]), (1.0 - x, 1.0 + x))
+
+    @classmethod
+    def _draw(cls, rng: np.random.Generator, mass_error: float, com_m: float, gain: tuple[float, float]
+              ) -> Perturbation:
+        mass = float(rng.uniform(1.0 - mass_error, 1.0 + mass_error))
+        r, a = com_m * math.sqrt(float(rng.uniform())), float(rng.uniform(0.0, 2 * math.pi))
+        thrust = float(rng.uniform(*gain))
         lag = float(rng.uniform(0.03, 0.08))
         stiffness = float(math.exp(rng.uniform(math.log(0.8), math.log(1.25))))
-        return cls(mass, (r * math.cos(a), r * math.sin(a)), gain, lag, stiffness)
+        return cls(mass, (r * math.cos(a), r * math.sin(a)), thrust, lag, stiffness)
+
+    def inside(self, tolerance: dict) -> dict[str, bool]:
+        """Whether this draw lies inside a plan's ``tolerance``, per model error and in all
+        (``thrust``: |gain − 1| ≤ thrust_error, ``mass``: |scale − 1| ≤ mass_error, ``com``: offset ≤
+        com_error_m; lag and stiffness are not part of a plan's tolerance)."""
+        eps = 1e-12
+        out = {"thrust": abs(self.thrust_gain - 1.0) <= float(tolerance["thrust_error"]) + eps,
+               "mass": abs(self.mass_scale - 1.0) <= float(tolerance["mass_error"]) + eps,
+               "com": math.hypot(*self.com_offset_m) <= float(tolerance["com_error_m"]) + eps}
+        return {**out, "all": all(out.values())}
 
 
 @dataclass
@@ -93,6 +119,9 @@ class PlanTrack:
     thrust_cmd: np.ndarray  # (N, F) fan commands [N] (the plan's thrust_cmd_*: lag compensated)
     feet: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3) planned sole centres [m]
     feet_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2) [rad]
+    #: the tolerance the plan holds at every row: thrust_error, mass_error (fractions), com_error_m [m],
+    #: and ``source`` (see :func:`held_tolerance`)
+    tolerance: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -133,7 +162,27 @@ def load_plan(folder: Path) -> PlanTrack:
                       joint_matrix(c, robot, "_cmd_rad"), fan_matrix(c, robot, "thrust_cmd_"))
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
         raise InputError(str(csv_path), "", "malformed trajectory: fewer than 2 rows or non-finite poses")
+    try:
+        track.tolerance = held_tolerance(summary)
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise InputError(str(summary_path), "balance.tolerance", f"malformed: {exc}".splitlines()[0]) from None
     return track
+
+
+def held_tolerance(summary: dict) -> dict:
+    """The model errors a plan's ``summary.json`` says it holds at every row: where its rows hold only a
+    share of the scenario's tolerance, the tolerance at the least share
+    (``robustness.tolerance_share.tolerance``); else ``balance.tolerance``; a plan with neither (or the
+    minimal policy) holds none. Fractions of thrust and mass, the CoM error in metres."""
+    shared = (summary.get("robustness") or {}).get("tolerance_share") or {}
+    if shared.get("tolerance"):
+        tol, source = shared["tolerance"], f"robustness.tolerance_share (least share {float(shared['least']):g})"
+    else:
+        tol, source = (summary.get("balance") or {}).get("tolerance") or {}, "balance.tolerance"
+    out = {key: float(tol.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")}
+    if not all(math.isfinite(v) and v >= 0 for v in out.values()):
+        raise ValueError(f"tolerance {out} is not finite and non-negative")
+    return {**out, "source": source}
 
 
 def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
