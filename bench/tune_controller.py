@@ -14,13 +14,14 @@ The procedure (docs/rehearsal.md, "Tuning the law"):
    least centre-of-pressure margin; print every setting's score and the best one as the robot YAML's
    ``controller:`` block. The same draws for every setting: the comparison is paired.
 
-    .venv/bin/python bench/tune_controller.py [--trials 4] [-j 2]
+    .venv/bin/python bench/tune_controller.py [--trials 4] [-j 2] [--setting '{"kp_n_per_m": 600}' ...]
 """
 
 from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import sys
 import tempfile
 import time
@@ -66,9 +67,12 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--trials", type=int, default=4, help="randomised draws per plan and setting")
     ap.add_argument("-j", "--jobs", type=int, default=2)
+    ap.add_argument("--setting", action="append", default=None,
+                    help="score only this setting (JSON of Gains fields; repeatable) instead of the grid")
     args = ap.parse_args()
     folders = plan_all(Path(tempfile.mkdtemp(prefix="tune-")))
-    settings = [dict(zip(GRID, values, strict=True)) for values in itertools.product(*GRID.values())]
+    settings = ([json.loads(text) for text in args.setting] if args.setting else
+                [dict(zip(GRID, values, strict=True)) for values in itertools.product(*GRID.values())])
     t0 = time.perf_counter()
     jobs = [(i, name, k) for i in range(len(settings)) for name in folders for k in range(args.trials)]
     results = Parallel(n_jobs=args.jobs)(delayed(one)(str(folders[name]), Gains(**settings[i]), k)

@@ -27,9 +27,9 @@ Why the error and the saturation are these (measured on the twin, docs/rehearsal
 law measured the CoP only along the fixed ray from the fan through the planned ZMP and clipped the
 command to the row's thrust window widened by the plan's tolerance. On Paper A's minimal 450 mm
 plan (tolerance 0) that window is the planner's own: it held the command at 20.57 N, the row's
-upper bound, from swing row 439 until the trunk tipped past 10° at row 446, with the CoP on the
-toe edge and 2.4 N of the fan unused; the ray error also read a CoP 3 mm from the outer edge but
-40 mm from the toe as 14 mm "beyond the band" along the ray.
+upper bound, from swing row 439 until the trunk tipped past 10° at row 446, 2.43 N of the fan
+unused; and its ray error read "13 mm more thrust" with the CoP 0.4–2.1 mm from the outer edge that
+more thrust moves it towards (this law's error: −1.2 to −1.5 mm, the corner's compromise).
 
 Signals a robot of this kind has: the CoP of the soles (force-sensing resistors under each sole, or
 an ankle force-torque sensor; in double support the CoP of both), the fan's position from the joint
