@@ -2,7 +2,8 @@
 
 The plan is read from its folder only (``trajectory.csv`` and ``summary.json``): the servos follow
 the joint columns (linear between rows), the fans get the thrust columns as feed-forward, through a
-first-order lag, optionally corrected by the plan's feedback law (:mod:`.controller`). The robot
+first-order lag, optionally corrected by the plan's feedback law
+(:mod:`jethr1_plan.control.thrust_feedback`). The robot
 starts in the first row's posture and settles for ``SETTLE_S`` before the plan's clock starts; it
 holds the last row for ``HOLD_S`` after it ends.
 
@@ -13,8 +14,9 @@ trunk tilt, the support soles' largest tilt and slip (against where the plan put
 margin of the measured centre of pressure inside the support sole, each landing's error (the swing
 sole at the end of the transfer that follows it, against the plan), the largest thrust.
 
-Randomised trials (:meth:`Perturbation.draw`) scale every link's mass and inertia, shift the CoM,
-scale the fans' thrust and change their lag.
+Randomised trials (:meth:`Perturbation.draw`, or :meth:`Perturbation.draw_within` the plan's
+tolerance) scale every link's mass and inertia, shift the CoM, scale the fans' thrust, change their
+lag and the servos' stiffness; :mod:`.certificate` turns their verdicts into a certificate.
 """
 
 from __future__ import annotations
