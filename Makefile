@@ -36,6 +36,7 @@ bench: install
 	$(BIN)/python bench/bench_plan.py
 	$(BIN)/python bench/bench_balance_space.py
 	$(BIN)/python bench/bench_simulate.py
+	$(BIN)/python bench/bench_certificates.py -j 2
 	$(BIN)/python bench/bench_walk.py
 	$(BIN)/python bench/bench_route.py
 	$(BIN)/python bench/bench_commands.py

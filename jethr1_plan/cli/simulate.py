@@ -29,7 +29,11 @@ TRIAL_BYTES = 20_000  # a trial's result held until the end (its measurements, l
               help="Time constant of the fans' first-order lag [s].")
 @click.option("--trials", type=click.IntRange(1, 10000), default=None,
               help="Randomised trials instead of one run: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, "
-                   "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used).")
+                   "lag 30..80 ms, servo stiffness 0.8..1.25 (the scales above are then not used); reports the "
+                   "survivors with a 95 % Clopper–Pearson bound (docs/rehearsal.md).")
+@click.option("--within-tolerance", is_flag=True,
+              help="With --trials: draw thrust, mass and CoM errors only inside the tolerance the plan holds "
+                   "(its summary.json), lag and stiffness as above.")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the trials.")
 @click.option("--raw", is_flag=True,
               help="Servos follow the joint columns and fans the thrust columns as written, without the plan's "
@@ -38,19 +42,25 @@ TRIAL_BYTES = 20_000  # a trial's result held until the end (its measurements, l
               help="Processes for the trials (results do not depend on it).")
 @click.option("--json", "as_json", is_flag=True, help="Print simulation.json on stdout.")
 @click.option("--no-progress", is_flag=True)
-def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, seed, raw, jobs, as_json,
-                 no_progress) -> None:
+def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, trials, within_tolerance, seed, raw, jobs,
+                 as_json, no_progress) -> None:
     """Rehearse a written plan in a MuJoCo twin of the robot and its cartons (physics, not the planner's model).
 
-    Writes PLAN_DIR/simulation.json and simulation.mcap. Exit 0 when every run succeeds (no fall,
-    both soles on carton tops at the end), 6 when any fails, 2 on bad input.
+    Writes PLAN_DIR/simulation.json and simulation.mcap (the first run). With --trials, trial k draws
+    from the generator seeded [seed, k], so the draws and verdicts do not depend on -j; the JSON's
+    "certificate" holds the survivors, their Clopper–Pearson bound and the failures with their draws.
+    Exit 0 when every run succeeds (no fall, both soles on carton tops at the end), 6 when any fails,
+    2 on bad input.
     """
 
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
     from jethr1_plan.files.simulation import simulation_mcap
     from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.sim.certificate import certificate, describe, draws
     from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
 
+    if within_tolerance and trials is None:
+        raise click.BadParameter("needs --trials", param_hint="'--within-tolerance'")
     track = load_plan(plan_dir)
     check_writable(plan_dir, need_bytes=len(track) * 600)
     if trials is not None:
@@ -59,7 +69,8 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
     if trials is None:
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
     else:
-        perturbations = [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(trials)]
+        randomisation = "within_tolerance" if within_tolerance else "default"
+        perturbations = draws(seed, trials, randomisation, track.tolerance)
     with Progress(not no_progress, f"simulate {plan_dir}") as progress:
         runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw,
                         track=track)
@@ -71,6 +82,8 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
            "gains": Gains.of(track.robot).__dict__,
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
+           "certificate": (certificate(runs, perturbations, track.tolerance, randomisation)
+                           if trials is not None else None),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
     with staged_directory(plan_dir, SIMULATION_FILES) as staging:  # both files or neither
         (staging.path / "simulation.json").write_text(json_text(doc))
@@ -79,19 +92,28 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
                                                                            track.cartons))
     if as_json:
         print_json(doc)
-    t = Table(title=f"{plan_dir}: {controller} in the twin")
-    for col in ("run", "mass ×", "thrust ×", "lag [s]", "result", "max tilt [deg]", "landing [m]", "slip [m]",
-                "CoP margin [m]", "max thrust [N]"):
+    shown = list(enumerate(runs)) if len(runs) <= 20 else [(k, r) for k, r in enumerate(runs) if not r.survived]
+    title = f"{plan_dir}: {controller} in the twin" + ("" if len(shown) == len(runs) else " (the failed runs)")
+    t = Table(title=title)
+    for col in ("run", "mass ×", "thrust ×", "CoM [mm]", "lag [s]", "stiffness ×", "in tol.", "result",
+                "max tilt [deg]", "landing [m]", "slip [m]", "CoP margin [m]", "max thrust [N]"):
         t.add_column(col, justify="right")
-    for k, r in enumerate(runs):
+    for k, r in shown:
         p = r.perturbation
         land = max((e["xy_m"] for e in r.landing_errors_m), default=None)
         verdict = "survived" if r.survived else (f"fell: {r.fell['reason']} at {r.fell['phase']} row "
                                                  f"{r.fell['row']}" if r.fell else "off the cartons")
-        t.add_row(str(k), f"{p['mass_scale']:.3f}", f"{p['thrust_gain']:.3f}", f"{p['fan_lag_s']:.3f}", verdict,
+        inside = perturbations[k].inside(track.tolerance)["all"]
+        t.add_row(str(k), f"{p['mass_scale']:.3f}", f"{p['thrust_gain']:.3f}",
+                  f"{1000 * float(np.hypot(*p['com_offset_m'])):.1f}", f"{p['fan_lag_s']:.3f}",
+                  f"{p['servo_stiffness_scale']:.3f}", "yes" if inside else "no", verdict,
                   f"{r.max_trunk_tilt_deg:.2f}", "-" if land is None else f"{land:.4f}", f"{r.support_max_slip_m:.4f}",
                   "-" if r.least_cop_margin_m is None else f"{r.least_cop_margin_m:.4f}", f"{r.max_thrust_n:.2f}")
-    err_console.print(t)
+    if shown:
+        err_console.print(t)
+    if doc["certificate"] is not None:
+        for text in describe(doc["certificate"]):
+            err_console.print(text, highlight=False)
     rtf = doc["timing"]["realtime_factor"]
     line = (f"simulate: {ok}/{len(runs)} runs survived ({controller}); "
             f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); wrote {plan_dir}/simulation.json")

@@ -5,6 +5,7 @@ can run, and the rehearsal of a written plan in the twin (``jethr1 simulate``).
   the robot YAML's limits, sole contact boxes, cartons, fans as forces with a first-order lag.
 * :mod:`jethr1_plan.control.thrust_feedback` — the thrust feedback law on the measured centre of pressure.
 * :mod:`jethr1_plan.sim.rehearsal` — a plan replayed in the twin: falls, tilt, slip, landings.
+* :mod:`jethr1_plan.sim.certificate` — randomised trials' draws, survivors and their Clopper–Pearson bound.
 """
 
 __all__: list[str] = []

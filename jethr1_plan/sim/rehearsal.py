@@ -2,7 +2,8 @@
 
 The plan is read from its folder only (``trajectory.csv`` and ``summary.json``): the servos follow
 the joint columns (linear between rows), the fans get the thrust columns as feed-forward, through a
-first-order lag, optionally corrected by the plan's feedback law (:mod:`.controller`). The robot
+first-order lag, optionally corrected by the plan's feedback law
+(:mod:`jethr1_plan.control.thrust_feedback`). The robot
 starts in the first row's posture and settles for ``SETTLE_S`` before the plan's clock starts; it
 holds the last row for ``HOLD_S`` after it ends.
 
@@ -13,8 +14,9 @@ trunk tilt, the support soles' largest tilt and slip (against where the plan put
 margin of the measured centre of pressure inside the support sole, each landing's error (the swing
 sole at the end of the transfer that follows it, against the plan), the largest thrust.
 
-Randomised trials (:meth:`Perturbation.draw`) scale every link's mass and inertia, shift the CoM,
-scale the fans' thrust and change their lag.
+Randomised trials (:meth:`Perturbation.draw`, or :meth:`Perturbation.draw_within` the plan's
+tolerance) scale every link's mass and inertia, shift the CoM, scale the fans' thrust, change their
+lag and the servos' stiffness; :mod:`.certificate` turns their verdicts into a certificate.
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
 from jethr1_plan.swing_path import Carton, sole_on_carton
 
-__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "Perturbation", "PlanTrack", "RunResult", "load_plan", "rehearse"]
+__all__ = ["FALL_DROP_M", "FALL_TILT_DEG", "Perturbation", "PlanTrack", "RunResult", "held_tolerance", "load_plan",
+           "rehearse"]
 
 SETTLE_S = 0.5  # the first posture is held this long before the plan's clock starts [s]
 HOLD_S = 1.0  # the last posture is held this long after the plan ends [s]
@@ -58,14 +61,39 @@ class Perturbation:
 
     @classmethod
     def draw(cls, rng: np.random.Generator) -> Perturbation:
-        """A randomised trial: mass ±5 %, CoM within 5 mm, thrust gain 0.8..1.1, lag 30..80 ms, and
-        servo stiffness 0.8..1.25 (log-uniform: the sag compensation then under- or overshoots)."""
-        mass = float(rng.uniform(0.95, 1.05))
-        r, a = 0.005 * math.sqrt(float(rng.uniform())), float(rng.uniform(0.0, 2 * math.pi))
-        gain = float(rng.uniform(0.8, 1.1))
+        """A randomised trial, the default (wider) randomisation: mass ±5 %, CoM within 5 mm, thrust
+        gain 0.8..1.1, lag 30..80 ms, and servo stiffness 0.8..1.25 (log-uniform: the sag
+        compensation then under- or overshoots). Uniform; the CoM offset uniform over the disc."""
+        return cls._draw(rng, 0.05, 0.005, (0.8, 1.1))
+
+    @classmethod
+    def draw_within(cls, rng: np.random.Generator, tolerance: dict) -> Perturbation:
+        """A randomised trial inside a plan's ``tolerance`` (:func:`held_tolerance`): thrust gain
+        uniform in 1 ± thrust_error, mass scale in 1 ± mass_error, the CoM offset uniform over the
+        disc of radius com_error_m; lag and servo stiffness as :meth:`draw` (the plan's tolerance
+        does not cover them: the twin's own spread)."""
+        x = float(tolerance["thrust_error"])
+        return cls._draw(rng, float(tolerance["mass_error"]), float(tolerance["com_error_m"]), (1.0 - x, 1.0 + x))
+
+    @classmethod
+    def _draw(cls, rng: np.random.Generator, mass_error: float, com_m: float, gain: tuple[float, float]
+              ) -> Perturbation:
+        mass = float(rng.uniform(1.0 - mass_error, 1.0 + mass_error))
+        r, a = com_m * math.sqrt(float(rng.uniform())), float(rng.uniform(0.0, 2 * math.pi))
+        thrust = float(rng.uniform(*gain))
         lag = float(rng.uniform(0.03, 0.08))
         stiffness = float(math.exp(rng.uniform(math.log(0.8), math.log(1.25))))
-        return cls(mass, (r * math.cos(a), r * math.sin(a)), gain, lag, stiffness)
+        return cls(mass, (r * math.cos(a), r * math.sin(a)), thrust, lag, stiffness)
+
+    def inside(self, tolerance: dict) -> dict[str, bool]:
+        """Whether this draw lies inside a plan's ``tolerance``, per model error and in all
+        (``thrust``: |gain − 1| ≤ thrust_error, ``mass``: |scale − 1| ≤ mass_error, ``com``: offset ≤
+        com_error_m; lag and stiffness are not part of a plan's tolerance)."""
+        eps = 1e-12
+        out = {"thrust": abs(self.thrust_gain - 1.0) <= float(tolerance["thrust_error"]) + eps,
+               "mass": abs(self.mass_scale - 1.0) <= float(tolerance["mass_error"]) + eps,
+               "com": math.hypot(*self.com_offset_m) <= float(tolerance["com_error_m"]) + eps}
+        return {**out, "all": all(out.values())}
 
 
 @dataclass
@@ -93,6 +121,9 @@ class PlanTrack:
     thrust_cmd: np.ndarray  # (N, F) fan commands [N] (the plan's thrust_cmd_*: lag compensated)
     feet: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3) planned sole centres [m]
     feet_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2) [rad]
+    #: the tolerance the plan holds at every row: thrust_error, mass_error (fractions), com_error_m [m],
+    #: and ``source`` (see :func:`held_tolerance`)
+    tolerance: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -133,7 +164,27 @@ def load_plan(folder: Path) -> PlanTrack:
                       joint_matrix(c, robot, "_cmd_rad"), fan_matrix(c, robot, "thrust_cmd_"))
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
         raise InputError(str(csv_path), "", "malformed trajectory: fewer than 2 rows or non-finite poses")
+    try:
+        track.tolerance = held_tolerance(summary)
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise InputError(str(summary_path), "balance.tolerance", f"malformed: {exc}".splitlines()[0]) from None
     return track
+
+
+def held_tolerance(summary: dict) -> dict:
+    """The model errors a plan's ``summary.json`` says it holds at every row: where its rows hold only a
+    share of the scenario's tolerance, the tolerance at the least share
+    (``robustness.tolerance_share.tolerance``); else ``balance.tolerance``; a plan with neither (or the
+    minimal policy) holds none. Fractions of thrust and mass, the CoM error in metres."""
+    shared = (summary.get("robustness") or {}).get("tolerance_share") or {}
+    if shared.get("tolerance"):
+        tol, source = shared["tolerance"], f"robustness.tolerance_share (least share {float(shared['least']):g})"
+    else:
+        tol, source = (summary.get("balance") or {}).get("tolerance") or {}, "balance.tolerance"
+    out = {key: float(tol.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")}
+    if not all(math.isfinite(v) and v >= 0 for v in out.values()):
+        raise ValueError(f"tolerance {out} is not finite and non-negative")
+    return {**out, "source": source}
 
 
 def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
@@ -255,7 +306,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     side_index = {s: k for k, s in enumerate(SIDES)}
     applied = np.zeros(len(fans))
     caps = np.array([min(f.max_thrust_n, track.thrust_max_n) for f in fans])  # each fan's limit [N]
-    integral = 0.0
+    law = ctl.ThrustFeedback(gains)
     buf = np.zeros(6)
     n_rows = len(track)
     duration = float(track.time_s[-1])
@@ -266,8 +317,6 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     least_margin, least_at = math.inf, None
     fell = None
     landing: list[dict] = []
-    lo_gain = (1 - track.mass_error) / (1 + track.thrust_error)
-    hi_gain = (1 + track.mass_error) / (1 - track.thrust_error)
     judge = _landing_rows(track)
     weight = GRAVITY * float(m.body_mass.sum())
     wall0 = time.perf_counter()
@@ -298,26 +347,19 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
                 least_margin, least_at = margin, track.where(i)
         cmd = ff.copy()
         if controller == "feedback" and alone and k >= n_settle:
-            same = track.phase[j] == track.phase[i] and track.step[j] == track.step[i]
-            zref = (1 - a) * track.zmp[i] + a * track.zmp[j] if same else track.zmp[i]
-            # the law acts on the total thrust of the fans that carry it, in their planned shares (the
-            # window's direction); without planned thrust, on the swing sole's first fan
+            # the law acts on the total thrust of the fans that carry it, in their planned shares;
+            # without planned thrust, on the swing sole's first fan. Its saturation is the whole
+            # thrust the fans are given: [0, the total at which a carrying fan reaches its limit]
             ff_total = float(ff.sum())
             carry = (np.flatnonzero(ff > 0) if ff_total > 0
                      else np.array(robot.swing_fans(other_side(sup))[:1], dtype=int))
             share = ff[carry] / ff_total if ff_total > 0 else np.ones(len(carry))
             if len(carry):
-                top = float(np.min(caps[carry] / share))  # the total at which a carrying fan reaches its limit
-                lo, hi = track.window[i]
-                if not np.isfinite(lo):
-                    lo, hi = 0.0, top
+                top = float(np.min(caps[carry] / share))
                 point = sum(share[n] * d.xpos[fan_ids[k]][:2] for n, k in enumerate(carry))
-                e = ctl.band_error(loads[sup][1][:2], zref, point, poly, gains.band_margin_m)
-                total_cmd, integral = ctl.step(gains, integral, e, float(ff[carry].sum()), lo * lo_gain,
-                                               min(top, hi * hi_gain))
-                cmd[carry] = share * total_cmd
+                cmd[carry] = share * law.step(loads[sup][1][:2], point, poly, float(ff[carry].sum()), top)
         else:  # double support: the planned thrust; the integral leaks away
-            _, integral = ctl.step(gains, integral, 0.0, 0.0, 0.0, 0.0)
+            law.idle()
         applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)
         # the thrust the feedback adds to the plan, as the robot estimates it (its fans' nominal lag):
         # the servos that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)

@@ -81,7 +81,7 @@ def test_every_command_says_the_same(tmp_path, capsys, command):
 
 def test_controller_and_twin_are_typed():
     robot = load_robot("jethr1")
-    assert robot.controller == ControllerSettings(rate_hz=500.0, band_margin_m=0.02, kp_n_per_m=300.0,
+    assert robot.controller == ControllerSettings(rate_hz=500.0, band_margin_m=0.02, kp_n_per_m=600.0,
                                                   ki_n_per_m_s=3000.0, leak_time_s=0.3)
     assert robot.twin == TwinSettings(sole_friction=0.8, sole_thickness_m=0.01)
     assert robot.twin.given() == {"sole_friction": 0.8, "sole_thickness_m": 0.01}
