@@ -116,7 +116,7 @@ def test_continuation_against_exhaustive_on_sampled_cells(robot, z):
     of a 1 cm sweep across the edge of the space with thrust: same membership and thrust within 0.1 N
     (the issue's criterion).
 
-    Measured on 1,000 cells of the default sweep (README, "Balance space"): 999 agree (the one other is
+    Measured on 1,000 cells of the default sweep (docs/balance_space.md): 999 agree (the one other is
     0.105 N higher); on another 1,000 (seed 2), 1,000.
     """
     spec = SweepSpec(x_range=(0.25, 0.75), y_range=(-0.35, 0.35))
