@@ -34,7 +34,7 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
     for row, fs in by_row.items():
         checks = "; ".join(f"{f.check}: {f.detail}" for f in fs)
         err_console.print(f"{what}: row {row} (t = {fs[0].time_s:.3f} s): {checks}", markup=False, soft_wrap=True)
-    err_console.print(f"checked {_names(checked)}", markup=False, highlight=False)
+    err_console.print(f"checked {_names(checked)}", markup=False, highlight=False, soft_wrap=True)
     if failures:
         err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
         raise click.exceptions.Exit(EXIT_VERIFY_FINDING)

@@ -87,6 +87,8 @@ def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
         return None
     i = int(np.nanargmin(share))
     least = float(share[i])
+    if least >= FULL_SHARE:  # the whole tolerance, as the rows' check counts it
+        least = 1.0
     t = tol.scaled(least)
     return {"least": least, "least_at": _where(rows, i),
             "tolerance": {"thrust_error": t.thrust, "mass_error": t.mass, "com_error_m": t.com_m},
