@@ -340,21 +340,12 @@ def _in_window(x: RowData) -> list[Finding]:
     return rows(bad, detail)
 
 
-def _tolerance_regions(x: RowData):
-    """The plan's tolerance and, per row with a finite ZMP, the support region shrunk by its sole margin."""
+def _plan_tolerance(x: RowData):
+    """The plan's tolerance, from its ``balance`` block."""
     from jethr1_plan.physics.balance import Tolerance
 
-    r = x.robot
-    assert x.balance is not None
-    tol_doc = x.balance.get("tolerance", {})
-    tol = Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
-    shrink = float(x.balance.get("sole_margin_m", 0.0))
-    for i in range(x.n):
-        if not np.all(np.isfinite(x.zmp[i])):
-            continue
-        soles = [x.support[i]] if x.single[i] and x.support[i] in SIDES else list(SIDES)
-        shrunk = [sole_polygon(x.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink) for s in soles]
-        yield i, tol, shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))
+    tol_doc = (x.balance or {}).get("tolerance", {})
+    return Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
 
 
 @check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within the "
@@ -367,7 +358,8 @@ def _tolerance(x: RowData) -> list[Finding]:
     com = x.fk["com"][:, :2]
     shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
     out = []
-    for i, tol, region in _tolerance_regions(x):
+    tol = _plan_tolerance(x)
+    for i, region in x.tolerance_regions:
         share = float(shares[i]) if np.isfinite(shares[i]) and tol != NOMINAL else 1.0
         held = tol.scaled(share)
         slack = float(balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, x.robot.mass_kg, held))
@@ -389,10 +381,11 @@ def _share_column(x: RowData) -> list[Finding]:
         return []
     com = x.fk["com"][:, :2]
     written = x.c["tolerance_share"].astype(float)
+    tol = _plan_tolerance(x)
+    if tol == NOMINAL:
+        return []
     out = []
-    for i, tol, region in _tolerance_regions(x):
-        if tol == NOMINAL:
-            return []
+    for i, region in x.tolerance_regions:
         if not np.isfinite(written[i]):
             out.append((i, "empty under a tolerance"))
             continue

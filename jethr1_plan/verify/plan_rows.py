@@ -157,6 +157,19 @@ class RowData:
         return sole_polygon((0.0, 0.0), 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
 
     @cached_property
+    def tolerance_regions(self) -> list[tuple[int, np.ndarray]]:
+        """Per row with a finite ZMP: its index and the support region (one sole, or the hull of both) shrunk by
+        the plan's ``sole_margin_m`` [m], built once for the checks under the plan's tolerance."""
+        shrink = float((self.balance or {}).get("sole_margin_m", 0.0))
+        r = self.robot
+        out = []
+        for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1)):
+            soles = [self.support[i]] if self.single[i] and self.support[i] in SIDES else list(SIDES)
+            shrunk = [sole_polygon(self.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink) for s in soles]
+            out.append((int(i), shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))))
+        return out
+
+    @cached_property
     def polygons(self) -> dict[int, np.ndarray]:
         """Per row not on one sole (double support), the real support polygon: the hull of both soles."""
         return {int(i): convex_hull(np.vstack([sole_polygon(self.pos[s][i, :2], 0.0, self.robot.sole_length_m,
