@@ -112,6 +112,18 @@ def _report_plan(summary: dict, folder: Path) -> None:
                     f"t = {at['time_s']:.2f} s): there the plan holds ±{100 * tol['thrust_error']:.1f} % thrust, "
                     f"±{100 * tol['mass_error']:.1f} % mass, {1000 * tol['com_error_m']:.1f} mm of CoM error; "
                     f"{share['rows_below_full']} rows below the whole tolerance")
+    dyn = summary.get("dynamics")
+    if dyn is not None and dyn["least_zmp_margin_m"] is not None:
+        at = dyn["least_zmp_margin_at"]
+        margin_mm = round(1000 * dyn["least_zmp_margin_m"], 1) + 0.0
+        where = f"step {at['step']} {at['phase']} row {at['row']}, t = {at['time_s']:.2f} s"
+        if dyn["rows_outside_support"]:
+            k = dyn["rows_outside_support"]
+            c.print(f"[yellow]warning:[/] the rows' own motion (central differences) moves the ZMP off the support "
+                    f"on {k} row{'s' if k > 1 else ''}, by up to {-margin_mm:.1f} mm ({where}): the quasistatic "
+                    "balance holds there, the motion's accelerations do not (they shrink as timing.swing_s grows)")
+        else:
+            c.print(f"dynamic ZMP (the rows' own motion) least margin {margin_mm:.1f} mm ({where})")
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
     c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
             "file's /robot_description; its rehearsal, simulation.mcap, plays beside it); Rerun: jethr1 view "

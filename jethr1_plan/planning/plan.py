@@ -21,6 +21,7 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.kinematics import PostureSolver, make_posture_solver
 from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.physics.balance import NOMINAL
+from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
 from jethr1_plan.physics.statics import analyse_rows
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
@@ -247,8 +248,10 @@ def row_solver(robot: RobotModel, given: PostureSolver | None = None, kinematics
 
 
 def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) -> dict | None:
-    """Add Paper B's per-row figures (static torques, κ, yaw momentum) to ``rows``; flag torques
-    above the servo limits (infeasible rows under ``strict_torque``). Returns the first such row."""
+    """Add Paper B's per-row figures (static torques, κ, yaw momentum) and the rows' dynamics
+    (:func:`plan_row_dynamics`) to ``rows``; mark infeasible the rows whose motion needs the ground to
+    pull (a vertical ground force ≤ 0) and, under ``strict_torque``, torques above the servo limits.
+    Returns the first such row."""
     a = analyse_rows(robot, rows, dt)
     c = rows.columns
     c["tau"], c["kappa"], c["yaw_momentum"] = list(a["tau"]), list(a["kappa"]), list(a["yaw_momentum"])
@@ -260,20 +263,38 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     for k, f in enumerate(fans):
         c[f"thrust_cmd_{f.name}"] = list(cmd[:, k])
     ratio = np.abs(a["tau"]) / robot.servo_limit_nm
-    over = np.flatnonzero(ratio.max(axis=1) > 1.0)
-    rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio}
-    if not strict_torque or not len(over):
-        return None
+    dyn = plan_row_dynamics(rows, robot, dt)
+    rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio, "dynamics": dyn}
+    bad: dict[int, str] = {}
+    if strict_torque:
+        for i in np.flatnonzero(ratio.max(axis=1) > 1.0).tolist():
+            j = int(np.argmax(ratio[i]))
+            bad[i] = f"{robot.joint_names[j]} torque {a['tau'][i, j]:.2f} N·m above its servo limit"
+    for i in (np.flatnonzero(dyn.vertical_force_n[1:-1] <= 0.0) + 1).tolist():  # the stencil's inner rows
+        bad.setdefault(i, f"the rows' motion needs the ground to pull ({dyn.vertical_force_n[i]:.1f} N vertical): "
+                          "the trunk falls faster than gravity")
     first = None
-    for i in over:
-        j = int(np.argmax(ratio[i]))
-        reason = f"{robot.joint_names[j]} torque {a['tau'][i, j]:.2f} N·m above its servo limit"
+    for i in sorted(bad):
         c["feasible"][i] = False
-        c["reason"][i] = c["reason"][i] or reason
+        c["reason"][i] = c["reason"][i] or bad[i]
         if first is None:
             first = {"time_s": float(c["time_s"][i]), "step": int(c["step"][i]), "phase": c["phase"][i],
-                     "sample": int(c["sample"][i]), "reason": reason}
+                     "sample": int(c["sample"][i]), "reason": bad[i]}
     return first
+
+
+def plan_row_dynamics(rows: Rows, robot: RobotModel, dt: float) -> RowDynamics:
+    """The multibody ZMP the output rows need (``physics.row_dynamics``): Paper A's balance is
+    quasistatic, and this is how far the rows' own motion moves the ZMP from it."""
+    c = rows.columns
+    p = np.asarray(c["p_body"], dtype=float)
+    yaw = np.asarray(c["yaw"], dtype=float)
+    base = np.zeros((len(p), 4, 4))
+    base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
+    base[:, 2, 2] = base[:, 3, 3] = 1.0
+    base[:, :3, 3] = p
+    thrust = np.column_stack([rows.array(f"thrust_{f.name}") for f in robot.fans]).astype(float)
+    return row_dynamics(robot, base, np.asarray(c["q"], dtype=float), thrust, np.asarray(c["support"]), dt)
 
 
 def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:

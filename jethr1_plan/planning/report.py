@@ -9,6 +9,7 @@ import numpy as np
 
 from jethr1_plan import __version__
 from jethr1_plan.physics.balance import Tolerance
+from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import KAPPA_WARNING
 from jethr1_plan.planning.results import PlanResult
 from jethr1_plan.planning.sequence import Rows
@@ -95,6 +96,21 @@ def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
             "rows_below_full": int(np.sum(share < FULL_SHARE))}
 
 
+def dynamics_summary(rows: Rows, dyn: RowDynamics) -> dict:
+    """summary.json's ``dynamics``: where the multibody ZMP of the rows' own motion (second central
+    differences, ``physics.row_dynamics``) comes nearest the support polygon's edge, or leaves it; the
+    quasistatic ZMP's margin at that row beside it, and the rows (first and last excepted) outside."""
+    row, least = dyn.least()
+    inner = dyn.margin[1:-1]
+    return {"least_zmp_margin_m": finite_or_none(least), "least_zmp_margin_at": _where(rows, row),
+            "rows_needing_pull": int(np.sum(dyn.vertical_force_n[1:-1] <= 0.0)),
+            "quasistatic_zmp_margin_m": finite_or_none(float(rows.columns["zmp_margin"][row])),
+            "rows_outside_support": int(np.sum(inner < 0.0)),
+            "max_shift_from_quasistatic_m": finite_or_none(float(np.nanmax(np.linalg.norm(
+                dyn.zmp[1:-1] - rows.array("zmp")[1:-1].astype(float), axis=1), initial=0.0))),
+            "least_vertical_force_n": float(np.min(dyn.vertical_force_n[1:-1], initial=np.inf))}
+
+
 def plan_summary(result: PlanResult) -> dict:
     """summary.json (docs/contract.md): figures over the optimised swing samples, per step and in total."""
     sc = result.scenario
@@ -178,6 +194,8 @@ def plan_summary(result: PlanResult) -> dict:
                             "warning_threshold": KAPPA_WARNING,
                             "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
             out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
+        if "dynamics" in rows.analysis:
+            out["dynamics"] = dynamics_summary(rows, rows.analysis["dynamics"])
         dt = 1.0 / sc.timing.rate_hz
         yaw = np.unwrap(rows.array("yaw").astype(float))
         rate = np.gradient(yaw, dt)

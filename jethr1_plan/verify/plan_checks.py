@@ -288,6 +288,19 @@ def _zmp_inside(x: RowData) -> list[Finding]:
                 f"is outside {where[i]}")
 
 
+@check("ground would have to pull", "the rows' own motion (second central differences of the written poses, "
+       "the fans' written thrust) needs the ground to push, not pull, on every inner row")
+def _ground_pushes(x: RowData) -> list[Finding]:
+    dyn = x.dynamics
+    if dyn is None:
+        return []
+    fz = dyn.vertical_force_n
+    pull = np.zeros(x.n, dtype=bool)
+    pull[1:-1] = fz[1:-1] <= 0.0
+    return rows(pull, lambda i: f"the motion needs {fz[i]:.2f} N of vertical ground force: the trunk falls faster "
+                "than gravity between the rows around it")
+
+
 @check("CoM column wrong", "the written CoM is the posture's", needs=("com_x_m",))
 def _com_column(x: RowData) -> list[Finding]:
     c, com = x.c, x.fk["com"]

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, other_side, pose_from_quaternion, sole_polygon
+from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
@@ -223,6 +224,21 @@ class RowData:
         for i in np.flatnonzero(computed & ~self.on_one_sole):
             window(np.array([i]), self.polygons[int(i)], np.zeros((1, 2)))
         return lo, hi, computed
+
+    @cached_property
+    def dynamics(self) -> RowDynamics | None:
+        """The ground's share of the wrench the written rows' motion needs (``physics.row_dynamics``):
+        None where the rate is unknown or a row's pose is not finite (those rows fail elsewhere)."""
+        rate = self.rate_hz
+        c = self.c
+        pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]], axis=1).astype(float)
+        norms = np.linalg.norm(self.quat, axis=1) if self.n else np.zeros(0)
+        if (rate is None or self.n < 3 or not np.isfinite(pelvis).all() or not np.isfinite(self.q_written).all()
+                or not np.isfinite(self.thrust).all() or not (np.isfinite(norms) & (norms >= 1e-9)).all()):
+            return None
+        base = np.array([pose_from_quaternion(p.tolist(), (qt / nq).tolist())
+                         for p, qt, nq in zip(pelvis, self.quat, norms, strict=True)])
+        return row_dynamics(self.robot, base, self.q, self.thrust, self.support, 1.0 / rate)
 
     @cached_property
     def rate_hz(self) -> float | None:

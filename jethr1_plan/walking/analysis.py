@@ -1,15 +1,11 @@
 """What a walk is judged by (Paper B, VI), from its written rows alone by the strictest stencil: what a
 replay, or a robot's servos, would see.
 
-* **Motion**: at each row i the generalised velocity and acceleration are second central differences
-  of the rows, with d± the difference from row i to row i ± 1 (the trunk's on SE(3), in its own
-  frame: ``geometry.pose_difference``; the joints' plain):  v_i = (d⁺ − d⁻)/2Δt, a_i = (d⁺ + d⁻)/Δt².
-  No averaging and no wider stencil: a one-row spike stays a one-row spike. The first and last rows
-  (``EDGE_ROWS``) see beyond the walk (the robot at rest there) and are not judged.
-* **The ground's wrench**: the floating base's rows of the inverse dynamics M(q)·a + h(q, v) are the
-  wrench the floor must supply; in the world, about its origin, (f, n) give the multibody ZMP
-  (−n_y/f_z, n_x/f_z) and the friction ratio |f_xy|/f_z, against the soles' μ (the robot YAML's
-  ``twin.sole_friction``).
+* **Motion and the ground's wrench** (``physics.row_dynamics``): each row's velocity and acceleration by
+  second central differences of the rows, no wider stencil (a one-row spike stays a one-row spike); the
+  floating base's rows of M(q)·a + h(q, v) are the wrench the floor must supply, giving the multibody
+  ZMP and the friction ratio |f_xy|/f_z against the soles' μ (the robot YAML's ``twin.sole_friction``).
+  The first and last rows (``EDGE_ROWS``) see beyond the walk (the robot at rest there) and are not judged.
 * **Torques**: τ = M(q)·a + h(q, v) − J_cᵀ·w, the support wrench w from the base's six rows (one sole:
   exact; both: the least-norm split); E_con = Σ_i ∫ max(τ_i·q̇_i, 0) dt over two steps (B-44).
 * **Singularity**: κ(J_low) = σ_max/σ_min of the lower body's Jacobian (B-9, B-45): each sole's
@@ -27,13 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.geometry import SIDES, polygon_margin, pose_difference, quaternion_from_matrix
+from jethr1_plan.geometry import SIDES, polygon_margin, quaternion_from_matrix
+from jethr1_plan.physics.row_dynamics import ground_wrench, row_derivatives
 from jethr1_plan.walking.generator import Walk
 from jethr1_plan.walking.knees import knee_bend_rad, leg_points
 from jethr1_plan.walking.timeline import polygon_of
 
 __all__ = ["ACCELERATION_TOL", "EDGE_ROWS", "SuccessCriteria", "Verdict", "WalkAnalysis", "analyse",
-           "energy_two_steps", "ground_wrench", "judge", "row_derivatives"]
+           "energy_two_steps", "judge"]
 
 
 EDGE_ROWS = 1  # rows at each end whose stencil reaches beyond the walk: not judged
@@ -89,28 +86,6 @@ class WalkAnalysis:
     @property
     def peak_joint_acceleration_rad_s2(self) -> float | None:
         return self._peak(np.max(np.abs(self.joint_acceleration), axis=1)) if self.a.shape[1] > 6 else None
-
-
-def row_derivatives(base: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """(v, a) (N, 6 + J): the generalised velocity and acceleration at each row by second central
-    differences of the rows (``base`` (N, 4, 4) the trunk's poses, ``q`` (N, J) [rad]), the trunk's
-    part in its own frame (pinocchio's free flyer); beyond each end the robot holds its posture."""
-    n = len(q)
-    nxt = np.concatenate([np.arange(1, n), [n - 1]])
-    prv = np.concatenate([[0], np.arange(n - 1)])
-    d_plus = np.concatenate([pose_difference(base, base[nxt]), q[nxt] - q], axis=1)
-    d_minus = np.concatenate([pose_difference(base, base[prv]), q[prv] - q], axis=1)
-    return (d_plus - d_minus) / (2.0 * dt), (d_plus + d_minus) / dt**2
-
-
-def ground_wrench(T_base: np.ndarray, base_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(force [N], moment about the world origin [N·m]) the ground exerts, in the world, from the
-    floating base's six rows of the inverse dynamics (force then moment, in the trunk's frame about
-    its origin)."""
-    R, p = T_base[:3, :3], T_base[:3, 3]
-    f = R @ base_rows[:3]
-    p_x_f = np.array([p[1] * f[2] - p[2] * f[1], p[2] * f[0] - p[0] * f[2], p[0] * f[1] - p[1] * f[0]])
-    return f, R @ base_rows[3:6] + p_x_f
 
 
 def _yaw_column(T_sole: np.ndarray, axis_point: np.ndarray) -> np.ndarray:
