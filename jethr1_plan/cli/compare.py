@@ -74,16 +74,20 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     def fmt(v, digits):
         return "" if v is None else f"{v:.{digits}f}"
 
+    def _dynamic(v):
+        return "pull" if v is None else f"{1000 * v:.1f}"
+
     t = Table(title=f"{scenario.name}: optimisers (seed {doc['seed']})")
     cols = ["method", "max F [N]", "mean F [N]", "Σ‖ΔP‖² [m²]", "max ‖ΔP‖ [m]", "max ΔF [N]", "evaluations",
-            "wall [s]", "feasible", "peak yaw rate [rad/s]", "peak yaw acc [rad/s²]"] + (
+            "wall [s]", "feasible", "dynamic ZMP margin [mm]", "peak yaw rate [rad/s]", "peak yaw acc [rad/s²]"] + (
         ["gap max [N]", "gap mean [N]"] if reference else [])
     for col in cols:
         t.add_column(col, justify="right")
     for name, m in doc["methods"].items():
         row = [name, f"{m['max_thrust_n']:.3f}", f"{m['mean_thrust_n']:.3f}", f"{m['smoothness_m2']:.2e}",
                f"{m['max_step_m']:.4f}", f"{m['max_thrust_jump_n']:.3f}", str(m["evaluations"]), f"{m['wall_s']:.2f}",
-               str(m["feasible"]), fmt(m["peak_yaw_rate_rad_s"], 4), fmt(m["peak_yaw_accel_rad_s2"], 4)]
+               str(m["feasible"]), _dynamic(m.get("dynamic_zmp_margin_m")), fmt(m["peak_yaw_rate_rad_s"], 4),
+               fmt(m["peak_yaw_accel_rad_s2"], 4)]
         if reference:
             row += [f"{m['gap_max_n']:.3f}", f"{m['gap_mean_n']:.3f}"]
         t.add_row(*row)

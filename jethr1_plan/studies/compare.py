@@ -45,6 +45,8 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
     allt = np.concatenate(thrust)
     sm = [smoothness(p, t) for p, t in zip(p_body, thrust, strict=True)]
     finite = allt[np.isfinite(allt)]
+    dyn = result.rows.analysis.get("dynamics") if result.rows is not None else None
+    least = dyn.least()[1] if dyn is not None and len(dyn.margin) else None
     return {
         "max_thrust_n": float(finite.max()) if len(finite) else None,
         "mean_thrust_n": float(finite.mean()) if len(finite) else None,
@@ -57,6 +59,9 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
         "peak_yaw_accel_rad_s2": yaw.get("peak_accel_rad_s2"),
         "wall_s": float(wall),
         "feasible": bool(result.feasible),
+        # the rows' own motion (physics.row_dynamics): the multibody ZMP's least margin [m] (None: a row
+        # needs the ground to pull)
+        "dynamic_zmp_margin_m": least if least is not None and np.isfinite(least) else None,
         "first_infeasible": result.first_infeasible,
         "p_body_m": [p.tolist() for p in p_body],
         "thrust_n": [[float(x) if np.isfinite(x) else None for x in t] for t in thrust],

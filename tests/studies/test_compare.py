@@ -32,6 +32,8 @@ def test_compare_reports_and_reference(tmp_path, capsys):
         assert m["max_thrust_n"] == t.max() and abs(m["mean_thrust_n"] - t.mean()) < 1e-12
         assert m["max_step_m"] == np.linalg.norm(np.diff(p, axis=0), axis=1).max()
         assert m["evaluations"] > 0 and m["wall_s"] > 0 and m["feasible"]
+        # the rows' own motion judged too: a multibody ZMP margin [m] within the sole's half-width
+        assert m["dynamic_zmp_margin_m"] is not None and m["dynamic_zmp_margin_m"] < 0.045
         # the dense exhaustive search is (nearly) the global minimum: no method beats it by more than
         # its grid error, and the reported gap is the largest difference
         assert np.all(t >= ref - 0.2)
