@@ -86,6 +86,7 @@ def row_dynamics(robot: RobotModel, base: np.ndarray, q: np.ndarray, thrust_n: n
     n = len(q)
     zmp, margin = np.zeros((n, 2)), np.zeros(n)
     fz, friction = np.zeros(n), np.zeros(n)
+    hulls: dict[bytes, np.ndarray] = {}
     for i in range(n):
         w.set_T_world_fbase(base[i])
         w.state.q[7:] = q[i]
@@ -103,11 +104,12 @@ def row_dynamics(robot: RobotModel, base: np.ndarray, q: np.ndarray, thrust_n: n
         fz[i] = f[2]
         friction[i] = np.hypot(f[0], f[1]) / f[2] if f[2] > 0 else np.inf
         down = SIDES if support[i] not in SIDES else (str(support[i]),)
-        polys = []
-        for s in down:
-            T = w.get_T_world_frame(soles[s])
-            polys.append(sole_polygon(T[:2, 3], float(np.arctan2(T[1, 0], T[0, 0])), robot.sole_length_m,
-                                      robot.sole_width_m))
-        poly = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
+        placed = [w.get_T_world_frame(soles[s]) for s in down]
+        key = np.round([(T[0, 3], T[1, 3], T[0, 0], T[1, 0]) for T in placed], 9).tobytes()
+        poly = hulls.get(key)
+        if poly is None:  # the soles stand still through a phase: their polygon is built once
+            polys = [sole_polygon(T[:2, 3], float(np.arctan2(T[1, 0], T[0, 0])), robot.sole_length_m,
+                                  robot.sole_width_m) for T in placed]
+            poly = hulls[key] = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
         margin[i] = float(polygon_margin(zmp[i], poly)) if f[2] > 0 else -np.inf
     return RowDynamics(zmp, margin, fz, friction)
