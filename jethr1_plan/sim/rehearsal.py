@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.control import thrust_feedback as ctl
+from jethr1_plan.control.swing_placement import PlacementGains, SwingPlacement, yaw_of
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
@@ -121,6 +122,7 @@ class PlanTrack:
     thrust_cmd: np.ndarray  # (N, F) fan commands [N] (the plan's thrust_cmd_*: lag compensated)
     feet: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3) planned sole centres [m]
     feet_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2) [rad]
+    feet_rot: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3, 3) planned sole orientations
     #: the tolerance the plan holds at every row: thrust_error, mass_error (fractions), com_error_m [m],
     #: and ``source`` (see :func:`held_tolerance`)
     tolerance: dict = field(default_factory=dict)
@@ -188,7 +190,7 @@ def held_tolerance(summary: dict) -> dict:
 
 
 def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
-    """The planned sole centres and yaws of every row (forward kinematics in the twin's model)."""
+    """The planned sole centres, yaws and orientations of every row (forward kinematics in the twin's model)."""
     import mujoco
 
     m = twin.model
@@ -196,6 +198,7 @@ def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
     n = len(track)
     feet = np.zeros((n, 2, 3))
     yaw = np.zeros((n, 2))
+    rot = np.zeros((n, 2, 3, 3))
     for i in range(n):
         d.qpos[:7] = track.pelvis[i]
         d.qpos[twin.qpos_adr] = track.q[i]
@@ -204,8 +207,9 @@ def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
             b = twin.foot_bodies[s]
             feet[i, k] = d.xpos[b]
             R = d.xmat[b].reshape(3, 3)
+            rot[i, k] = R
             yaw[i, k] = math.atan2(R[1, 0], R[0, 0])
-    track.feet, track.feet_yaw = feet, yaw
+    track.feet, track.feet_yaw, track.feet_rot = feet, yaw, rot
 
 
 @dataclass
@@ -269,7 +273,7 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
 
 def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Perturbation | None = None,
              gains: ctl.Gains | None = None, record: bool = False, params: TwinParams | None = None,
-             compensate: bool = True) -> RunResult:
+             compensate: bool = True, placement: PlacementGains | None = None) -> RunResult:
     """Run ``track`` in a fresh twin with ``controller`` (``feedforward`` or ``feedback``).
 
     With ``compensate`` the servos follow the plan's command columns (``<joint>_cmd_rad``: the
@@ -277,6 +281,12 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     ``thrust_cmd_*`` columns (the thrust led by the fans' lag) (:mod:`jethr1_plan.control.commands`), and
     the feedback's extra thrust moves the swing leg's commands by J_fanᵀ·ΔF/k as the robot would;
     without it the servos follow the joint columns and the fans the thrust columns.
+
+    ``feedback`` also places the swing sole (:mod:`jethr1_plan.control.swing_placement`, gains
+    ``placement``): in single support the yaw the support sole has slipped by (the trunk's IMU
+    orientation through the joint encoders' kinematics) turns the swing leg's commands back about the
+    support sole, so that the landing stays where the plan puts it in the world; the offset is held
+    after the landing.
     """
     import mujoco
 
@@ -284,7 +294,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     robot = track.robot
     gains = gains or ctl.Gains.of(robot)
     twin = build_twin(robot, track.cartons, params)
-    if not len(track.feet):
+    if not len(track.feet) or not len(track.feet_rot):
         _plan_kinematics(twin, track)
     _apply(twin, p)
     m = twin.model
@@ -307,6 +317,9 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     applied = np.zeros(len(fans))
     caps = np.array([min(f.max_thrust_n, track.thrust_max_n) for f in fans])  # each fan's limit [N]
     law = ctl.ThrustFeedback(gains)
+    place = SwingPlacement(placement or PlacementGains(), len(robot.joint_names))
+    leg_joints = {s: np.array(robot.legs[s].index) for s in SIDES}
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
     buf = np.zeros(6)
     n_rows = len(track)
     duration = float(track.time_s[-1])
@@ -360,6 +373,15 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
                 cmd[carry] = share * law.step(loads[sup][1][:2], point, poly, float(ff[carry].sum()), top)
         else:  # double support: the planned thrust; the integral leaks away
             law.idle()
+        if controller == "feedback" and k >= n_settle:
+            if alone:  # the support sole's yaw: the trunk's orientation (IMU) through the encoders' kinematics
+                sw, si, wi = other_side(sup), side_index[sup], side_index[other_side(sup)]
+                lever = (1 - a) * track.feet[i, wi, :2] + a * track.feet[j, wi, :2] - track.feet[i, si, :2]
+                mujoco.mj_jacBody(m, d, jacp, jacr, twin.foot_bodies[sw])
+                cols = twin.dof_adr[leg_joints[sw]]
+                place.step(yaw_of(d.xmat[twin.foot_bodies[sup]]), float(track.feet_yaw[i, si]), lever,
+                           np.vstack([jacp[:, cols], jacr[:, cols]]), leg_joints[sw], dt_c)
+            d.ctrl[:] += place.offset
         applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)
         # the thrust the feedback adds to the plan, as the robot estimates it (its fans' nominal lag):
         # the servos that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
