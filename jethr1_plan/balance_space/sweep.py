@@ -56,6 +56,7 @@ __all__ = [
     "SearchSettings",
     "SweepResult",
     "SweepSpec",
+    "cell_yaw",
     "summary",
     "sweep",
     "sweep_layers",
@@ -67,7 +68,7 @@ CELL_REASONS = (Reason.OK, Reason.OVERLAP, Reason.UNREACHABLE, Reason.JOINT_LIMI
                 Reason.EDGE_ANGLE, Reason.THRUST_MAX)
 
 
-def _cell_yaw(spec: SweepSpec, swing: np.ndarray) -> np.ndarray:
+def cell_yaw(spec: SweepSpec, swing: np.ndarray) -> np.ndarray:
     """The body yaw (A-4) [rad] of swing soles ``swing`` (k, 3): the trunk turned to the swing sole's fan."""
     fan = spec.model.fan_for(spec.swing_side)
     offset = np.asarray(fan.offset_m[:2]) if fan is not None else np.zeros(2)
@@ -98,7 +99,7 @@ class SweepResult:
     @functools.cached_property
     def yaw(self) -> np.ndarray:
         """(N,) body yaw of (A-4) [rad]."""
-        return _cell_yaw(self.spec, self.swing)
+        return cell_yaw(self.spec, self.swing)
 
     def swing_at(self, mask: np.ndarray) -> np.ndarray:
         """The swing sole centres [m] of the cells ``mask`` selects, without building all of :attr:`swing`."""
@@ -108,7 +109,7 @@ class SweepResult:
 
     def yaw_at(self, mask: np.ndarray) -> np.ndarray:
         """The body yaw (A-4) [rad] of the cells ``mask`` selects, without building all of :attr:`yaw`."""
-        return _cell_yaw(self.spec, self.swing_at(mask))
+        return cell_yaw(self.spec, self.swing_at(mask))
 
     @property
     def with_thrust(self) -> np.ndarray:
@@ -182,7 +183,7 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...], settings: SearchSetting
     r: BlockResult = search_block(spec, settings or SearchSettings(), box, np.arange(0))
     swing = box_swing(spec, box)
     return LayerResult(swing=swing, thrust=balanced_thrust(r.objective, r.reason), p_body=r.p_body,
-                       yaw=_cell_yaw(spec, swing), reason=r.reason, evaluations=r.evaluations, cpu_s=r.cpu_s)
+                       yaw=cell_yaw(spec, swing), reason=r.reason, evaluations=r.evaluations, cpu_s=r.cpu_s)
 
 
 def verify_members(result: SweepResult) -> int:
@@ -194,7 +195,7 @@ def verify_members(result: SweepResult) -> int:
     """
     m = result.with_thrust
     swing = result.swing_at(m)
-    return check_members(result.spec, swing, result.p_body[m], _cell_yaw(result.spec, swing))
+    return check_members(result.spec, swing, result.p_body[m], cell_yaw(result.spec, swing))
 
 
 def summary(result: SweepResult) -> dict:
