@@ -13,11 +13,13 @@ a set of independent tasks:
    rounds repeat until no cell changes (``max_rounds`` at most).
 
 The parent holds the state: per cell the posture (3 float64), the search's objective (float64) and the reason
-(int8), written in place in grid order, 33 bytes a cell.
+(int8), written in place in grid order, 33 bytes a cell (in memory shared with the command where the sweep runs
+in a process of its own: ``balance_space.workers``). The tasks' arguments are made as they are handed out.
 """
 
 from __future__ import annotations
 
+import mmap
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -70,14 +72,22 @@ def flat_indices(shape: tuple[int, int, int], box: tuple[slice, slice, slice]) -
 
 class SweepState:
     """Per cell of the grid: the best posture [m], the search's objective (the least thrust [N] for a member;
-    inf where no search ran) and the reason; written in place as tasks answer."""
+    inf where no search ran) and the reason; written in place as tasks answer. ``shared``: in memory shared with
+    the processes this one forks later (an anonymous shared mapping), so that one of them can run the sweep."""
 
-    def __init__(self, shape: tuple[int, int, int]):
+    def __init__(self, shape: tuple[int, int, int], shared: bool = False):
         n = int(np.prod(shape))
         self.shape = shape
-        self.p_body = np.full((n, 3), np.nan)
-        self.objective = np.full(n, np.inf)
-        self.reason = np.full(n, Reason.UNREACHABLE, dtype=np.int8)
+        if shared:
+            buf = mmap.mmap(-1, max(33 * n, 1))  # (MAP_SHARED | MAP_ANONYMOUS)
+            self.p_body = np.frombuffer(buf, np.float64, 3 * n).reshape(n, 3)
+            self.objective = np.frombuffer(buf, np.float64, n, 24 * n)
+            self.reason = np.frombuffer(buf, np.int8, n, 32 * n)
+            self.p_body[:], self.objective[:], self.reason[:] = np.nan, np.inf, Reason.UNREACHABLE
+        else:
+            self.p_body = np.full((n, 3), np.nan)
+            self.objective = np.full(n, np.inf)
+            self.reason = np.full(n, Reason.UNREACHABLE, dtype=np.int8)
 
     def put(self, r: BlockResult) -> None:
         """A task's answer written in; every member in it was re-checked by PlaCo in the task."""
@@ -134,24 +144,26 @@ def _round(task: int, spec: SweepSpec, settings: SearchSettings, box, inner, fla
 
 
 def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
-               progress: Callable[[str, int, int], None] | None = None) -> tuple[SweepState, TaskTimes, int]:
-    """The sweep's stages over the blocks, each through ``run`` (a list of (function, args) → their answers, in
-    any order). Returns the state, the tasks' times and the evaluations."""
+               progress: Callable[[str, int, int], None] | None = None,
+               state: SweepState | None = None) -> tuple[SweepState, TaskTimes, int]:
+    """The sweep's stages over the blocks, each through ``run`` ((function, args) tasks → their answers, in
+    any order), into ``state`` (a new one by default: as it starts). Returns the state, the tasks' times and the
+    evaluations."""
     shape = tuple(len(a) for a in spec.axes())
     assert len(shape) == 3
     nx, ny, nz = shape
-    state = SweepState((nx, ny, nz))
+    state = state or SweepState((nx, ny, nz))
     blocks = partition((nx, ny, nz), settings, spec.support_side == "left")
     times = TaskTimes()
     evaluations = 0
-    tasks = [(_pass1, (k, spec, settings, b.box, flat_indices(state.shape, b.box))) for k, b in enumerate(blocks)]
-    stage = [0.0] * len(tasks)
+    tasks = ((_pass1, (k, spec, settings, b.box, flat_indices(state.shape, b.box))) for k, b in enumerate(blocks))
+    stage = [0.0] * len(blocks)
     for k, r in enumerate(run(tasks)):
         state.put(r)
         stage[r.task] = r.cpu_s
         evaluations += r.evaluations
         if progress:
-            progress(f"blocks ({len(blocks)})", k + 1, len(tasks))
+            progress(f"blocks ({len(blocks)})", k + 1, len(blocks))
     times.stages.append(stage)
     if spec.method == "exhaustive":
         return state, times, evaluations

@@ -126,14 +126,23 @@ def _in_process(tasks):
 
 
 def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
-          progress=None, settings: SearchSettings | None = None) -> SweepResult:
-    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "loky", or
-    "dask": a local cluster, or the one at ``scheduler``). The result does not depend on ``jobs`` or the
-    executor. ``result.extra``: ``task_times`` (:class:`~jethr1_plan.balance_space.blocks.TaskTimes`),
-    ``verified_members`` (every member re-checked by PlaCo in its task)."""
+          progress=None, settings: SearchSettings | None = None, forked=None) -> SweepResult:
+    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "fork": in a
+    process forked from this one, with ``jobs`` workers forked from it (``balance_space.workers``, Linux; the
+    least memory); "loky"; or "dask": a local cluster, or the one at ``scheduler``). The result does not depend on
+    ``jobs`` or the executor. ``forked``: a :class:`~jethr1_plan.balance_space.workers.ForkedSweep` of this spec
+    and settings already started (executor "fork"; made here otherwise). ``result.extra``: ``task_times``
+    (:class:`~jethr1_plan.balance_space.blocks.TaskTimes`), ``verified_members`` (every member re-checked by PlaCo
+    in its task)."""
     settings = settings or SearchSettings()
     t0 = time.perf_counter()
-    if executor == "dask":
+    if executor == "fork":
+        from jethr1_plan.balance_space.workers import ForkedSweep
+
+        with forked or ForkedSweep(spec, settings, jobs) as host:
+            t0 = min(t0, host.t0)
+            state, times, evaluations = host.result(progress)
+    elif executor == "dask":
         from joblib import Parallel, delayed, parallel_config
 
         from jethr1_plan.io.cluster import dask_client

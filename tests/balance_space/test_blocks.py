@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space.blocks import TaskTimes, makespan, partition
+from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, makespan, partition
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
 from jethr1_plan.balance_space.sweep import sweep
+from jethr1_plan.balance_space.workers import fork_available
 
 # a coarse grid cut into many small blocks, so that boundary rounds run between them
 SMALL = SearchSettings(block_y_cells=6, block_z_layers=2)
@@ -51,6 +52,24 @@ def test_many_blocks_and_rounds_give_the_same_bytes_on_any_number_of_workers(one
     for name in ("thrust", "p_body", "reason"):
         assert getattr(one_process, name).tobytes() == getattr(two, name).tobytes()
     assert two.evaluations == one_process.evaluations
+
+
+@pytest.mark.skipif(not fork_available(), reason="the forked sweep needs Linux")
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_the_forked_sweep_gives_the_same_bytes(one_process, jobs):
+    forked = sweep(COARSE, jobs=jobs, executor="fork", settings=SMALL)
+    for name in ("thrust", "p_body", "reason"):
+        assert getattr(one_process, name).tobytes() == getattr(forked, name).tobytes()
+    assert forked.evaluations == one_process.evaluations
+    assert [len(s) for s in forked.extra["task_times"].stages] == [len(s) for s in
+                                                                   one_process.extra["task_times"].stages]
+
+
+def test_a_shared_state_starts_as_a_private_one():
+    a, b = SweepState((3, 4, 5)), SweepState((3, 4, 5), shared=True)
+    for name in ("p_body", "objective", "reason"):
+        assert getattr(a, name).tobytes() == getattr(b, name).tobytes()
+        assert getattr(a, name).dtype == getattr(b, name).dtype
 
 
 def test_a_dask_cluster_gives_the_same_bytes(one_process):
