@@ -159,9 +159,11 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
         with Parallel(n_jobs=jobs, return_as="generator_unordered") as par:
             state, times, evaluations = run_blocks(
                 spec, settings, lambda tasks: par(delayed(fn)(*args) for fn, args in tasks), progress)
-    thrust = state.objective  # in place: the objective of a balanced posture is its least thrust
-    thrust[:] = balanced_thrust(thrust, state.reason)
-    result = SweepResult(spec, thrust=thrust, p_body=state.p_body, reason=state.reason, evaluations=evaluations,
+    p_body, objective, reason = state.arrays()
+    del state  # (its memory: shared with the forked sweep's host, freed now)
+    thrust = objective  # in place: the objective of a balanced posture is its least thrust
+    thrust[:] = balanced_thrust(thrust, reason)
+    result = SweepResult(spec, thrust=thrust, p_body=p_body, reason=reason, evaluations=evaluations,
                          wall_s=time.perf_counter() - t0)
     result.extra["task_times"] = times
     result.extra["verified_members"] = int(np.count_nonzero(result.with_thrust))
