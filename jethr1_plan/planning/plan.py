@@ -21,12 +21,12 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.kinematics import PostureSolver, make_posture_solver
 from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.physics.balance import NOMINAL
-from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
+from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import analyse_rows
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder
+from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, pace_swing, rows_dynamics
 from jethr1_plan.reasons import message
 from jethr1_plan.robot.model import RobotModel, reach_centre
 from jethr1_plan.scenario import Scenario
@@ -284,17 +284,8 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
 
 
 def plan_row_dynamics(rows: Rows, robot: RobotModel, dt: float) -> RowDynamics:
-    """The multibody ZMP the output rows need (``physics.row_dynamics``): Paper A's balance is
-    quasistatic, and this is how far the rows' own motion moves the ZMP from it."""
-    c = rows.columns
-    p = np.asarray(c["p_body"], dtype=float)
-    yaw = np.asarray(c["yaw"], dtype=float)
-    base = np.zeros((len(p), 4, 4))
-    base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
-    base[:, 2, 2] = base[:, 3, 3] = 1.0
-    base[:, :3, 3] = p
-    thrust = np.column_stack([rows.array(f"thrust_{f.name}") for f in robot.fans]).astype(float)
-    return row_dynamics(robot, base, np.asarray(c["q"], dtype=float), thrust, np.asarray(c["support"]), dt)
+    """The multibody ZMP the output rows need (:func:`~.sequence.rows_dynamics` of every row)."""
+    return rows_dynamics(rows, robot, dt)
 
 
 def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:
@@ -334,6 +325,7 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
     tm = scenario.timing
     b = scenario.balance
     seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
+    paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
     if schedule is not None:
         seq.yaw_of_row = schedule.at_row
     feet = {k: v.copy() for k, v in scenario.start.items()}
@@ -349,7 +341,14 @@ def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver,
                      FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(share_out, float(shares[0])))
         if stop_at_infeasible and seq.first_infeasible is not None:
             return seq.rows, seq.first_infeasible
-        seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares)
+        snap = seq.snapshot()
+
+        def build(positions, st=st, yaw_of=yaw_of, shares=shares):
+            seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares, positions)
+
+        build(None)
+        if paced:
+            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m)
         if stop_at_infeasible and seq.first_infeasible is not None:
             return seq.rows, seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
