@@ -134,7 +134,8 @@ def plan(*args, **kwargs) -> PlanResult:
 def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
           progress: Progress | None = None, keep_going: bool = False,
           build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
-          kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None) -> PlanResult:
+          kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None,
+          early_rows: bool = False) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -152,6 +153,10 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             scenarios that differ in their steps alone (the route re-plans a route whose steps changed
             after the first k: those k are not optimised again). Each step has a solver of its own, so
             a remembered step is the one this call would compute, bit for bit.
+        early_rows: (one process, ``build_rows``, not ``keep_going``) build each step's rows as soon as it
+            is optimised, and stop at the first infeasible row without optimising the steps after it (the
+            route: a refused step costs no more optimisation); the same rows, the same first infeasible
+            row, but a refused plan's ``steps`` end at the refused one.
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -171,6 +176,8 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
     total = sum(len(s.path_m) for s in scenario.steps)
     n = len(scenario.steps)
     memo = step_memo if step_memo is not None and given is None else None
+    early: Sequence | None = None
+    early_bad: dict | None = None
     keys = [step_key(job) for job in jobs_of] if memo is not None else []
     if jobs > 1 and n > 1:
         from joblib import Parallel, delayed
@@ -190,6 +197,8 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             if progress:
                 progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
     else:
+        early = (Sequence(scenario, robot, row_solver(robot, given, kinematics), schedule, True)
+                 if early_rows and build_rows and not keep_going else None)
         outcomes, done = [], 0
         for k, job in enumerate(jobs_of):
             if memo is not None and keys[k] in memo:
@@ -202,6 +211,10 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             done += len(out[0].samples)
             if out[1] is not None and not keep_going:
                 break
+            if early is not None:
+                early_bad = early.add(out[0])
+                if early_bad is not None:
+                    break
     steps: list[StepResult] = []
     first_bad = None
     for st, bad in outcomes:
@@ -219,8 +232,11 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
-                                       stop_at_infeasible=not keep_going)
+        if early is not None:
+            rows, bad_row = (early.seq.rows, early_bad) if early_bad is not None else early.finish()
+        else:
+            rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
+                                           stop_at_infeasible=not keep_going)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -317,46 +333,71 @@ def yaw_schedule(scenario: Scenario, robot: RobotModel):
     return build_schedule(scenario, robot, eq4, [st.path_m for st in scenario.steps], **scenario.body_yaw.mpc)
 
 
-def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
-                   schedule=None, stop_at_infeasible: bool = False) -> tuple[Rows, dict | None]:
-    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate; with
-    ``stop_at_infeasible``, only up to the end of the phase holding the first infeasible row (the plan
-    is refused then: the rows after it would be discarded)."""
-    tm = scenario.timing
-    b = scenario.balance
-    seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
-    paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
-    if schedule is not None:
-        seq.yaw_of_row = schedule.at_row
-    feet = {k: v.copy() for k, v in scenario.start.items()}
-    p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
-    thrust_out = None
-    share_out = 1.0  # the share of the tolerance at the end of the previous swing
-    nf = len(robot.fans)
-    for st in steps:
-        yaw_of = yaw_function(scenario, robot, st.support, feet[st.support])
+class Sequence:
+    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate, one step at a time
+    (:meth:`add`, then :meth:`finish`); with ``stop_at_infeasible``, :meth:`add` stops at the end of the
+    phase holding the first infeasible row and returns it (the plan is refused then)."""
+
+    def __init__(self, scenario: Scenario, robot: RobotModel, solver: PostureSolver, schedule=None,
+                 stop_at_infeasible: bool = False):
+        tm, b = scenario.timing, scenario.balance
+        self.scenario, self.robot, self.stop = scenario, robot, stop_at_infeasible
+        self.seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
+        self.paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
+        if schedule is not None:
+            self.seq.yaw_of_row = schedule.at_row
+        self.feet = {k: v.copy() for k, v in scenario.start.items()}
+        self.p_prev, self.yaw_prev = standing_pose(robot, self.feet, 0.0), 0.0
+        self.thrust_out: FanThrust | None = None
+        self.share_out = 1.0  # the share of the tolerance at the end of the previous swing
+        self.steps = 0
+
+    def add(self, st: StepResult) -> dict | None:
+        """The transfer into step ``st`` and its swing; the first infeasible row where that stops the plan."""
+        seq, tm, b, feet = self.seq, self.scenario.timing, self.scenario.balance, self.feet
+        nf = len(self.robot.fans)
+        yaw_of = yaw_function(self.scenario, self.robot, st.support, feet[st.support])
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
         shares = st.shares
-        seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
-                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(share_out, float(shares[0])))
-        if stop_at_infeasible and seq.first_infeasible is not None:
-            return seq.rows, seq.first_infeasible
+        seq.transfer(st.index, feet, self.p_prev, self.yaw_prev, p_first, yaw_first, tm.transfer_s, self.thrust_out,
+                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(self.share_out, float(shares[0])))
+        if self.stop and seq.first_infeasible is not None:
+            return seq.first_infeasible
         snap = seq.snapshot()
 
-        def build(positions, st=st, yaw_of=yaw_of, shares=shares):
+        def build(positions):
             seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares, positions)
 
         build(None)
-        if paced:
+        if self.paced:
             pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m)
-        if stop_at_infeasible and seq.first_infeasible is not None:
-            return seq.rows, seq.first_infeasible
+        if self.stop and seq.first_infeasible is not None:
+            return seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
-        p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
-        thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
-        share_out = float(shares[-1])
-    seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
-                 thrust_out, None, include_end=True, share=share_out)
-    return seq.rows, seq.first_infeasible
+        self.p_prev, self.yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
+        self.thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
+        self.share_out = float(shares[-1])
+        self.steps += 1
+        return None
+
+    def finish(self) -> tuple[Rows, dict | None]:
+        """The final transfer to standing; (the rows, the first infeasible row or None)."""
+        seq = self.seq
+        seq.transfer(self.steps, self.feet, self.p_prev, self.yaw_prev,
+                     standing_pose(self.robot, self.feet, self.yaw_prev), self.yaw_prev,
+                     self.scenario.timing.transfer_s, self.thrust_out, None, include_end=True, share=self.share_out)
+        return seq.rows, seq.first_infeasible
+
+
+def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
+                   schedule=None, stop_at_infeasible: bool = False) -> tuple[Rows, dict | None]:
+    """Every step's rows (:class:`Sequence`); with ``stop_at_infeasible``, only up to the end of the phase
+    holding the first infeasible row (the plan is refused then: the rows after it would be discarded)."""
+    sequence = Sequence(scenario, robot, solver, schedule, stop_at_infeasible)
+    for st in steps:
+        bad = sequence.add(st)
+        if bad is not None:
+            return sequence.seq.rows, bad
+    return sequence.finish()
 
 

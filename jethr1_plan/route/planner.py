@@ -177,7 +177,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo)
+            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True)
         except InfeasiblePlan as exc:
             plan_s += time.perf_counter() - t0
             first = (exc.summary or {}).get("first_infeasible") or {}
