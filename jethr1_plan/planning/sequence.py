@@ -143,6 +143,24 @@ class SequenceBuilder:
             self.q_prev = batch.q[0]
         return batch.q[0], batch.com[0], int(batch.status[0])
 
+    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
+                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Every row of a swing at once where the solver is the closed form (each row is its own
+        closed-form posture: the same as row by row, to the bit); None for an iterative solver (its
+        warm start goes row to row)."""
+        from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
+
+        if not isinstance(self.solver, ClosedFormPostureSolver) or not len(p_body):
+            return None
+        q, com, status = solve_postures(self.robot, p_body, yaws, {support: (support_xyz, 0.0),
+                                                                   other_side(support): (swings, 0.0)})
+        com[status == Reason.UNREACHABLE] = np.nan
+        self.solver.evaluations += len(p_body)
+        ok = np.flatnonzero(status == Reason.OK)
+        if len(ok):
+            self.q_prev = q[ok[-1]]
+        return q, com, status
+
     def _mark(self, step: int, phase: str, sample: int, reason: str, detail: dict) -> None:
         if self.first_infeasible is None:
             self.first_infeasible = {"time_s": self.t, "step": step, "phase": phase, "sample": sample,
@@ -251,12 +269,16 @@ class SequenceBuilder:
         if positions is None:
             positions = swing_row_positions(len(path), duration_s, 1.0 / self.dt)
         p_rows = np.column_stack([np.interp(positions, idx, p_samples[:, j]) for j in range(3)])
+        swings = np.column_stack([np.interp(positions, idx, path[:, j]) for j in range(3)])
+        yaws = np.array([float(yaw_fn(swings[k])) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows) + k)
+                         for k in range(len(positions))])
+        solved = self._solve_swing(support, feet[support], swings, p_rows, yaws)
         for k, u in enumerate(positions):
-            swing = np.array([np.interp(u, idx, path[:, j]) for j in range(3)])
-            p = p_rows[k]
-            yaw = float(yaw_fn(swing)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
-            stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
-            q, com, status = self._solve(stance, p)
+            swing, p, yaw = swings[k], p_rows[k], float(yaws[k])
+            if solved is None:
+                q, com, status = self._solve(Stance(support, feet[support], 0.0, swing, 0.0, yaw), p)
+            else:
+                q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
             share = 1.0 if shares is None else float(np.interp(u, idx, shares))
             tol = self.tolerance.scaled(share)
