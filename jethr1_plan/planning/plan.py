@@ -135,7 +135,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
           progress: Progress | None = None, keep_going: bool = False,
           build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
           kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None,
-          early_rows: bool = False) -> PlanResult:
+          early_rows: bool = False, row_memo: dict | None = None) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -157,6 +157,9 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             is optimised, and stop at the first infeasible row without optimising the steps after it (the
             route: a refused step costs no more optimisation); the same rows, the same first infeasible
             row, but a refused plan's ``steps`` end at the refused one.
+        row_memo: with ``early_rows`` and ``step_memo``, the rows built after each run of first steps
+            (by their memo keys), filled by this call: a re-planned route does not build the rows of its
+            unchanged first steps again (the same rows, bit for bit: they depend on those steps alone).
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -212,9 +215,15 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             if out[1] is not None and not keep_going:
                 break
             if early is not None:
+                prefix = tuple(keys[:k + 1]) if memo is not None and row_memo is not None else None
+                if prefix is not None and prefix in row_memo:  # type: ignore[operator]
+                    early.resume(row_memo[prefix])  # type: ignore[index]
+                    continue
                 early_bad = early.add(out[0])
                 if early_bad is not None:
                     break
+                if prefix is not None:
+                    row_memo[prefix] = early.state()  # type: ignore[index]
     steps: list[StepResult] = []
     first_bad = None
     for st, bad in outcomes:
@@ -379,6 +388,23 @@ class Sequence:
         self.share_out = float(shares[-1])
         self.steps += 1
         return None
+
+    def state(self) -> tuple:
+        """Everything :meth:`add` has built so far (the rows' columns copied), for :meth:`resume`."""
+        seq = self.seq
+        return ({k: list(v) for k, v in seq.rows.columns.items()}, seq.t,
+                None if seq.q_prev is None else seq.q_prev.copy(), seq.first_infeasible,
+                {k: v.copy() for k, v in self.feet.items()}, self.p_prev.copy(), self.yaw_prev, self.thrust_out,
+                self.share_out, self.steps)
+
+    def resume(self, state: tuple) -> None:
+        """Back to a :meth:`state` (of a sequence of the same scenario's settings and the same first steps)."""
+        columns, seq = state[0], self.seq
+        seq.rows.columns = {k: list(v) for k, v in columns.items()}
+        seq.t, q_prev, seq.first_infeasible = state[1], state[2], state[3]
+        seq.q_prev = None if q_prev is None else q_prev.copy()
+        self.feet = {k: v.copy() for k, v in state[4].items()}
+        self.p_prev, self.yaw_prev, self.thrust_out, self.share_out, self.steps = (state[5].copy(), *state[6:])
 
     def finish(self) -> tuple[Rows, dict | None]:
         """The final transfer to standing; (the rows, the first infeasible row or None)."""
