@@ -135,7 +135,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
           progress: Progress | None = None, keep_going: bool = False,
           build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
           kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None,
-          early_rows: bool = False, row_memo: dict | None = None) -> PlanResult:
+          early_rows: bool = False, row_memo: dict | None = None, strict_dynamics: bool = False) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -157,6 +157,9 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             is optimised, and stop at the first infeasible row without optimising the steps after it (the
             route: a refused step costs no more optimisation); the same rows, the same first infeasible
             row, but a refused plan's ``steps`` end at the refused one.
+        strict_dynamics: (the robust policy) a swing row whose multibody ZMP stays nearer the sole's edge
+            than ``balance.sole_margin_m`` even paced is infeasible (the route); without it the plan keeps
+            the best pace and ``summary.json``'s ``dynamics`` (and ``jethr1 plan``'s warning) report it.
         row_memo: with ``early_rows`` and ``step_memo``, the rows built after each run of first steps
             (by their memo keys), filled by this call: a re-planned route does not build the rows of its
             unchanged first steps again (the same rows, bit for bit: they depend on those steps alone).
@@ -200,7 +203,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             if progress:
                 progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
     else:
-        early = (Sequence(scenario, robot, row_solver(robot, given, kinematics), schedule, True)
+        early = (Sequence(scenario, robot, row_solver(robot, given, kinematics), schedule, True, strict_dynamics)
                  if early_rows and build_rows and not keep_going else None)
         outcomes, done = [], 0
         for k, job in enumerate(jobs_of):
@@ -245,7 +248,7 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             rows, bad_row = (early.seq.rows, early_bad) if early_bad is not None else early.finish()
         else:
             rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
-                                           stop_at_infeasible=not keep_going)
+                                           stop_at_infeasible=not keep_going, strict_dynamics=strict_dynamics)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -345,12 +348,14 @@ def yaw_schedule(scenario: Scenario, robot: RobotModel):
 class Sequence:
     """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate, one step at a time
     (:meth:`add`, then :meth:`finish`); with ``stop_at_infeasible``, :meth:`add` stops at the end of the
-    phase holding the first infeasible row and returns it (the plan is refused then)."""
+    phase holding the first infeasible row and returns it (the plan is refused then). Under the robust
+    policy a swing whose multibody ZMP comes within ``sole_margin_m`` of the sole's edge is paced
+    (:func:`~.sequence.pace_swing`); with ``strict_dynamics`` its rows still that near are infeasible."""
 
     def __init__(self, scenario: Scenario, robot: RobotModel, solver: PostureSolver, schedule=None,
-                 stop_at_infeasible: bool = False):
+                 stop_at_infeasible: bool = False, strict_dynamics: bool = False):
         tm, b = scenario.timing, scenario.balance
-        self.scenario, self.robot, self.stop = scenario, robot, stop_at_infeasible
+        self.scenario, self.robot, self.stop, self.strict = scenario, robot, stop_at_infeasible, strict_dynamics
         self.seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
         self.paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
         if schedule is not None:
@@ -379,7 +384,7 @@ class Sequence:
 
         build(None)
         if self.paced:
-            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m)
+            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict)
         if self.stop and seq.first_infeasible is not None:
             return seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
@@ -416,10 +421,11 @@ class Sequence:
 
 
 def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
-                   schedule=None, stop_at_infeasible: bool = False) -> tuple[Rows, dict | None]:
+                   schedule=None, stop_at_infeasible: bool = False, strict_dynamics: bool = False
+                   ) -> tuple[Rows, dict | None]:
     """Every step's rows (:class:`Sequence`); with ``stop_at_infeasible``, only up to the end of the phase
     holding the first infeasible row (the plan is refused then: the rows after it would be discarded)."""
-    sequence = Sequence(scenario, robot, solver, schedule, stop_at_infeasible)
+    sequence = Sequence(scenario, robot, solver, schedule, stop_at_infeasible, strict_dynamics)
     for st in steps:
         bad = sequence.add(st)
         if bad is not None:

@@ -356,14 +356,14 @@ def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
 
 
 def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, duration_s: float,
-               margin_m: float) -> float | None:
+               margin_m: float, strict: bool = True) -> float | None:
     """Re-time a swing whose rows' own motion moves the multibody ZMP to within ``margin_m`` [m] of the
     support sole's edge (or beyond). ``build(positions)`` writes the swing (``positions`` None: the
     minimum-jerk law) after ``snap``; it is rebuilt paced (:func:`paced_row_positions` of ``p_samples``
     (N, 3) over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
     whose rows all hold quasistatically with the multibody ZMP ``margin_m`` inside is kept. Where none
-    is, the swing of the largest multibody margin is kept and its rows that leave the margin are marked
-    infeasible. Returns the kept swing's least multibody margin [m] (None: the swing was infeasible
+    is, the swing of the largest multibody margin is kept and, if ``strict``, its rows that leave the
+    margin are marked infeasible. Returns the kept swing's least multibody margin [m] (None: the swing was infeasible
     already, or needed no pacing)."""
     start, before = snap[0], snap[3]
     if seq.first_infeasible is not before:
@@ -387,6 +387,8 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
     seq.restore(snap)
     build(best[1])
     margins = swing_dynamic_margin(seq, start)
+    if not strict:
+        return float(np.min(margins))
     c = seq.rows.columns
     for i in np.flatnonzero(margins < margin_m).tolist():
         r = start + i

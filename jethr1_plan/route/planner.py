@@ -178,7 +178,8 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True, row_memo=rows)
+            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True, row_memo=rows,
+                          strict_dynamics=True)
         except InfeasiblePlan as exc:
             plan_s += time.perf_counter() - t0
             first = (exc.summary or {}).get("first_infeasible") or {}
