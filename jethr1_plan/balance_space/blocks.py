@@ -13,11 +13,14 @@ a set of independent tasks:
    rounds repeat until no cell changes (``max_rounds`` at most).
 
 The parent holds the state: per cell the posture (3 float64), the search's objective (float64) and the reason
-(int8), written in place in grid order, 33 bytes a cell.
+(int8), written in place in grid order, 33 bytes a cell at most (:class:`SweepState`; in memory shared with the
+command where the sweep runs in a process of its own: ``balance_space.workers``). The tasks' arguments are made
+as they are handed out.
 """
 
 from __future__ import annotations
 
+import mmap
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -68,23 +71,66 @@ def flat_indices(shape: tuple[int, int, int], box: tuple[slice, slice, slice]) -
     return np.ravel_multi_index(np.meshgrid(*ranges, indexing="ij"), shape).ravel()
 
 
-class SweepState:
-    """Per cell of the grid: the best posture [m], the search's objective (the least thrust [N] for a member;
-    inf where no search ran) and the reason; written in place as tasks answer."""
+_NAN_BITS = np.uint64(0x7FF8_0000_0000_0000)  # the bits of a posture's start, numpy's NaN (no posture)
+_INF_BITS = np.uint64(0x7FF0_0000_0000_0000)  # the bits of an objective's start, +inf (no search)
 
-    def __init__(self, shape: tuple[int, int, int]):
+
+def _encoded(values: np.ndarray, start: np.uint64) -> np.ndarray:
+    """float64 ``values``' bits XOR ``start``'s: zero where a value is still the start value (exact both ways)."""
+    return np.ascontiguousarray(values, dtype=np.float64).view(np.uint64) ^ start
+
+
+class SweepState:
+    """Per cell of the grid: the best posture [m] (NaN: none), the search's objective (the least thrust [N] for a
+    member; inf where no search ran) and the reason (UNREACHABLE where no task said otherwise); written in place
+    as tasks answer.
+
+    Stored XOR their start values, so that a cell no task changed is zero bytes and a page of cells none changed
+    (most of the grid is out of reach or beyond the hip yaw's limits) is never written, and holds no memory
+    (33 bytes a cell at most; about 18 of them written at 1 cm). ``shared``: in memory shared with the processes
+    this one forks later (an anonymous shared mapping), so that one of them can run the sweep."""
+
+    def __init__(self, shape: tuple[int, int, int], shared: bool = False):
         n = int(np.prod(shape))
         self.shape = shape
-        self.p_body = np.full((n, 3), np.nan)
-        self.objective = np.full(n, np.inf)
-        self.reason = np.full(n, Reason.UNREACHABLE, dtype=np.int8)
+        if shared:
+            buf = mmap.mmap(-1, max(33 * n, 1))  # (MAP_SHARED | MAP_ANONYMOUS: zero until written)
+            self._p = np.frombuffer(buf, np.uint64, 3 * n).reshape(n, 3)
+            self._f = np.frombuffer(buf, np.uint64, n, 24 * n)
+            self._r = np.frombuffer(buf, np.int8, n, 32 * n)
+        else:  # (numpy's zeros: pages untouched until written, too)
+            self._p, self._f, self._r = np.zeros((n, 3), np.uint64), np.zeros(n, np.uint64), np.zeros(n, np.int8)
 
-    def put(self, r: BlockResult) -> None:
-        """A task's answer written in; every member in it was re-checked by PlaCo in the task."""
+    def p_body_at(self, cells: np.ndarray) -> np.ndarray:
+        """The postures [m] of ``cells`` (flat indices), (k, 3)."""
+        return (self._p[cells] ^ _NAN_BITS).view(np.float64)
+
+    def objective_at(self, cells: np.ndarray) -> np.ndarray:
+        """The objectives of ``cells`` (flat indices)."""
+        return (self._f[cells] ^ _INF_BITS).view(np.float64)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every cell's posture (N, 3) [m], objective (N,) and reason (N,) int8, as new arrays."""
+        return ((self._p ^ _NAN_BITS).view(np.float64), (self._f ^ _INF_BITS).view(np.float64),
+                self._r ^ np.int8(Reason.UNREACHABLE))
+
+    def put(self, r: BlockResult, first: bool = False) -> None:
+        """A task's answer written in; every member in it was re-checked by PlaCo in the task. ``first``: no task
+        wrote these cells before (the first pass: its blocks do not overlap), so values equal to the start values
+        need not be written."""
         if r.checked != int(np.count_nonzero(r.reason == Reason.OK)):
             raise AssertionError(f"a task re-checked {r.checked} of its {np.count_nonzero(r.reason == Reason.OK)} "
                                  "members")
-        self.p_body[r.cells], self.objective[r.cells], self.reason[r.cells] = r.p_body, r.objective, r.reason
+        p = _encoded(r.p_body, _NAN_BITS)
+        f = _encoded(r.objective, _INF_BITS)
+        q = np.asarray(r.reason, dtype=np.int8) ^ np.int8(Reason.UNREACHABLE)
+        if not first:
+            self._p[r.cells], self._f[r.cells], self._r[r.cells] = p, f, q
+            return
+        rows = p.any(axis=1)
+        self._p[r.cells[rows]] = p[rows]
+        self._f[r.cells[f != 0]] = f[f != 0]
+        self._r[r.cells[q != 0]] = q[q != 0]
 
 
 @dataclass
@@ -134,28 +180,30 @@ def _round(task: int, spec: SweepSpec, settings: SearchSettings, box, inner, fla
 
 
 def run_blocks(spec: SweepSpec, settings: SearchSettings, run: Runner,
-               progress: Callable[[str, int, int], None] | None = None) -> tuple[SweepState, TaskTimes, int]:
-    """The sweep's stages over the blocks, each through ``run`` (a list of (function, args) → their answers, in
-    any order). Returns the state, the tasks' times and the evaluations."""
+               progress: Callable[[str, int, int], None] | None = None,
+               state: SweepState | None = None) -> tuple[SweepState, TaskTimes, int]:
+    """The sweep's stages over the blocks, each through ``run`` ((function, args) tasks → their answers, in
+    any order), into ``state`` (a new one by default: as it starts). Returns the state, the tasks' times and the
+    evaluations."""
     shape = tuple(len(a) for a in spec.axes())
     assert len(shape) == 3
     nx, ny, nz = shape
-    state = SweepState((nx, ny, nz))
+    state = state or SweepState((nx, ny, nz))
     blocks = partition((nx, ny, nz), settings, spec.support_side == "left")
     times = TaskTimes()
     evaluations = 0
-    tasks = [(_pass1, (k, spec, settings, b.box, flat_indices(state.shape, b.box))) for k, b in enumerate(blocks)]
-    stage = [0.0] * len(tasks)
+    tasks = ((_pass1, (k, spec, settings, b.box, flat_indices(state.shape, b.box))) for k, b in enumerate(blocks))
+    stage = [0.0] * len(blocks)
     for k, r in enumerate(run(tasks)):
-        state.put(r)
+        state.put(r, first=True)
         stage[r.task] = r.cpu_s
         evaluations += r.evaluations
         if progress:
-            progress(f"blocks ({len(blocks)})", k + 1, len(tasks))
+            progress(f"blocks ({len(blocks)})", k + 1, len(blocks))
     times.stages.append(stage)
     if spec.method == "exhaustive":
         return state, times, evaluations
-    changed = np.ones(len(state.objective), dtype=bool)
+    changed = np.ones(int(np.prod(state.shape)), dtype=bool)
     for rnd in range(settings.max_rounds):
         due = [b for b in blocks if _due(b, state, changed)]
         if not due:
@@ -184,13 +232,13 @@ def _due(block: Block, state: SweepState, changed: np.ndarray) -> bool:
     """Whether a block has cells to search and its ring an optimum that changed (one that may be offered)."""
     box, inner = block.ring(state.shape)
     flat = flat_indices(state.shape, box)
-    return bool(np.any(changed[flat] & ~inner & (state.objective[flat] < 2000))
-                and np.isfinite(state.objective[flat[inner]]).any())
+    objective = state.objective_at(flat)
+    return bool(np.any(changed[flat] & ~inner & (objective < 2000)) and np.isfinite(objective[inner]).any())
 
 
 def _round_tasks(spec, settings, blocks: list[Block], state: SweepState, changed: np.ndarray) -> Iterator[tuple]:
     for k, b in enumerate(blocks):
         box, inner = b.ring(state.shape)
         flat = flat_indices(state.shape, box)
-        yield _round, (k, spec, settings, box, inner, flat, state.p_body[flat], state.objective[flat],
+        yield _round, (k, spec, settings, box, inner, flat, state.p_body_at(flat), state.objective_at(flat),
                        changed[flat])

@@ -13,7 +13,9 @@ from jethr1_plan.kinematics.closed_form import solve_postures
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["check_members"]
+__all__ = ["CHECK_CHUNK", "check_members"]
+
+CHECK_CHUNK = 2048  # members re-checked together (a 1 cm block has up to ~20,000)
 
 
 @functools.lru_cache(maxsize=4)
@@ -29,8 +31,13 @@ def check_members(spec: SweepSpec, swing: np.ndarray, p_body: np.ndarray, yaw: n
     Raises:
         AssertionError: a posture whose soles or CoM are not where the sweep says (a bug).
     """
-    if not len(swing):
-        return 0
+    k = len(swing)
+    for lo in range(0, k, CHECK_CHUNK):  # a chunk at a time: a block's members' arrays are not all held at once
+        _check(spec, swing[lo:lo + CHECK_CHUNK], p_body[lo:lo + CHECK_CHUNK], yaw[lo:lo + CHECK_CHUNK])
+    return k
+
+
+def _check(spec: SweepSpec, swing: np.ndarray, p_body: np.ndarray, yaw: np.ndarray) -> None:
     robot = spec.model
     wrapper = _wrapper(robot)
     support = np.asarray(spec.support, dtype=float)
@@ -57,4 +64,3 @@ def check_members(spec: SweepSpec, swing: np.ndarray, p_body: np.ndarray, yaw: n
     bad = np.flatnonzero((statuses != Reason.OK) | ~(err <= 1e-9))
     if len(bad):
         raise AssertionError(f"balance-space cell {swing[bad[0]]} fails its PlaCo re-check")
-    return k

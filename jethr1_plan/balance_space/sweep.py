@@ -56,6 +56,7 @@ __all__ = [
     "SearchSettings",
     "SweepResult",
     "SweepSpec",
+    "cell_yaw",
     "summary",
     "sweep",
     "sweep_layers",
@@ -67,7 +68,7 @@ CELL_REASONS = (Reason.OK, Reason.OVERLAP, Reason.UNREACHABLE, Reason.JOINT_LIMI
                 Reason.EDGE_ANGLE, Reason.THRUST_MAX)
 
 
-def _cell_yaw(spec: SweepSpec, swing: np.ndarray) -> np.ndarray:
+def cell_yaw(spec: SweepSpec, swing: np.ndarray) -> np.ndarray:
     """The body yaw (A-4) [rad] of swing soles ``swing`` (k, 3): the trunk turned to the swing sole's fan."""
     fan = spec.model.fan_for(spec.swing_side)
     offset = np.asarray(fan.offset_m[:2]) if fan is not None else np.zeros(2)
@@ -98,7 +99,7 @@ class SweepResult:
     @functools.cached_property
     def yaw(self) -> np.ndarray:
         """(N,) body yaw of (A-4) [rad]."""
-        return _cell_yaw(self.spec, self.swing)
+        return cell_yaw(self.spec, self.swing)
 
     def swing_at(self, mask: np.ndarray) -> np.ndarray:
         """The swing sole centres [m] of the cells ``mask`` selects, without building all of :attr:`swing`."""
@@ -108,7 +109,7 @@ class SweepResult:
 
     def yaw_at(self, mask: np.ndarray) -> np.ndarray:
         """The body yaw (A-4) [rad] of the cells ``mask`` selects, without building all of :attr:`yaw`."""
-        return _cell_yaw(self.spec, self.swing_at(mask))
+        return cell_yaw(self.spec, self.swing_at(mask))
 
     @property
     def with_thrust(self) -> np.ndarray:
@@ -125,14 +126,23 @@ def _in_process(tasks):
 
 
 def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
-          progress=None, settings: SearchSettings | None = None) -> SweepResult:
-    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "loky", or
-    "dask": a local cluster, or the one at ``scheduler``). The result does not depend on ``jobs`` or the
-    executor. ``result.extra``: ``task_times`` (:class:`~jethr1_plan.balance_space.blocks.TaskTimes`),
-    ``verified_members`` (every member re-checked by PlaCo in its task)."""
+          progress=None, settings: SearchSettings | None = None, forked=None) -> SweepResult:
+    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "fork": in a
+    process forked from this one, with ``jobs`` workers forked from it (``balance_space.workers``, Linux; the
+    least memory); "loky"; or "dask": a local cluster, or the one at ``scheduler``). The result does not depend on
+    ``jobs`` or the executor. ``forked``: a :class:`~jethr1_plan.balance_space.workers.ForkedSweep` of this spec
+    and settings already started (executor "fork"; made here otherwise). ``result.extra``: ``task_times``
+    (:class:`~jethr1_plan.balance_space.blocks.TaskTimes`), ``verified_members`` (every member re-checked by PlaCo
+    in its task)."""
     settings = settings or SearchSettings()
     t0 = time.perf_counter()
-    if executor == "dask":
+    if executor == "fork":
+        from jethr1_plan.balance_space.workers import ForkedSweep
+
+        with forked or ForkedSweep(spec, settings, jobs) as host:
+            t0 = min(t0, host.t0)
+            state, times, evaluations = host.result(progress)
+    elif executor == "dask":
         from joblib import Parallel, delayed, parallel_config
 
         from jethr1_plan.io.cluster import dask_client
@@ -149,9 +159,11 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
         with Parallel(n_jobs=jobs, return_as="generator_unordered") as par:
             state, times, evaluations = run_blocks(
                 spec, settings, lambda tasks: par(delayed(fn)(*args) for fn, args in tasks), progress)
-    thrust = state.objective  # in place: the objective of a balanced posture is its least thrust
-    thrust[:] = balanced_thrust(thrust, state.reason)
-    result = SweepResult(spec, thrust=thrust, p_body=state.p_body, reason=state.reason, evaluations=evaluations,
+    p_body, objective, reason = state.arrays()
+    del state  # (its memory: shared with the forked sweep's host, freed now)
+    thrust = objective  # in place: the objective of a balanced posture is its least thrust
+    thrust[:] = balanced_thrust(thrust, reason)
+    result = SweepResult(spec, thrust=thrust, p_body=p_body, reason=reason, evaluations=evaluations,
                          wall_s=time.perf_counter() - t0)
     result.extra["task_times"] = times
     result.extra["verified_members"] = int(np.count_nonzero(result.with_thrust))
@@ -182,7 +194,7 @@ def sweep_layers(spec: SweepSpec, zs: tuple[float, ...], settings: SearchSetting
     r: BlockResult = search_block(spec, settings or SearchSettings(), box, np.arange(0))
     swing = box_swing(spec, box)
     return LayerResult(swing=swing, thrust=balanced_thrust(r.objective, r.reason), p_body=r.p_body,
-                       yaw=_cell_yaw(spec, swing), reason=r.reason, evaluations=r.evaluations, cpu_s=r.cpu_s)
+                       yaw=cell_yaw(spec, swing), reason=r.reason, evaluations=r.evaluations, cpu_s=r.cpu_s)
 
 
 def verify_members(result: SweepResult) -> int:
@@ -194,7 +206,7 @@ def verify_members(result: SweepResult) -> int:
     """
     m = result.with_thrust
     swing = result.swing_at(m)
-    return check_members(result.spec, swing, result.p_body[m], _cell_yaw(result.spec, swing))
+    return check_members(result.spec, swing, result.p_body[m], cell_yaw(result.spec, swing))
 
 
 def summary(result: SweepResult) -> dict:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import click
@@ -57,7 +58,10 @@ __all__ = ["balance_space"]
 @click.option("--pbody-resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 0.1),
               help="P_body grid step of the exhaustive method [m].")
 @click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
-@click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True)
+@click.option("--executor", type=click.Choice(["fork", "loky", "dask"]), default=None,
+              help="fork (the default on Linux: the sweep in a process forked from the command, its workers forked "
+                   "from it, sharing the compiled kernels: the least memory), loky (fresh worker processes; the "
+                   "default elsewhere) or dask (a cluster). The output is the same with each.")
 @click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
 @click.option("-o", "--output", "outdir", default="out/balance_space", show_default=True,
               type=click.Path(file_okay=False, path_type=Path))
@@ -67,11 +71,17 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                   thrust_error, mass_error, com_error, sole_margin, method, pbody_resolution, jobs, executor, scheduler,
                   outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
+    from jethr1_plan.balance_space.spec import SearchSettings
     from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
-    from jethr1_plan.files.balance_space import balance_space_csv, balance_space_mcap, balance_space_png
+    from jethr1_plan.balance_space.workers import ForkedSweep, fork_available
+    from jethr1_plan.files.balance_space import balance_space_mcap, balance_space_png, write_balance_space_csv
     from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.robot.model import load_robot
 
+    if executor is None:
+        executor = "fork" if fork_available() else "loky"
+    if executor == "fork" and not fork_available():
+        raise InputError("--executor", executor, "needs Linux (fork); use loky")
     require_dask(executor, scheduler)
     tolerance = _tolerance(policy, thrust_error, mass_error, com_error)
     robot = load_robot(robot_name)
@@ -96,14 +106,19 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     cells = _check_grid(spec, (x_range, y_range, z_range))
     check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES)
     jobs = cap_jobs(jobs)
-    with Progress(not no_progress, f"balance space ({cells:,} cells)") as progress:
-        result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress)
+    settings = SearchSettings()
+    # the forked sweep starts before the progress bar's thread (balance_space.workers)
+    with ForkedSweep(spec, settings, jobs) if executor == "fork" else contextlib.nullcontext() as forked, \
+            Progress(not no_progress, f"balance space ({cells:,} cells)") as progress:
+        result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, settings=settings,
+                       forked=forked)
     doc = summary(result)
     doc["verified_members"] = result.extra["verified_members"]  # re-checked by PlaCo in the sweep's tasks
     with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
                                              "summary.json"})) as staging:
         tmp = staging.path
-        (tmp / "balance_space.csv").write_text(balance_space_csv(result))
+        with open(tmp / "balance_space.csv", "w", encoding="utf-8", newline="") as f:  # (written as built)
+            write_balance_space_csv(result, f)
         (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
         (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
         (tmp / "summary.json").write_text(json_text(doc))

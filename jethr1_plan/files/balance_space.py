@@ -4,16 +4,17 @@ from __future__ import annotations
 
 import io
 import math
+from typing import TextIO
 
 import numpy as np
 
-from jethr1_plan.balance_space.sweep import SweepResult
+from jethr1_plan.balance_space.sweep import SweepResult, cell_yaw
 from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
 from jethr1_plan.io.csv_table import number_text as num
-from jethr1_plan.reasons import message
+from jethr1_plan.reasons import Reason, message
 
 __all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap",
-           "balance_space_png"]
+           "balance_space_png", "write_balance_space_csv"]
 
 #: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 BALANCE_SPACE_TOPICS: dict[str, Topic] = {
@@ -37,26 +38,34 @@ BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", "pelvis_x_m", "pel
 
 
 def balance_space_csv(r: SweepResult) -> str:
-    """x_m, y_m, z_m, min_thrust_n (empty outside the space with thrust), best pelvis, reason.
+    """balance_space.csv as text (:func:`write_balance_space_csv`)."""
+    out = io.StringIO()
+    write_balance_space_csv(r, out)
+    return out.getvalue()
 
-    Built one x slice at a time, column-wise within it (each axis value's text once): 906,471 cells in ~1.5 s
-    where a row at a time took 15 s, the text and one slice held at a time; the same bytes
-    (``tests/files/test_balance_space.py``)."""
-    member = r.with_thrust
-    yaw = np.full(len(member), np.nan)
-    yaw[member] = r.yaw_at(member)
+
+def write_balance_space_csv(r: SweepResult, out: TextIO) -> None:
+    """Write balance_space.csv to ``out``: x_m, y_m, z_m, min_thrust_n (empty outside the space with thrust),
+    best pelvis, reason.
+
+    Written one x slice at a time, column-wise within it (each axis value's text once): 906,471 cells in ~1.5 s
+    where a row at a time took 15 s, with one slice's text (~0.3 MB at 1 cm) held at a time, not the file's
+    (49 MB); the same bytes (``tests/files/test_balance_space.py``)."""
     words = {int(k): ",,,,," + message(k) for k in np.unique(r.reason)}
-    ax, ay, az = ([num(v) for v in a.tolist()] for a in r.spec.axes())
+    axes = r.spec.axes()
+    ax, ay, az = ([num(v) for v in a.tolist()] for a in axes)
     heads = [f"{y},{z}," for y in ay for z in az]
     n = len(heads)
-    chunks = [",".join(BALANCE_SPACE_COLUMNS) + "\n"]
+    nz = len(axes[2])
+    out.write(",".join(BALANCE_SPACE_COLUMNS) + "\n")
     for i, x in enumerate(ax):
         sl = slice(i * n, (i + 1) * n)
-        m = member[sl]
+        m = r.reason[sl] == Reason.OK
         tails: list[str] = [""] * n
         inside = np.flatnonzero(m)
         if len(inside):
-            cols = [r.thrust[sl][inside], *r.p_body[sl][inside].T, yaw[sl][inside]]
+            swing = np.column_stack([np.full(len(inside), axes[0][i]), axes[1][inside // nz], axes[2][inside % nz]])
+            cols = [r.thrust[sl][inside], *r.p_body[sl][inside].T, cell_yaw(r.spec, swing)]
             texts = [[num(v) for v in c.tolist()] for c in cols]
             for k, a, b, c, d, e in zip(inside.tolist(), *texts, strict=True):
                 tails[k] = f"{a},{b},{c},{d},{e},"
@@ -65,8 +74,7 @@ def balance_space_csv(r: SweepResult) -> str:
                               strict=True):
             tails[k] = words[code] + (f" ({t:.2f} N needed)" if math.isfinite(t) else "")
         x_ = x + ","
-        chunks.append("".join([x_ + h + t + "\n" for h, t in zip(heads, tails, strict=True)]))
-    return "".join(chunks)
+        out.write("".join([x_ + h + t + "\n" for h, t in zip(heads, tails, strict=True)]))
 
 
 def _thrust_colors(thrust_n: np.ndarray, fmax_n: float) -> dict:
@@ -87,7 +95,7 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
     cells, res = [], float(r.spec.resolution_m)
     for k, (topic, mask) in enumerate((("/balance_space/with_thrust", r.with_thrust),
                                        ("/balance_space/without_thrust", r.without_thrust))):
-        pts, thrust = np.asarray(r.swing, dtype=float)[mask], np.asarray(r.thrust, dtype=float)[mask]
+        pts, thrust = r.swing_at(mask), np.asarray(r.thrust, dtype=float)[mask]
         out.write(topic, 0.0, point_cloud2(pts, {"min_thrust_n": thrust}))
         cells.append({**cube_marker(topic.rsplit("/", 1)[1], k, (0.0, 0.0, 0.0), (res, res, res), (1, 1, 1, 1)),
                       "type": 6, "points": {"x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2]},
@@ -109,7 +117,7 @@ def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float)
     fmax = r.spec.fan_limit_n
     for row, (title, mask) in enumerate((("without thrust (F = 0)", r.without_thrust),
                                          (f"with thrust (F ≤ {fmax:g} N)", r.with_thrust))):
-        pts, thr = r.swing[mask], r.thrust[mask]
+        pts, thr = r.swing_at(mask), r.thrust[mask]
         for col, (a, b, la, lb) in enumerate(((0, 1, "x [m]", "y [m]"), (0, 2, "x [m]", "z [m]"))):
             ax = axes[row, col]
             if len(pts):

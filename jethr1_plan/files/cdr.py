@@ -265,7 +265,7 @@ class CdrEncoder:
         m = len(rows)
         off = 0
         runs: list[tuple[int, np.dtype, int, object]] = []  # offset after the header, type, count, values
-        scattered: list[tuple[np.ndarray, np.ndarray]] = []  # byte offsets after the header, bytes
+        scattered: list[tuple[np.ndarray, np.ndarray]] = []  # where each element's bytes go (after the header), values
 
         def put(dt: np.dtype, count: int, values) -> None:
             nonlocal off
@@ -315,8 +315,8 @@ class CdrEncoder:
         buf[:, :4] = _HEADER
         for at, dt, count, values in runs:
             buf[:, 4 + at:4 + at + dt.itemsize * count].view(dt)[...] = values
-        for where, data in scattered:
-            buf[:, 4 + where] = data
+        for where, values in scattered:
+            _scatter(buf, 4 + where, values)
         raw = buf.tobytes()
         return [raw[i * size:(i + 1) * size] for i in range(m)]
 
@@ -352,7 +352,8 @@ def _element_layout(columns: list[_Column], start: int) -> tuple[list[tuple[int,
 
 def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int:
     """Lay out k elements from ``off`` (an element's layout depends only on where it starts modulo 8);
-    add the bytes to ``scattered``; the offset after them."""
+    add to ``scattered`` where each column's bytes go (per element, the offset of its first byte) and its values
+    (the bytes are placed when the message is built: :func:`_scatter`); the offset after them."""
     layouts: dict[int, tuple[list[tuple[int, int]], int]] = {}
     starts = np.empty(k, np.int64)
     phase = np.empty(k, np.int64)
@@ -367,13 +368,19 @@ def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int
         at_value = np.array([layouts.get(p, ([(0, 0)] * len(columns), 0))[0][i][1] for p in range(8)])[phase]
         width = c.values.shape[1]
         if c.array == "sized":
-            where = (starts + at_count)[:, None] + np.arange(4)
-            scattered.append((where.ravel(), np.repeat(np.array([width], "<u4").view(np.uint8)[None], k, 0).ravel()))
+            scattered.append((starts + at_count, np.array([[width]], "<u4")))
         if width:
-            nbytes = c.dtype.itemsize * width
-            where = (starts + at_value)[:, None] + np.arange(nbytes)
-            scattered.append((where.ravel(), np.ascontiguousarray(c.values, c.dtype).view(np.uint8).ravel()))
+            scattered.append((starts + at_value, c.values))
     return off
+
+
+def _scatter(buf: np.ndarray, where: np.ndarray, values: np.ndarray) -> None:
+    """Put the bytes of ``values`` (k, width) (or one row, the same for every element) into every message of
+    ``buf`` (messages, bytes), element j's first at column ``where[j]``; a byte position at a time, so that no
+    index is held per byte."""
+    raw = np.ascontiguousarray(values).view(np.uint8)
+    for b in range(raw.shape[1]):
+        buf[:, where + b] = raw[:, b]
 
 
 def _default_number(f: Field) -> float | int:

@@ -21,12 +21,12 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.kinematics import PostureSolver, make_posture_solver
 from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.physics.balance import NOMINAL
-from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
+from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import analyse_rows
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder
+from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, pace_swing, rows_dynamics
 from jethr1_plan.reasons import message
 from jethr1_plan.robot.model import RobotModel, reach_centre
 from jethr1_plan.scenario import Scenario
@@ -134,7 +134,8 @@ def plan(*args, **kwargs) -> PlanResult:
 def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
           progress: Progress | None = None, keep_going: bool = False,
           build_rows: bool = True, jobs: int = 1, solver: PostureSolver | None = None,
-          kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None) -> PlanResult:
+          kinematics: str = "placo", strict_torque: bool = False, step_memo: dict | None = None,
+          early_rows: bool = False, row_memo: dict | None = None, strict_dynamics: bool = False) -> PlanResult:
     """Optimise every swing sample of ``scenario`` and resample the whole sequence.
 
     Args:
@@ -152,6 +153,16 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             scenarios that differ in their steps alone (the route re-plans a route whose steps changed
             after the first k: those k are not optimised again). Each step has a solver of its own, so
             a remembered step is the one this call would compute, bit for bit.
+        early_rows: (one process, ``build_rows``, not ``keep_going``) build each step's rows as soon as it
+            is optimised, and stop at the first infeasible row without optimising the steps after it (the
+            route: a refused step costs no more optimisation); the same rows, the same first infeasible
+            row, but a refused plan's ``steps`` end at the refused one.
+        strict_dynamics: (the robust policy) a swing row whose multibody ZMP stays nearer the sole's edge
+            than ``balance.sole_margin_m`` even paced is infeasible (the route); without it the plan keeps
+            the best pace and ``summary.json``'s ``dynamics`` (and ``jethr1 plan``'s warning) report it.
+        row_memo: with ``early_rows`` and ``step_memo``, the rows built after each run of first steps
+            (by their memo keys), filled by this call: a re-planned route does not build the rows of its
+            unchanged first steps again (the same rows, bit for bit: they depend on those steps alone).
 
     Raises:
         InfeasiblePlan: at the first infeasible sample unless ``keep_going``.
@@ -171,6 +182,8 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
     total = sum(len(s.path_m) for s in scenario.steps)
     n = len(scenario.steps)
     memo = step_memo if step_memo is not None and given is None else None
+    early: Sequence | None = None
+    early_bad: dict | None = None
     keys = [step_key(job) for job in jobs_of] if memo is not None else []
     if jobs > 1 and n > 1:
         from joblib import Parallel, delayed
@@ -190,6 +203,8 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             if progress:
                 progress(f"step {k}", sum(len(o[0].samples) for o in outcomes), total)
     else:
+        early = (Sequence(scenario, robot, row_solver(robot, given, kinematics), schedule, True, strict_dynamics)
+                 if early_rows and build_rows and not keep_going else None)
         outcomes, done = [], 0
         for k, job in enumerate(jobs_of):
             if memo is not None and keys[k] in memo:
@@ -202,6 +217,16 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
             done += len(out[0].samples)
             if out[1] is not None and not keep_going:
                 break
+            if early is not None:
+                prefix = tuple(keys[:k + 1]) if memo is not None and row_memo is not None else None
+                if prefix is not None and prefix in row_memo:  # type: ignore[operator]
+                    early.resume(row_memo[prefix])  # type: ignore[index]
+                    continue
+                early_bad = early.add(out[0])
+                if early_bad is not None:
+                    break
+                if prefix is not None:
+                    row_memo[prefix] = early.state()  # type: ignore[index]
     steps: list[StepResult] = []
     first_bad = None
     for st, bad in outcomes:
@@ -219,8 +244,11 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
 
     rows = None
     if build_rows:
-        rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
-                                       stop_at_infeasible=not keep_going)
+        if early is not None:
+            rows, bad_row = (early.seq.rows, early_bad) if early_bad is not None else early.finish()
+        else:
+            rows, bad_row = build_sequence(scenario, robot, row_solver(robot, given, kinematics), steps, schedule,
+                                           stop_at_infeasible=not keep_going, strict_dynamics=strict_dynamics)
         bad_torque = add_analysis(rows, robot, 1.0 / scenario.timing.rate_hz, strict_torque)
         bad_row = bad_row or bad_torque
         if first_bad is None and bad_row is not None:
@@ -284,17 +312,8 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
 
 
 def plan_row_dynamics(rows: Rows, robot: RobotModel, dt: float) -> RowDynamics:
-    """The multibody ZMP the output rows need (``physics.row_dynamics``): Paper A's balance is
-    quasistatic, and this is how far the rows' own motion moves the ZMP from it."""
-    c = rows.columns
-    p = np.asarray(c["p_body"], dtype=float)
-    yaw = np.asarray(c["yaw"], dtype=float)
-    base = np.zeros((len(p), 4, 4))
-    base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
-    base[:, 2, 2] = base[:, 3, 3] = 1.0
-    base[:, :3, 3] = p
-    thrust = np.column_stack([rows.array(f"thrust_{f.name}") for f in robot.fans]).astype(float)
-    return row_dynamics(robot, base, np.asarray(c["q"], dtype=float), thrust, np.asarray(c["support"]), dt)
+    """The multibody ZMP the output rows need (:func:`~.sequence.rows_dynamics` of every row)."""
+    return rows_dynamics(rows, robot, dt)
 
 
 def standing_pose(robot: RobotModel, feet: dict[str, np.ndarray], yaw_rad: float) -> np.ndarray:
@@ -326,38 +345,91 @@ def yaw_schedule(scenario: Scenario, robot: RobotModel):
     return build_schedule(scenario, robot, eq4, [st.path_m for st in scenario.steps], **scenario.body_yaw.mpc)
 
 
-def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
-                   schedule=None, stop_at_infeasible: bool = False) -> tuple[Rows, dict | None]:
-    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate; with
-    ``stop_at_infeasible``, only up to the end of the phase holding the first infeasible row (the plan
-    is refused then: the rows after it would be discarded)."""
-    tm = scenario.timing
-    b = scenario.balance
-    seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
-    if schedule is not None:
-        seq.yaw_of_row = schedule.at_row
-    feet = {k: v.copy() for k, v in scenario.start.items()}
-    p_prev, yaw_prev = standing_pose(robot, feet, 0.0), 0.0
-    thrust_out = None
-    share_out = 1.0  # the share of the tolerance at the end of the previous swing
-    nf = len(robot.fans)
-    for st in steps:
-        yaw_of = yaw_function(scenario, robot, st.support, feet[st.support])
+class Sequence:
+    """Stand → (transfer → swing)* → transfer → stand, at the scenario's output rate, one step at a time
+    (:meth:`add`, then :meth:`finish`); with ``stop_at_infeasible``, :meth:`add` stops at the end of the
+    phase holding the first infeasible row and returns it (the plan is refused then). Under the robust
+    policy a swing whose multibody ZMP comes within ``sole_margin_m`` of the sole's edge is paced
+    (:func:`~.sequence.pace_swing`); with ``strict_dynamics`` its rows still that near are infeasible."""
+
+    def __init__(self, scenario: Scenario, robot: RobotModel, solver: PostureSolver, schedule=None,
+                 stop_at_infeasible: bool = False, strict_dynamics: bool = False):
+        tm, b = scenario.timing, scenario.balance
+        self.scenario, self.robot, self.stop, self.strict = scenario, robot, stop_at_infeasible, strict_dynamics
+        self.seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
+        self.paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
+        if schedule is not None:
+            self.seq.yaw_of_row = schedule.at_row
+        self.feet = {k: v.copy() for k, v in scenario.start.items()}
+        self.p_prev, self.yaw_prev = standing_pose(robot, self.feet, 0.0), 0.0
+        self.thrust_out: FanThrust | None = None
+        self.share_out = 1.0  # the share of the tolerance at the end of the previous swing
+        self.steps = 0
+
+    def add(self, st: StepResult) -> dict | None:
+        """The transfer into step ``st`` and its swing; the first infeasible row where that stops the plan."""
+        seq, tm, b, feet = self.seq, self.scenario.timing, self.scenario.balance, self.feet
+        nf = len(self.robot.fans)
+        yaw_of = yaw_function(self.scenario, self.robot, st.support, feet[st.support])
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
         shares = st.shares
-        seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out,
-                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(share_out, float(shares[0])))
-        if stop_at_infeasible and seq.first_infeasible is not None:
-            return seq.rows, seq.first_infeasible
-        seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares)
-        if stop_at_infeasible and seq.first_infeasible is not None:
-            return seq.rows, seq.first_infeasible
+        seq.transfer(st.index, feet, self.p_prev, self.yaw_prev, p_first, yaw_first, tm.transfer_s, self.thrust_out,
+                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(self.share_out, float(shares[0])))
+        if self.stop and seq.first_infeasible is not None:
+            return seq.first_infeasible
+        snap = seq.snapshot()
+
+        def build(positions):
+            seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares, positions)
+
+        build(None)
+        if self.paced:
+            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict)
+        if self.stop and seq.first_infeasible is not None:
+            return seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()
-        p_prev, yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
-        thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
-        share_out = float(shares[-1])
-    seq.transfer(len(steps), feet, p_prev, yaw_prev, standing_pose(robot, feet, yaw_prev), yaw_prev, tm.transfer_s,
-                 thrust_out, None, include_end=True, share=share_out)
-    return seq.rows, seq.first_infeasible
+        self.p_prev, self.yaw_prev = st.p_body[-1], yaw_of(st.path_m[-1])
+        self.thrust_out = FanThrust(st.fan_thrust(len(st.samples) - 1, nf), st.fan_index)
+        self.share_out = float(shares[-1])
+        self.steps += 1
+        return None
+
+    def state(self) -> tuple:
+        """Everything :meth:`add` has built so far (the rows' columns copied), for :meth:`resume`."""
+        seq = self.seq
+        return ({k: list(v) for k, v in seq.rows.columns.items()}, seq.t,
+                None if seq.q_prev is None else seq.q_prev.copy(), seq.first_infeasible,
+                {k: v.copy() for k, v in self.feet.items()}, self.p_prev.copy(), self.yaw_prev, self.thrust_out,
+                self.share_out, self.steps)
+
+    def resume(self, state: tuple) -> None:
+        """Back to a :meth:`state` (of a sequence of the same scenario's settings and the same first steps)."""
+        columns, seq = state[0], self.seq
+        seq.rows.columns = {k: list(v) for k, v in columns.items()}
+        seq.t, q_prev, seq.first_infeasible = state[1], state[2], state[3]
+        seq.q_prev = None if q_prev is None else q_prev.copy()
+        self.feet = {k: v.copy() for k, v in state[4].items()}
+        self.p_prev, self.yaw_prev, self.thrust_out, self.share_out, self.steps = (state[5].copy(), *state[6:])
+
+    def finish(self) -> tuple[Rows, dict | None]:
+        """The final transfer to standing; (the rows, the first infeasible row or None)."""
+        seq = self.seq
+        seq.transfer(self.steps, self.feet, self.p_prev, self.yaw_prev,
+                     standing_pose(self.robot, self.feet, self.yaw_prev), self.yaw_prev,
+                     self.scenario.timing.transfer_s, self.thrust_out, None, include_end=True, share=self.share_out)
+        return seq.rows, seq.first_infeasible
+
+
+def build_sequence(scenario: Scenario, robot: RobotModel, solver: PostureSolver, steps: list[StepResult],
+                   schedule=None, stop_at_infeasible: bool = False, strict_dynamics: bool = False
+                   ) -> tuple[Rows, dict | None]:
+    """Every step's rows (:class:`Sequence`); with ``stop_at_infeasible``, only up to the end of the phase
+    holding the first infeasible row (the plan is refused then: the rows after it would be discarded)."""
+    sequence = Sequence(scenario, robot, solver, schedule, stop_at_infeasible, strict_dynamics)
+    for st in steps:
+        bad = sequence.add(st)
+        if bad is not None:
+            return sequence.seq.rows, bad
+    return sequence.finish()
 
 

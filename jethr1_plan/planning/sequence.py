@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
+from jethr1_plan.control.time_laws import min_jerk, paced_row_positions, swing_row_positions
 from jethr1_plan.geometry import GRAVITY, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
@@ -44,6 +44,7 @@ from jethr1_plan.physics.balance import (
     zmp_with_thrust,
     zmp_with_thrusts,
 )
+from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
 from jethr1_plan.physics.share import row_shares
 from jethr1_plan.reasons import Reason, message
 from jethr1_plan.robot.model import RobotModel, fan_ground_xy
@@ -142,10 +143,39 @@ class SequenceBuilder:
             self.q_prev = batch.q[0]
         return batch.q[0], batch.com[0], int(batch.status[0])
 
+    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
+                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Every row of a swing at once where the solver is the closed form (each row is its own
+        closed-form posture: the same as row by row, to the bit); None for an iterative solver (its
+        warm start goes row to row)."""
+        from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
+
+        if not isinstance(self.solver, ClosedFormPostureSolver) or not len(p_body):
+            return None
+        q, com, status = solve_postures(self.robot, p_body, yaws, {support: (support_xyz, 0.0),
+                                                                   other_side(support): (swings, 0.0)})
+        com[status == Reason.UNREACHABLE] = np.nan
+        self.solver.evaluations += len(p_body)
+        ok = np.flatnonzero(status == Reason.OK)
+        if len(ok):
+            self.q_prev = q[ok[-1]]
+        return q, com, status
+
     def _mark(self, step: int, phase: str, sample: int, reason: str, detail: dict) -> None:
         if self.first_infeasible is None:
             self.first_infeasible = {"time_s": self.t, "step": step, "phase": phase, "sample": sample,
                                      "reason": reason, **detail}
+
+    def snapshot(self) -> tuple:
+        """The builder's state (rows written, clock, warm start, first infeasible row), for :meth:`restore`."""
+        return (len(self.rows), self.t, None if self.q_prev is None else self.q_prev.copy(), self.first_infeasible)
+
+    def restore(self, snap: tuple) -> None:
+        """Back to a :meth:`snapshot`: the rows written since are dropped."""
+        n, self.t, q_prev, self.first_infeasible = snap
+        self.q_prev = None if q_prev is None else q_prev.copy()
+        for col in self.rows.columns.values():
+            del col[n:]
 
     def _emit(self, thrust: np.ndarray, **row) -> None:
         self.rows.append(time_s=self.t, **row, **{f"thrust_{n}": float(f) for n, f in zip(self.names, thrust,
@@ -216,8 +246,13 @@ class SequenceBuilder:
                        tolerance_share=self._row_share(com[:2], fans, thrust, hull), reason=reason or "")
 
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
-              yaw_fn, duration_s: float, shares: np.ndarray | None = None) -> None:
+              yaw_fn, duration_s: float, shares: np.ndarray | None = None, positions: np.ndarray | None = None
+              ) -> None:
         """Single-support rows along ``path`` (N, 3) with optimised P_body ``p_samples`` (N, 3).
+
+        ``positions``: the rows' places along the samples (fractional indices; default the minimum-jerk
+        law, :func:`swing_row_positions`; a paced swing: :func:`paced_row_positions`); the swing sole and
+        P_body are linear between samples along them.
 
         ``yaw_fn(swing_xyz) -> body yaw [rad]`` gives the trunk yaw at any swing position. The fans of
         the swing sole and the trunk carry the least thrust that balances the row's posture within
@@ -231,12 +266,19 @@ class SequenceBuilder:
         m = self.robot.mass_kg
         idx = np.arange(len(path))
         one = len(active) == 1 and not self.robot.fans[active[0]].on_trunk
-        for k, u in enumerate(swing_row_positions(len(path), duration_s, 1.0 / self.dt)):
-            swing = np.array([np.interp(u, idx, path[:, j]) for j in range(3)])
-            p = np.array([np.interp(u, idx, p_samples[:, j]) for j in range(3)])
-            yaw = float(yaw_fn(swing)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
-            stance = Stance(support, feet[support], 0.0, swing, 0.0, yaw)
-            q, com, status = self._solve(stance, p)
+        if positions is None:
+            positions = swing_row_positions(len(path), duration_s, 1.0 / self.dt)
+        p_rows = np.column_stack([np.interp(positions, idx, p_samples[:, j]) for j in range(3)])
+        swings = np.column_stack([np.interp(positions, idx, path[:, j]) for j in range(3)])
+        yaws = np.array([float(yaw_fn(swings[k])) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows) + k)
+                         for k in range(len(positions))])
+        solved = self._solve_swing(support, feet[support], swings, p_rows, yaws)
+        for k, u in enumerate(positions):
+            swing, p, yaw = swings[k], p_rows[k], float(yaws[k])
+            if solved is None:
+                q, com, status = self._solve(Stance(support, feet[support], 0.0, swing, 0.0, yaw), p)
+            else:
+                q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
             share = 1.0 if shares is None else float(np.interp(u, idx, shares))
             tol = self.tolerance.scaled(share)
@@ -284,3 +326,76 @@ class SequenceBuilder:
                        p_body=p, ground_z=feet[support][2], yaw=yaw, q=q, swing=swing, com=com, zmp=zmp,
                        window=self._window(com[:2], fans, fan_share, sole), zmp_margin=float(polygon_margin(zmp, sole)),
                        tolerance_share=self._row_share(com[:2], fans, thrust_all, poly), reason=reason or "")
+
+
+def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop: int | None = None) -> RowDynamics:
+    """The multibody ZMP rows ``start:stop`` need (``physics.row_dynamics``; the robot held still beyond
+    them): Paper A's balance is quasistatic, and this is how far the rows' own motion moves the ZMP from it."""
+    c = rows.columns
+    p = np.asarray(c["p_body"][start:stop], dtype=float)
+    yaw = np.asarray(c["yaw"][start:stop], dtype=float)
+    base = np.zeros((len(p), 4, 4))
+    base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
+    base[:, 2, 2] = base[:, 3, 3] = 1.0
+    base[:, :3, 3] = p
+    thrust = np.column_stack([np.asarray(c[f"thrust_{f.name}"][start:stop]) for f in robot.fans]).astype(float)
+    return row_dynamics(robot, base, np.asarray(c["q"][start:stop], dtype=float), thrust,
+                        np.asarray(c["support"][start:stop]), dt)
+
+
+#: the trunk accelerations [m/s²] a paced swing is tried with, in order (:func:`pace_swing`)
+PACE_ACCEL = (0.4, 0.2, 0.1, 0.05)
+
+
+def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
+    """(rows,) the multibody ZMP's margin in the support [m] of the swing rows written from row ``start``
+    on (the row before them in the stencil; the last held)."""
+    lo = max(start - 1, 0)
+    dyn = rows_dynamics(seq.rows, seq.robot, seq.dt, lo)
+    return dyn.margin[start - lo:]
+
+
+def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, duration_s: float,
+               margin_m: float, strict: bool = True) -> float | None:
+    """Re-time a swing whose rows' own motion moves the multibody ZMP to within ``margin_m`` [m] of the
+    support sole's edge (or beyond). ``build(positions)`` writes the swing (``positions`` None: the
+    minimum-jerk law) after ``snap``; it is rebuilt paced (:func:`paced_row_positions` of ``p_samples``
+    (N, 3) over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
+    whose rows all hold quasistatically with the multibody ZMP ``margin_m`` inside is kept. Where none
+    is, the swing of the largest multibody margin is kept and, if ``strict``, its rows that leave the
+    margin are marked infeasible. Returns the kept swing's least multibody margin [m] (None: the swing was infeasible
+    already, or needed no pacing)."""
+    start, before = snap[0], snap[3]
+    if seq.first_infeasible is not before:
+        return None
+    least = float(np.min(swing_dynamic_margin(seq, start)))
+    if least >= margin_m:
+        return None
+    best: tuple[float, np.ndarray | None] = (least, None)
+    rate = 1.0 / seq.dt
+    for accel in PACE_ACCEL:
+        seq.restore(snap)
+        positions = paced_row_positions(p_samples, duration_s, rate, accel)
+        build(positions)
+        if seq.first_infeasible is not before:
+            continue
+        least = float(np.min(swing_dynamic_margin(seq, start)))
+        if least >= margin_m:
+            return least
+        if least > best[0]:
+            best = (least, positions)
+    seq.restore(snap)
+    build(best[1])
+    margins = swing_dynamic_margin(seq, start)
+    if not strict:
+        return float(np.min(margins))
+    c = seq.rows.columns
+    for i in np.flatnonzero(margins < margin_m).tolist():
+        r = start + i
+        reason = (f"the rows' motion moves the ZMP to {1000 * margins[i]:.1f} mm from the sole's edge (multibody "
+                  f"ZMP by central differences; {1000 * margin_m:g} mm wanted, the quasistatic ZMP "
+                  f"{1000 * float(c['zmp_margin'][r]):.1f} mm inside), paced or not")
+        c["feasible"][r] = False
+        c["reason"][r] = c["reason"][r] or reason
+        seq._mark(int(c["step"][r]), "swing", int(c["sample"][r]), reason, {"p_body_m": list(c["p_body"][r])})
+    return float(np.min(margins))

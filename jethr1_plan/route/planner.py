@@ -157,6 +157,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
     blacklisted: list[dict] = []
     plan_s = 0.0
     memo: dict = {}  # the steps optimised so far: a re-planned route does not optimise its unchanged first steps again
+    rows: dict = {}  # and the rows built after them: it does not build their rows again either
     for _ in range(MAX_REPLANS + 1):
         found = astar(model)
         searches.append(found)
@@ -177,7 +178,8 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo)
+            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True, row_memo=rows,
+                          strict_dynamics=True)
         except InfeasiblePlan as exc:
             plan_s += time.perf_counter() - t0
             first = (exc.summary or {}).get("first_infeasible") or {}

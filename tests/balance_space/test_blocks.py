@@ -6,9 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jethr1_plan.balance_space.blocks import TaskTimes, makespan, partition
+from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, makespan, partition
+from jethr1_plan.balance_space.continuation import BlockResult
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
 from jethr1_plan.balance_space.sweep import sweep
+from jethr1_plan.balance_space.workers import fork_available
+from jethr1_plan.reasons import Reason
 
 # a coarse grid cut into many small blocks, so that boundary rounds run between them
 SMALL = SearchSettings(block_y_cells=6, block_z_layers=2)
@@ -51,6 +54,45 @@ def test_many_blocks_and_rounds_give_the_same_bytes_on_any_number_of_workers(one
     for name in ("thrust", "p_body", "reason"):
         assert getattr(one_process, name).tobytes() == getattr(two, name).tobytes()
     assert two.evaluations == one_process.evaluations
+
+
+@pytest.mark.skipif(not fork_available(), reason="the forked sweep needs Linux")
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_the_forked_sweep_gives_the_same_bytes(one_process, jobs):
+    forked = sweep(COARSE, jobs=jobs, executor="fork", settings=SMALL)
+    for name in ("thrust", "p_body", "reason"):
+        assert getattr(one_process, name).tobytes() == getattr(forked, name).tobytes()
+    assert forked.evaluations == one_process.evaluations
+    assert [len(s) for s in forked.extra["task_times"].stages] == [len(s) for s in
+                                                                   one_process.extra["task_times"].stages]
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_the_state_gives_back_every_value_written_to_the_bit(shared):
+    state = SweepState((3, 4, 5), shared=shared)
+    p_body, objective, reason = state.arrays()
+    assert np.isnan(p_body).all() and np.isposinf(objective).all() and np.all(reason == Reason.UNREACHABLE)
+    rng = np.random.default_rng(3)
+    cells = rng.permutation(60)[:40]
+    P = rng.normal(size=(40, 3))
+    P[::3] = np.nan
+    P[1, 1] = -np.nan  # any NaN's bits come back
+    f = np.where(rng.random(40) < 0.3, np.inf, rng.normal(size=40))
+    f[2] = -0.0
+    why = rng.choice([Reason.OK, Reason.UNREACHABLE, Reason.JOINT_LIMIT, Reason.THRUST_MAX], 40).astype(np.int8)
+    answer = BlockResult(cells, P, f, why, int(np.count_nonzero(why == Reason.OK)), 0, 0.0)
+    state.put(answer, first=True)
+    assert state.p_body_at(cells).tobytes() == P.tobytes() and state.objective_at(cells).tobytes() == f.tobytes()
+    p_body, objective, reason = state.arrays()
+    assert p_body[cells].tobytes() == P.tobytes() and objective[cells].tobytes() == f.tobytes()
+    assert reason[cells].tobytes() == why.tobytes()
+    rest = np.setdiff1d(np.arange(60), cells)
+    assert np.isnan(p_body[rest]).all() and np.isposinf(objective[rest]).all()
+    state.put(BlockResult(cells[:5], np.full((5, 3), np.nan), np.full(5, np.inf), np.full(5, Reason.UNREACHABLE,
+                                                                                             np.int8), 0, 0, 0.0))
+    p_body, objective, reason = state.arrays()  # a later answer overwrites, start values too
+    assert np.isnan(p_body[cells[:5]]).all() and np.isposinf(objective[cells[:5]]).all()
+    assert np.all(reason[cells[:5]] == Reason.UNREACHABLE)
 
 
 def test_a_dask_cluster_gives_the_same_bytes(one_process):

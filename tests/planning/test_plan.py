@@ -335,3 +335,65 @@ def test_a_remembered_step_is_the_step_planned_afresh(tmp_path, monkeypatch):
     for name, col in fresh.rows.columns.items():
         a, b = np.asarray(with_memo.rows.columns[name]), np.asarray(col)
         assert a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name
+
+
+def test_early_rows_are_the_same_rows_and_a_refusal_optimises_no_further(tmp_path, monkeypatch):
+    """``early_rows`` (the route): each step's rows are built as soon as it is optimised. A feasible plan
+    gets the same rows, bit for bit; where step 0's rows are refused, step 1 is never optimised and the
+    refusal is the one the plan without it reports."""
+    import jethr1_plan.planning.plan as planning
+    from jethr1_plan.errors import InfeasiblePlan
+    from jethr1_plan.planning.sequence import SequenceBuilder
+    from jethr1_plan.scenario import load_scenario_text
+
+    sc = load_scenario_text(_small_two_step(tmp_path).read_text(), "small")
+    late, early = planning.plan(sc), planning.plan(sc, early_rows=True)
+    assert set(late.rows.columns) == set(early.rows.columns)
+    for name, col in late.rows.columns.items():
+        a, b = np.asarray(early.rows.columns[name]), np.asarray(col)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name
+
+    real_swing = SequenceBuilder.swing
+
+    def refused(self, step, *a, **k):  # step 0's swing rows refused (as a row past rho would be)
+        real_swing(self, step, *a, **k)
+        if step == 0:
+            self._mark(0, "swing", 7, "refused here", {})
+
+    monkeypatch.setattr(SequenceBuilder, "swing", refused)
+    calls: list[int] = []
+    real = planning.optimise_step
+    monkeypatch.setattr(planning, "optimise_step", lambda job, *a, **k: calls.append(job.index) or real(job, *a, **k))
+    bad = {}
+    for flag in (False, True):
+        with pytest.raises(InfeasiblePlan) as exc:
+            planning.plan(sc, early_rows=flag)
+        bad[flag] = exc.value.summary["first_infeasible"]
+    assert calls == [0, 1, 0]
+    assert bad[True] == bad[False] and bad[True]["step"] == 0 and bad[True]["reason"] == "refused here"
+
+
+def test_remembered_rows_are_the_rows_built_afresh(tmp_path, monkeypatch):
+    """``row_memo`` (the route's re-plans): a scenario whose first step is unchanged does not build that
+    step's rows again, and its rows are those of a plan made without any memo, bit for bit."""
+    import jethr1_plan.planning.plan as planning
+    from jethr1_plan.planning.sequence import SequenceBuilder
+    from jethr1_plan.scenario import load_scenario_text
+
+    text = _small_two_step(tmp_path).read_text()
+    doc = yaml.safe_load(text)
+    doc["steps"][1]["landing_m"] = [0.46, -0.1125, 0.0]  # another second landing, the same first step
+    other = load_scenario_text(yaml.safe_dump(doc), "other")
+    built: list[int] = []
+    real = SequenceBuilder.swing
+    monkeypatch.setattr(SequenceBuilder, "swing", lambda self, step, *a, **k: built.append(step) or real(self, step,
+                                                                                                        *a, **k))
+    memo: dict = {}
+    rows: dict = {}
+    planning.plan(load_scenario_text(text, "small"), step_memo=memo, early_rows=True, row_memo=rows)
+    with_memo = planning.plan(other, step_memo=memo, early_rows=True, row_memo=rows)
+    assert built[:2] == [0, 1] and 0 not in built[2:] and 1 in built[2:]
+    fresh = planning.plan(other)
+    for name, col in fresh.rows.columns.items():
+        a, b = np.asarray(with_memo.rows.columns[name]), np.asarray(col)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name

@@ -40,6 +40,22 @@ def test_the_route_folder_is_a_plan_that_verify_accepts(small_route):
     assert run(["verify", str(small_route)]) == 0
 
 
+def test_the_routes_swings_keep_the_multibody_zmp_inside_the_sole_margin(small_route):
+    """The route plans strictly: every swing row's multibody ZMP (the rows' own motion; pinocchio's RNEA on
+    the written files, independent of the planner) stays the terrain's 5 mm sole margin inside the support
+    sole, paced where the minimum-jerk law would not keep it there (docs/route.md)."""
+    import csv
+
+    from tests.oracles.plan_audit import audit_plan
+
+    audit = audit_plan(small_route)
+    with open(small_route / "trajectory.csv", newline="") as f:
+        phase = np.array([r["phase"] for r in csv.DictReader(f)])
+    swing = np.flatnonzero(phase == "swing")
+    swing = swing[(swing > 0) & (swing < len(phase) - 1)]
+    assert len(swing) and np.all(audit.margin_dynamic[swing] >= 0.005 - 1e-9)
+
+
 def test_route_yaml_re_plans_to_the_same_bytes(small_route, tmp_path):
     assert run(["plan", str(small_route / "route.yaml"), "-o", str(tmp_path), "--no-progress"]) == 0
     for name in ("trajectory.csv", "trajectory.mcap"):

@@ -1,0 +1,40 @@
+"""The forked sweep (``balance_space.workers``): its host's failure reaches the command, the host ends with the sweep,
+the forked workers answer every task."""
+
+from __future__ import annotations
+
+import multiprocessing
+
+import pytest
+
+from jethr1_plan.balance_space import workers
+from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
+
+pytestmark = pytest.mark.skipif(not workers.fork_available(), reason="the forked sweep needs Linux")
+COARSE = SweepSpec(resolution_m=0.1)
+
+
+def _fails(*args, **kwargs):
+    raise ValueError("a task failed")
+
+
+def test_a_failure_in_the_host_is_raised_in_the_command(monkeypatch):
+    monkeypatch.setattr(workers, "run_blocks", _fails)  # (the host is forked: it runs this module as patched)
+    host = workers.ForkedSweep(COARSE, SearchSettings(), 2)
+    with pytest.raises(ValueError, match="a task failed"):
+        host.result()
+    assert not host._process.is_alive()
+
+
+def test_the_host_ends_with_the_sweep():
+    with workers.ForkedSweep(COARSE, SearchSettings(), 2) as host:
+        _, times, evaluations = host.result()
+    assert evaluations > 0 and len(times.stages[0]) >= 1
+    assert not host._process.is_alive() and host._process.exitcode == 0
+    assert all(p.name != "jethr1-balance-space" for p in multiprocessing.active_children())
+
+
+def test_forked_workers_answer_every_task():
+    with workers.ForkedWorkers(2) as pool:
+        answers = sorted(pool((divmod, (n, 3)) for n in range(7)))
+    assert answers == sorted(divmod(n, 3) for n in range(7))
