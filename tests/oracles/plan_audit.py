@@ -12,14 +12,12 @@ quasistatic ZMP that Paper A's model (and the CSV's ``zmp_*`` columns) state.
 
 from __future__ import annotations
 
-import csv
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from tests.oracles.walk_audit import _hull_margin, _model
+from tests.oracles.walk_audit import _hull_margin, _model, read_folder
 
 SIDES = ("left", "right")
 
@@ -41,13 +39,7 @@ def audit_plan(folder: Path) -> PlanAudit:
     """Audit the plan written in ``folder``."""
     import pinocchio as pin
 
-    folder = Path(folder)
-    summary = json.loads((folder / "summary.json").read_text())
-    with open(folder / "trajectory.csv", newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader)
-        rows = list(reader)
-    col = {h: k for k, h in enumerate(header)}
+    summary, rows, col = read_folder(folder)
     robot_yaml = Path(summary["robot_yaml"])
     model, rdoc = _model(robot_yaml)
     data = model.createData()

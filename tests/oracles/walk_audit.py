@@ -69,15 +69,20 @@ def _hull_margin(p: np.ndarray, pts: np.ndarray) -> float:
     return float(np.min(np.einsum("kd,kd->k", n, h) - n @ p))
 
 
-def audit_walk(folder: Path) -> Audit:
-    """Audit the walk written in ``folder``."""
+def read_folder(folder: Path) -> tuple[dict, list[list[str]], dict[str, int]]:
+    """(summary.json, the CSV's rows as text, each column's index) of a written folder."""
     folder = Path(folder)
     summary = json.loads((folder / "summary.json").read_text())
     with open(folder / "trajectory.csv", newline="") as f:
         reader = csv.reader(f)
         header = next(reader)
         rows = list(reader)
-    col = {h: k for k, h in enumerate(header)}
+    return summary, rows, {h: k for k, h in enumerate(header)}
+
+
+def audit_walk(folder: Path) -> Audit:
+    """Audit the walk written in ``folder``."""
+    summary, rows, col = read_folder(folder)
     model, _ = _model(Path(summary["robot_yaml"]))
     names = [str(x) for x in model.names[2:]]
     t = np.array([float(r[col["time_s"]]) for r in rows])
