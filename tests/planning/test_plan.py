@@ -312,16 +312,23 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     assert datetime.datetime.fromtimestamp(first / 1e9, datetime.UTC).isoformat() == "2000-01-01T00:00:00+00:00"
 
 
+def _same_first_step(tmp_path):
+    """The small two-step scenario's text, and a scenario with the same first step and another second landing."""
+    from jethr1_plan.scenario import load_scenario_text
+
+    text = _small_two_step(tmp_path).read_text()
+    doc = yaml.safe_load(text)
+    doc["steps"][1]["landing_m"] = [0.46, -0.1125, 0.0]
+    return text, load_scenario_text(yaml.safe_dump(doc), "other")
+
+
 def test_a_remembered_step_is_the_step_planned_afresh(tmp_path, monkeypatch):
     """``step_memo`` (the route's re-plans): a scenario whose first step is unchanged re-uses it and
     optimises only the changed one, and its rows are the rows of a plan made without the memo."""
     import jethr1_plan.planning.plan as planning
     from jethr1_plan.scenario import load_scenario_text
 
-    text = _small_two_step(tmp_path).read_text()
-    doc = yaml.safe_load(text)
-    doc["steps"][1]["landing_m"] = [0.46, -0.1125, 0.0]  # another second landing, the same first step
-    other = load_scenario_text(yaml.safe_dump(doc), "other")
+    text, other = _same_first_step(tmp_path)
     calls: list[int] = []
     real = planning.optimise_step
     monkeypatch.setattr(planning, "optimise_step", lambda job, *a, **k: calls.append(job.index) or real(job, *a, **k))
@@ -380,10 +387,7 @@ def test_remembered_rows_are_the_rows_built_afresh(tmp_path, monkeypatch):
     from jethr1_plan.planning.sequence import SequenceBuilder
     from jethr1_plan.scenario import load_scenario_text
 
-    text = _small_two_step(tmp_path).read_text()
-    doc = yaml.safe_load(text)
-    doc["steps"][1]["landing_m"] = [0.46, -0.1125, 0.0]  # another second landing, the same first step
-    other = load_scenario_text(yaml.safe_dump(doc), "other")
+    text, other = _same_first_step(tmp_path)
     built: list[int] = []
     real = SequenceBuilder.swing
     monkeypatch.setattr(SequenceBuilder, "swing", lambda self, step, *a, **k: built.append(step) or real(self, step,
