@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "ExpectationFailed",
-           "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed"]
+           "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed", "interrupt_behind"]
 
 EXIT_VERIFY_FINDING = 5
 """``jethr1 verify`` found rows or files that do not hold."""
@@ -69,3 +69,19 @@ class SelfCheckFailed(Exception):
     """The planner's own output failed the independent re-check before it was written: a bug (exit 1).
 
     Deliberately not a :class:`Jethr1Error`: nothing a user did causes it."""
+
+
+def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C (or SIGTERM) behind ``exc``, if any, following its causes and contexts.
+
+    An interrupt that lands while a compiled kernel runs comes out of it as ``SystemError: CPUDispatcher(...)
+    returned a result with an exception set``, the KeyboardInterrupt its cause: that is the user stopping the
+    run, not a bug."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None

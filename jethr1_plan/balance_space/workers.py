@@ -18,7 +18,6 @@ glibc's malloc in the host and workers gives freed arrays back to the system (``
 
 from __future__ import annotations
 
-import ctypes
 import gc
 import multiprocessing
 import signal
@@ -32,38 +31,12 @@ import numpy as np
 from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, run_blocks
 from jethr1_plan.balance_space.continuation import BlockResult, search_block
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
+from jethr1_plan.io.forked import before_fork, fork_available
 
 __all__ = ["ForkedSweep", "ForkedWorkers", "fork_available", "load_kernels"]
 
 WARM_UP_RISE_M = 0.15  # the warm-up row's swing sole this far above the support (cells there get the polish)
 WARM_UP_SIDE_M = 0.2  # ... and this far to the swing side of it (most of its cells are members: PlaCo re-checks)
-MMAP_THRESHOLD_B = 256 * 1024  # glibc: arrays from this size get their own mapping, given back when freed
-TRIM_THRESHOLD_B = 1024 * 1024  # glibc: free memory at the heap's top beyond this is given back
-
-
-def fork_available() -> bool:
-    """Whether the forked sweep can run here: Linux (fork, glibc) only; elsewhere the command uses loky."""
-    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
-
-
-def _give_back_freed_memory() -> None:
-    """glibc's malloc: fixed thresholds (see the module), and the free memory of the heap given back now."""
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-    except OSError:  # not glibc: nothing to tune
-        return
-    libc.mallopt(-3, MMAP_THRESHOLD_B)  # M_MMAP_THRESHOLD (fixing it also stops glibc raising it)
-    libc.mallopt(-1, TRIM_THRESHOLD_B)  # M_TRIM_THRESHOLD
-    libc.malloc_trim(0)
-
-
-def _before_fork() -> None:
-    """Before forking: garbage collected, and every object left moved out of the collector's sight
-    (:func:`gc.freeze`), so that a collection in a child, which writes to the objects it examines, does not copy
-    the pages it shares with its parent; the free memory given back."""
-    gc.collect()
-    gc.freeze()
-    _give_back_freed_memory()
 
 
 def load_kernels(spec: SweepSpec, settings: SearchSettings) -> BlockResult:
@@ -83,7 +56,7 @@ class ForkedWorkers:
     when it closes."""
 
     def __init__(self, jobs: int):
-        _before_fork()
+        before_fork()
         self.jobs = jobs
         self._pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
         self._pool.submit(int).result()  # forks every worker now, before the pool starts its threads
@@ -154,7 +127,7 @@ class ForkedSweep:
     def __init__(self, spec: SweepSpec, settings: SearchSettings, jobs: int):
         self.t0 = time.perf_counter()
         self.state = SweepState(tuple(len(a) for a in spec.axes()), shared=True)  # type: ignore[arg-type]
-        _before_fork()  # (and this process's collections leave the objects it shares with the host alone)
+        before_fork()  # (and this process's collections leave the objects it shares with the host alone)
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=_host, args=(child, spec, settings, jobs, self.state),

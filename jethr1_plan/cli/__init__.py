@@ -15,7 +15,7 @@ import sys
 import click
 
 from jethr1_plan.cli.common import StdoutError
-from jethr1_plan.errors import Jethr1Error
+from jethr1_plan.errors import Jethr1Error, interrupt_behind
 
 __all__ = ["entry", "main", "run"]
 
@@ -78,12 +78,7 @@ def run(argv: list[str] | None = None) -> int:
         print(f"{where}: {exc.format_message()}".replace("\n", " "), file=sys.stderr)
         return 2
     except (click.exceptions.Abort, KeyboardInterrupt):
-        done = _written()
-        if _TERMINATED:
-            print(f"jethr1: terminated (SIGTERM); workers stopped, {done}", file=sys.stderr)
-            return 143
-        print(f"jethr1: interrupted; workers stopped, {done}", file=sys.stderr)
-        return 130
+        return _interrupted()
     except StdoutError as exc:
         return _stdout_failed(exc.error)
     except Jethr1Error as exc:
@@ -94,7 +89,21 @@ def run(argv: list[str] | None = None) -> int:
         if not _stdout_error(exc):
             raise
         return _stdout_failed(exc)
+    except Exception as exc:
+        if interrupt_behind(exc) is None:
+            raise
+        return _interrupted()  # Ctrl-C inside a compiled kernel (a SystemError caused by it)
     return 0
+
+
+def _interrupted() -> int:
+    """The one line and exit code of a run stopped by Ctrl-C (130) or SIGTERM (143)."""
+    done = _written()
+    if _TERMINATED:
+        print(f"jethr1: terminated (SIGTERM); workers stopped, {done}", file=sys.stderr)
+        return 143
+    print(f"jethr1: interrupted; workers stopped, {done}", file=sys.stderr)
+    return 130
 
 
 def _written() -> str:

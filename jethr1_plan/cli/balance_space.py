@@ -73,9 +73,10 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
     from jethr1_plan.balance_space.spec import SearchSettings
     from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
-    from jethr1_plan.balance_space.workers import ForkedSweep, fork_available
+    from jethr1_plan.balance_space.workers import ForkedSweep
     from jethr1_plan.files.balance_space import balance_space_mcap, balance_space_png, write_balance_space_csv
     from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.forked import ForkedFile, fork_available
     from jethr1_plan.robot.model import load_robot
 
     if executor is None:
@@ -117,11 +118,15 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
                                              "summary.json"})) as staging:
         tmp = staging.path
-        with open(tmp / "balance_space.csv", "w", encoding="utf-8", newline="") as f:  # (written as built)
-            write_balance_space_csv(result, f)
-        (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m, robot.sole_width_m))
-        (tmp / "balance_space.png").write_bytes(balance_space_png(result, robot.sole_length_m, robot.sole_width_m))
-        (tmp / "summary.json").write_text(json_text(doc))
+        # the PNG drawn by a forked child (with matplotlib, which this process never imports) beside the rest
+        with ForkedFile(tmp / "balance_space.png",
+                        lambda: balance_space_png(result, robot.sole_length_m, robot.sole_width_m)) as png:
+            with open(tmp / "balance_space.csv", "w", encoding="utf-8", newline="") as f:  # (written as built)
+                write_balance_space_csv(result, f)
+            (tmp / "balance_space.mcap").write_bytes(balance_space_mcap(result, robot.sole_length_m,
+                                                                        robot.sole_width_m))
+            (tmp / "summary.json").write_text(json_text(doc))
+            png.wait()
     if as_json:
         print_json(doc)
     w, wo = doc["with_thrust"], doc["without_thrust"]

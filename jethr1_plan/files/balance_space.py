@@ -14,7 +14,8 @@ from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import Reason, message
 
 __all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap",
-           "balance_space_png", "write_balance_space_csv"]
+           "balance_space_png", "least_thrust_columns",
+           "write_balance_space_csv"]
 
 #: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 BALANCE_SPACE_TOPICS: dict[str, Topic] = {
@@ -104,8 +105,34 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
     return out.finish()
 
 
+def least_thrust_columns(r: SweepResult, mask: np.ndarray, hidden: int) -> np.ndarray:
+    """The least thrust [N] of the cells ``mask`` selects in each column of the grid along axis ``hidden``
+    (0 x, 1 y, 2 z): an (n_a, n_b) image over the two other axes in their order, NaN where the column holds
+    none of them (what a top or side view of the space shows)."""
+    shape = tuple(len(a) for a in r.spec.axes())
+    idx = np.unravel_index(np.flatnonzero(mask), shape)
+    kept = [k for k in range(3) if k != hidden]
+    image = np.full((shape[kept[0]], shape[kept[1]]), np.inf)
+    np.minimum.at(image, (idx[kept[0]], idx[kept[1]]), np.asarray(r.thrust, dtype=float)[mask])
+    image[np.isinf(image)] = np.nan
+    return image
+
+
+def _view_box(r: SweepResult) -> tuple[np.ndarray, np.ndarray]:
+    """The corners [m] of the box the views show: the space with thrust (the larger) and the support sole, two
+    cells beyond; the whole grid if the space is empty."""
+    grid = r.spec.axes()
+    pts = r.swing_at(r.with_thrust)
+    if not len(pts):
+        return np.array([a[0] for a in grid]), np.array([a[-1] for a in grid])
+    pad = 2 * r.spec.resolution_m
+    sup = np.asarray(r.spec.support_xyz)
+    return np.minimum(pts.min(axis=0), sup) - pad, np.maximum(pts.max(axis=0), sup) + pad
+
+
 def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:
-    """Fig. 5 as a picture: without and with thrust, top (x–y) and side (x–z) views, support sole drawn."""
+    """Fig. 5 as a picture: without and with thrust, top (x–y) and side (x–z) views, each pixel block a column of
+    cells coloured by its least thrust (:func:`least_thrust_columns`), the support sole drawn."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -115,27 +142,27 @@ def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float)
     fig, axes = plt.subplots(2, 2, figsize=(11, 9), constrained_layout=True)
     sup = np.asarray(r.spec.support_xyz)
     fmax = r.spec.fan_limit_n
+    grid = r.spec.axes()
+    half = r.spec.resolution_m / 2
+    lo, hi = _view_box(r)
     for row, (title, mask) in enumerate((("without thrust (F = 0)", r.without_thrust),
                                          (f"with thrust (F ≤ {fmax:g} N)", r.with_thrust))):
-        pts, thr = r.swing_at(mask), r.thrust[mask]
-        for col, (a, b, la, lb) in enumerate(((0, 1, "x [m]", "y [m]"), (0, 2, "x [m]", "z [m]"))):
+        for col, (b, hidden, lb) in enumerate(((1, 2, "y [m]"), (2, 1, "z [m]"))):
             ax = axes[row, col]
-            if len(pts):
-                # one marker per column of cells: the least thrust over the hidden axis
-                key = np.round(pts[:, [a, b]], 6)
-                uniq, inv = np.unique(key, axis=0, return_inverse=True)
-                best = np.full(len(uniq), np.inf)
-                np.minimum.at(best, inv.ravel(), thr)
-                sc = ax.scatter(uniq[:, 0], uniq[:, 1], c=best, s=4, marker="s", cmap="viridis", vmin=0, vmax=fmax)
-                fig.colorbar(sc, ax=ax, label="least thrust [N]")
+            image = least_thrust_columns(r, mask, hidden)
+            extent = (grid[0][0] - half, grid[0][-1] + half, grid[b][0] - half, grid[b][-1] + half)
+            im = ax.imshow(image.T, origin="lower", extent=extent, cmap="viridis", vmin=0, vmax=fmax,
+                           interpolation="nearest", aspect="equal" if b == 1 else "auto")
+            fig.colorbar(im, ax=ax, label="least thrust [N]")
+            ax.set_xlim(lo[0], hi[0])
+            ax.set_ylim(lo[b], hi[b])
             if b == 1:
                 ax.add_patch(Rectangle((sup[0] - sole_length_m / 2, sup[1] - sole_width_m / 2), sole_length_m,
                                        sole_width_m, fill=True, color="tab:red", alpha=0.8, label="support sole"))
-                ax.set_aspect("equal")
             else:
                 ax.plot([sup[0] - sole_length_m / 2, sup[0] + sole_length_m / 2], [sup[2], sup[2]], color="tab:red",
                         lw=4, label="support sole")
-            ax.set_xlabel(la)
+            ax.set_xlabel("x [m]")
             ax.set_ylabel(lb)
             ax.set_title(f"{title}: {'top' if b == 1 else 'side'} view, {int(mask.sum())} cells")
             ax.legend(loc="lower left", fontsize=8)

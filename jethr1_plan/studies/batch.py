@@ -7,7 +7,7 @@ from typing import Any
 
 import yaml
 
-from jethr1_plan.errors import InfeasiblePlan, InputError
+from jethr1_plan.errors import InfeasiblePlan, InputError, interrupt_behind
 
 __all__ = ["batch_exit_code", "check_expectations", "read_manifest", "run_batch", "run_scenario"]
 
@@ -59,6 +59,9 @@ def run_scenario(path: str, outdir: str) -> dict:
     except InputError as exc:  # its folder cannot be written (a file in the way, a full disk)
         return {**record, "status": "bad input", "error": str(exc), "exit_code": 2}
     except (Exception, SelfCheckFailed) as exc:  # a bug in one scenario must not lose every other scenario's result
+        stop = interrupt_behind(exc)
+        if stop is not None:  # Ctrl-C inside a compiled kernel: the user stopping the batch
+            raise stop from None
         return {**record, "status": "error", "error": f"a bug: {type(exc).__name__}: {str(exc)[:200]}",
                 "exit_code": 1}
     failed = check_expectations(scenario.expect, summary)

@@ -275,3 +275,33 @@ def test_an_interrupted_batch_names_what_it_completed(tmp_path):
     assert _one_line(err) == (f"jethr1: interrupted; workers stopped, complete before the interrupt: "
                               f"{out / 'side_step'}; nothing half-written")
     assert sorted(p.name for p in out.iterdir()) == ["side_step"]
+
+
+def _kernel_interrupted(*args, **kwargs):
+    """What a Ctrl-C landing inside a compiled kernel raises: a SystemError whose cause is the interrupt."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as stop:
+        raise SystemError("CPUDispatcher(<function sample_terms>) returned a result with an exception set") from stop
+
+
+def test_ctrl_c_inside_a_compiled_kernel_is_an_interrupt_not_a_bug(tmp_path, monkeypatch, capsys):
+    """The batch above once reported 'a bug: SystemError' when its interrupt landed in a kernel."""
+    from jethr1_plan.io import atomic
+    from jethr1_plan.pipeline import plan as pipeline
+    from jethr1_plan.studies import batch
+
+    monkeypatch.setattr(atomic, "_COMMITTED", [])  # (other tests in this process committed outputs)
+    monkeypatch.setattr(pipeline, "plan_to_folder", _kernel_interrupted)
+    with pytest.raises(KeyboardInterrupt):  # the batch stops instead of recording a bug and going on
+        batch.run_scenario(str(ROOT / "configs" / "side_step.yaml"), str(tmp_path))
+    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(tmp_path), "--no-progress"]) == 130
+    assert _one_line(capsys.readouterr().err) == "jethr1: interrupted; workers stopped, nothing written"
+    assert list(tmp_path.iterdir()) == []
+
+    def a_bug(*args, **kwargs):
+        raise SystemError("a genuine bug")
+
+    monkeypatch.setattr(pipeline, "plan_to_folder", a_bug)
+    with pytest.raises(SystemError):  # anything else stays a bug (a traceback, exit 1)
+        run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(tmp_path), "--no-progress"])

@@ -83,7 +83,7 @@ def kernel(fn: Callable | None = None, **options: Any) -> Any:
         saved = config.CACHE_DIR
         config.CACHE_DIR = cache_dir()
         try:
-            return numba.njit(cache=True, **options)(f)
+            return numba.njit(cache=True, **{"error_model": "numpy", **options})(f)
         finally:
             config.CACHE_DIR = saved
 

@@ -124,7 +124,7 @@ def _rot_zxy(cz, sz, cx, sx, cy, sy, v0, v1, v2):
     return cz * x - sz * y, sz * x + cz * y, z
 
 
-@kernel
+@kernel(inline="always")
 def body_com(cs, trunk, joints, links, px, py, pz, cyaw, syaw):
     """Whole-body CoM (tests/oracles/leg.py's fast_com) from the joints' cosines and sines ``cs`` (12, 2):
     trunk, then the left leg's six links, then the right's. Each link's rotation composes only the turns of

@@ -1,0 +1,129 @@
+"""Work in processes forked from this one: how to fork without copying what parent and child share, and a file
+made by a forked child while this process goes on.
+
+A forked child shares every page of its parent's until one of them writes it. Two things write pages nobody
+meant to change: Python's garbage collector (a collection writes to every object it examines) and glibc's
+malloc keeping freed memory. :func:`before_fork` settles both; the balance-space sweep's host and workers
+(``balance_space.workers``) and :class:`ForkedFile` fork after it.
+
+Forking is safe where no other thread of the forking process holds a lock the child needs: fork before a
+thread starts, or after it ends (the commands' progress bars are threads).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import gc
+import multiprocessing
+import sys
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = ["MMAP_THRESHOLD_B", "TRIM_THRESHOLD_B", "ForkedFile", "before_fork", "fork_available",
+           "give_back_freed_memory"]
+
+MMAP_THRESHOLD_B = 256 * 1024  # glibc: arrays from this size get their own mapping, given back when freed
+TRIM_THRESHOLD_B = 1024 * 1024  # glibc: free memory at the heap's top beyond this is given back
+
+
+def fork_available() -> bool:
+    """Whether work can be forked here: Linux (fork, glibc) only."""
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+def give_back_freed_memory() -> None:
+    """glibc's malloc: fixed thresholds (:data:`MMAP_THRESHOLD_B`, :data:`TRIM_THRESHOLD_B`), and the free memory
+    of the heap given back now."""
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:  # not glibc: nothing to tune
+        return
+    libc.mallopt(-3, MMAP_THRESHOLD_B)  # M_MMAP_THRESHOLD (fixing it also stops glibc raising it)
+    libc.mallopt(-1, TRIM_THRESHOLD_B)  # M_TRIM_THRESHOLD
+    libc.malloc_trim(0)
+
+
+def before_fork() -> None:
+    """Before forking: garbage collected, and every object left moved out of the collector's sight
+    (:func:`gc.freeze`), so that a collection in a child, which writes to the objects it examines, does not copy
+    the pages it shares with its parent; the free memory given back. (:func:`gc.unfreeze` when done forking.)"""
+    gc.collect()
+    gc.freeze()
+    give_back_freed_memory()
+
+
+def _child(conn, path: Path, make: Callable[[], bytes]) -> None:
+    try:
+        path.write_bytes(make())
+        conn.send(None)
+    except BaseException as exc:  # reported to the parent, which raises it
+        text = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
+        try:
+            conn.send((exc, text))
+        except Exception:  # an exception that cannot be pickled
+            conn.send((None, text))
+    finally:
+        conn.close()
+
+
+class ForkedFile:
+    """``make()``'s bytes written to ``path`` by a child process forked from this one, while this process goes on
+    (on two cores, the balance space's PNG is drawn while the CSV and the MCAP are written). Where forking is not
+    available the file is made here, at once. :meth:`wait` raises what the child raised; a context manager:
+    leaving it ends the child if it still runs (an interrupt, an error here).
+
+    ``make`` runs on a copy of this process's memory as it was when the child was forked: what this process
+    changes afterwards, the child does not see.
+    """
+
+    def __init__(self, path: Path, make: Callable[[], bytes]):
+        self.path = Path(path)
+        self._process = None
+        if not fork_available():
+            self.path.write_bytes(make())
+            return
+        before_fork()
+        ctx = multiprocessing.get_context("fork")
+        self._conn, child = ctx.Pipe(duplex=False)
+        self._process = ctx.Process(target=_child, args=(child, self.path, make), name="jethr1-file")
+        self._process.start()
+        child.close()
+
+    def wait(self) -> None:
+        """Wait for the file.
+
+        Raises:
+            OSError: the child could not write the file (a full disk: as this process would have raised it).
+            RuntimeError: the child failed otherwise (its exception and traceback in the message) or ended
+                without a word.
+        """
+        if self._process is None:
+            return
+        try:
+            failure = self._conn.recv()
+        except EOFError:
+            failure = (None, f"the process ended (exit code {self._process.exitcode}) without writing the file")
+        self._process.join()
+        self.close()
+        if failure is not None:
+            exc, text = failure
+            if isinstance(exc, OSError):
+                raise exc
+            raise RuntimeError(f"making {self.path.name} failed: {text}") from exc
+
+    def close(self) -> None:
+        if self._process is None:
+            return
+        if self._process.is_alive():
+            self._process.terminate()
+        self._process.join()
+        self._conn.close()
+        self._process = None
+        gc.unfreeze()
+
+    def __enter__(self) -> ForkedFile:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
