@@ -65,11 +65,14 @@ def write_balance_space_csv(r: SweepResult, out: TextIO) -> None:
         tails: list[str] = [""] * n
         inside = np.flatnonzero(m)
         if len(inside):
-            swing = np.column_stack([np.full(len(inside), axes[0][i]), axes[1][inside // nz], axes[2][inside % nz]])
-            cols = [r.thrust[sl][inside], *r.p_body[sl][inside].T, cell_yaw(r.spec, swing)]
+            # the body yaw depends on the cell's x and y alone: its text once per column of cells
+            ys, column = np.unique(inside // nz, return_inverse=True)
+            yaw = cell_yaw(r.spec, np.column_stack([np.full(len(ys), axes[0][i]), axes[1][ys], np.zeros(len(ys))]))
+            yaw_text = [num(v) for v in yaw.tolist()]
+            cols = [r.thrust[sl][inside], *r.p_body[sl][inside].T]
             texts = [[num(v) for v in c.tolist()] for c in cols]
-            for k, a, b, c, d, e in zip(inside.tolist(), *texts, strict=True):
-                tails[k] = f"{a},{b},{c},{d},{e},"
+            for k, a, b, c, d, j in zip(inside.tolist(), *texts, column.tolist(), strict=True):
+                tails[k] = f"{a},{b},{c},{d},{yaw_text[j]},"
         outside = np.flatnonzero(~m)
         for k, code, t in zip(outside.tolist(), r.reason[sl][outside].tolist(), r.thrust[sl][outside].tolist(),
                               strict=True):
