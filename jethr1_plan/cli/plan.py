@@ -124,6 +124,12 @@ def _report_plan(summary: dict, folder: Path) -> None:
                     "balance holds there, the motion's accelerations do not (they shrink as timing.swing_s grows)")
         else:
             c.print(f"dynamic ZMP (the rows' own motion) least margin {margin_mm:.1f} mm ({where})")
+        for pace in dyn["paced_swings"]:
+            law = (f"a trunk acceleration of at most {pace['trunk_accel_m_s2']:g} m/s²"
+                   if pace["trunk_accel_m_s2"] is not None else "the minimum-jerk law kept (no pace did better)")
+            held = "" if pace["margin_held"] else ", nearer the edge than balance.sole_margin_m"
+            c.print(f"paced: step {pace['step']}'s swing re-timed ({law}, same samples and duration): its dynamic "
+                    f"ZMP {1000 * pace['least_zmp_margin_m']:.1f} mm inside{held}")
     c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
     c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
             "file's /robot_description; its rehearsal, simulation.mcap, plays beside it); Rerun: jethr1 view "

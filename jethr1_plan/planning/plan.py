@@ -400,7 +400,7 @@ class Sequence:
         return ({k: list(v) for k, v in seq.rows.columns.items()}, seq.t,
                 None if seq.q_prev is None else seq.q_prev.copy(), seq.first_infeasible,
                 {k: v.copy() for k, v in self.feet.items()}, self.p_prev.copy(), self.yaw_prev, self.thrust_out,
-                self.share_out, self.steps)
+                self.share_out, self.steps, [dict(p) for p in seq.rows.paced])
 
     def resume(self, state: tuple) -> None:
         """Back to a :meth:`state` (of a sequence of the same scenario's settings and the same first steps)."""
@@ -409,7 +409,8 @@ class Sequence:
         seq.t, q_prev, seq.first_infeasible = state[1], state[2], state[3]
         seq.q_prev = None if q_prev is None else q_prev.copy()
         self.feet = {k: v.copy() for k, v in state[4].items()}
-        self.p_prev, self.yaw_prev, self.thrust_out, self.share_out, self.steps = (state[5].copy(), *state[6:])
+        self.p_prev, self.yaw_prev, self.thrust_out, self.share_out, self.steps = (state[5].copy(), *state[6:10])
+        seq.rows.paced = [dict(p) for p in state[10]]
 
     def finish(self) -> tuple[Rows, dict | None]:
         """The final transfer to standing; (the rows, the first infeasible row or None)."""

@@ -99,7 +99,8 @@ def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
 def dynamics_summary(rows: Rows, dyn: RowDynamics) -> dict:
     """summary.json's ``dynamics``: where the multibody ZMP of the rows' own motion (second central
     differences, ``physics.row_dynamics``) comes nearest the support polygon's edge, or leaves it; the
-    quasistatic ZMP's margin at that row beside it, and the rows (first and last excepted) outside."""
+    quasistatic ZMP's margin at that row beside it, the rows (first and last excepted) outside, and the swings
+    re-timed to keep it inside (``sequence.pace_swing``)."""
     row, least = dyn.least()
     inner = dyn.margin[1:-1]
     return {"least_zmp_margin_m": finite_or_none(least), "least_zmp_margin_at": _where(rows, row),
@@ -108,7 +109,8 @@ def dynamics_summary(rows: Rows, dyn: RowDynamics) -> dict:
             "rows_outside_support": int(np.sum(inner < 0.0)),
             "max_shift_from_quasistatic_m": finite_or_none(float(np.nanmax(np.linalg.norm(
                 dyn.zmp[1:-1] - rows.array("zmp")[1:-1].astype(float), axis=1), initial=0.0))),
-            "least_vertical_force_n": float(np.min(dyn.vertical_force_n[1:-1], initial=np.inf))}
+            "least_vertical_force_n": float(np.min(dyn.vertical_force_n[1:-1], initial=np.inf)),
+            "paced_swings": [dict(p) for p in rows.paced]}
 
 
 def plan_summary(result: PlanResult) -> dict:

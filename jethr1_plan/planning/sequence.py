@@ -58,6 +58,7 @@ class Rows:
 
     columns: dict[str, list] = field(default_factory=dict)
     analysis: dict = field(default_factory=dict)  # whole-trajectory figures (energy, torque ratios)
+    paced: list[dict] = field(default_factory=list)  # the swings re-timed by :func:`pace_swing`, in order
 
     def append(self, **values) -> None:
         for k, v in values.items():
@@ -347,6 +348,14 @@ def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop
 PACE_ACCEL = (0.4, 0.2, 0.1, 0.05)
 
 
+def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: float, held: bool) -> None:
+    """summary.json's record of a paced swing (``dynamics.paced_swings``): its step, the trunk acceleration
+    [m/s²] of its time law (None: the minimum-jerk law was kept, no pace doing better), the least multibody ZMP
+    margin [m] of its rows, and whether that margin reaches ``balance.sole_margin_m``."""
+    seq.rows.paced.append({"step": int(seq.rows.columns["step"][start]), "trunk_accel_m_s2": accel,
+                           "least_zmp_margin_m": least, "margin_held": held})
+
+
 def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
     """(rows,) the multibody ZMP's margin in the support [m] of the swing rows written from row ``start``
     on (the row before them in the stencil; the last held)."""
@@ -363,15 +372,16 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
     (N, 3) over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
     whose rows all hold quasistatically with the multibody ZMP ``margin_m`` inside is kept. Where none
     is, the swing of the largest multibody margin is kept and, if ``strict``, its rows that leave the
-    margin are marked infeasible. Returns the kept swing's least multibody margin [m] (None: the swing was infeasible
-    already, or needed no pacing)."""
+    margin are marked infeasible. A swing looked at again is noted in ``seq.rows.paced`` (:func:`_note_pace`).
+    Returns the kept swing's least multibody margin [m] (None: the swing was infeasible already, or needed no
+    pacing)."""
     start, before = snap[0], snap[3]
     if seq.first_infeasible is not before:
         return None
     least = float(np.min(swing_dynamic_margin(seq, start)))
     if least >= margin_m:
         return None
-    best: tuple[float, np.ndarray | None] = (least, None)
+    best: tuple[float, np.ndarray | None, float | None] = (least, None, None)
     rate = 1.0 / seq.dt
     for accel in PACE_ACCEL:
         seq.restore(snap)
@@ -381,12 +391,14 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
             continue
         least = float(np.min(swing_dynamic_margin(seq, start)))
         if least >= margin_m:
+            _note_pace(seq, start, accel, least, True)
             return least
         if least > best[0]:
-            best = (least, positions)
+            best = (least, positions, accel)
     seq.restore(snap)
     build(best[1])
     margins = swing_dynamic_margin(seq, start)
+    _note_pace(seq, start, best[2], float(np.min(margins)), False)
     if not strict:
         return float(np.min(margins))
     c = seq.rows.columns

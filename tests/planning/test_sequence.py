@@ -45,3 +45,26 @@ def test_a_paced_swing_keeps_the_scenarios_rows(scattered):
     for k in range(len(sc.steps)):
         n = sum(r["phase"] == "swing" and int(r["step"]) == k for r in rows)
         assert n == round(sc.timing.swing_s * sc.timing.rate_hz)
+
+
+def test_summary_names_the_paced_swings_and_the_others_needed_no_pace(scattered):
+    """summary.json's ``dynamics.paced_swings`` names each re-timed swing with its pace; pinocchio's margins of
+    the written rows confirm it: a paced swing's least margin is the one recorded, and every swing not named
+    keeps the multibody ZMP ``balance.sole_margin_m`` inside the sole under the minimum-jerk law."""
+    from jethr1_plan.planning.sequence import PACE_ACCEL
+    from tests.oracles.plan_audit import audit_plan
+
+    sc = load_scenario(SCATTERED)
+    dyn = json.loads((scattered / "summary.json").read_text())["dynamics"]
+    paced = {p["step"]: p for p in dyn["paced_swings"]}
+    assert list(paced) == [0]  # the first swing, whose minimum-jerk rows left the sole by 3.7 mm
+    assert paced[0]["trunk_accel_m_s2"] in PACE_ACCEL and paced[0]["margin_held"]
+    margin = audit_plan(scattered).margin_dynamic
+    with open(scattered / "trajectory.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for k in range(len(sc.steps)):
+        swing = [i for i, r in enumerate(rows) if r["phase"] == "swing" and int(r["step"]) == k]
+        least = float(margin[swing].min())
+        if k in paced:
+            assert least == pytest.approx(paced[k]["least_zmp_margin_m"], abs=1e-7)
+        assert least >= sc.balance.sole_margin_m - 1e-9
