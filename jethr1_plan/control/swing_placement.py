@@ -41,11 +41,11 @@ corrected one). Each component is clipped to ``max_offset_rad``. Pure numpy; uni
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
-__all__ = ["PlacementGains", "SwingPlacement", "wrap", "yaw_of"]
+__all__ = ["PlacementGains", "SwingPlacement", "placement_law", "wrap", "yaw_of"]
 
 
 @dataclass(frozen=True)
@@ -55,6 +55,21 @@ class PlacementGains:
     filter_s: float = 0.05  # time constant of the low-pass on the measured yaw slip [s]
     damping: float = 0.01  # damped least squares: λ² added to J·Jᵀ [m² or rad²]
     max_offset_rad: float = 0.15  # each joint's offset is clipped to ± this [rad]
+
+
+def placement_law(gains: PlacementGains) -> dict:
+    """The placement law as ``summary.json`` states it (its ``controller.swing_placement``): signals, correction,
+    settings with units."""
+    return {
+        "kind": "support_yaw_slip",
+        "signal": "the support sole's yaw in the world [rad]: the trunk's IMU orientation through the support "
+                  "leg's joint encoders",
+        "correction": "the swing leg's <joint>_cmd_rad moved by J⁺·(Δp_x, Δp_y, 0, 0, 0, −δψ), Δp = −δψ·ẑ×(w − s): "
+                      "the planned landing turned back about the support sole's centre by its measured yaw slip δψ",
+        "settings": asdict(gains),
+        "active": "single support; the last offset held after the landing",
+        "description": " ".join(__doc__.split("\n\n")[0].split()),
+    }
 
 
 def yaw_of(R: np.ndarray) -> float:

@@ -113,6 +113,12 @@ def test_window_margin_and_command_columns(side_plans, robot):
     rising = np.flatnonzero(np.diff(c["thrust_left_n"]) > 0.01)[5:-5]
     assert np.all(lead[rising] > 0)  # the command leads a rising thrust by the fan's lag
     assert s["controller"]["gains"]["band_margin_m"] == robot.controller.band_margin_m
+    # the placement `simulate --controller feedback` runs by default, stated with its settings
+    from dataclasses import asdict
+
+    from jethr1_plan.control.swing_placement import PlacementGains
+
+    assert s["controller"]["swing_placement"]["settings"] == asdict(PlacementGains())
 
 
 @pytest.fixture(scope="module")
