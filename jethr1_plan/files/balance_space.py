@@ -14,8 +14,7 @@ from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import Reason, message
 
 __all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap",
-           "balance_space_png", "least_thrust_columns",
-           "write_balance_space_csv"]
+           "balance_space_png", "least_thrust_columns", "write_balance_space_csv"]
 
 #: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 BALANCE_SPACE_TOPICS: dict[str, Topic] = {
