@@ -316,7 +316,7 @@ class CdrEncoder:
         for at, dt, count, values in runs:
             buf[:, 4 + at:4 + at + dt.itemsize * count].view(dt)[...] = values
         for where, values in scattered:
-            _scatter(buf, 4 + where, values)
+            _scatter(buf, (4 + where[0], where[1], where[2]) if isinstance(where, tuple) else 4 + where, values)
         raw = buf.tobytes()
         return [raw[i * size:(i + 1) * size] for i in range(m)]
 
@@ -351,34 +351,61 @@ def _element_layout(columns: list[_Column], start: int) -> tuple[list[tuple[int,
 
 
 def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int:
-    """Lay out k elements from ``off`` (an element's layout depends only on where it starts modulo 8);
-    add to ``scattered`` where each column's bytes go (per element, the offset of its first byte) and its values
-    (the bytes are placed when the message is built: :func:`_scatter`); the offset after them."""
+    """Lay out k elements from ``off`` (an element's layout depends only on where it starts modulo 8, so the
+    layouts repeat with a period of at most 8 elements); add to ``scattered`` where each column's bytes go and
+    its values (the bytes are placed when the message is built: :func:`_scatter`); the offset after them.
+    Where every element has one layout (a ``geometry_msgs/Point[]``, a ``std_msgs/ColorRGBA[]``), where they go
+    is a start and a stride; else, per element, the offset of its first byte."""
     layouts: dict[int, tuple[list[tuple[int, int]], int]] = {}
-    starts = np.empty(k, np.int64)
-    phase = np.empty(k, np.int64)
-    for j in range(k):
-        p = off % 8
-        if p not in layouts:
-            layouts[p] = _element_layout(columns, p)
-        starts[j], phase[j] = off, p
-        off += layouts[p][1]
+    phases: list[int] = []
+    first_at: dict[int, int] = {}  # phase -> the first element that starts at it
+    o = off
+    while len(phases) < k and o % 8 not in first_at:
+        p = o % 8
+        first_at[p] = len(phases)
+        layouts[p] = _element_layout(columns, p)
+        phases.append(p)
+        o += layouts[p][1]
+    if len(phases) == k:
+        phase = np.array(phases, np.int64)
+    else:  # elements first_at[o % 8], ... repeat from here on
+        c0 = first_at[o % 8]
+        phase = np.concatenate([np.array(phases[:c0], np.int64), np.resize(np.array(phases[c0:], np.int64), k - c0)])
+    sizes = np.array([layouts[p][1] if p in layouts else 0 for p in range(8)], np.int64)[phase]
+    if len(layouts) == 1:  # one layout: element j at off + j·size
+        (p, (places, size)), = layouts.items()
+        for c, (at_count, at_value) in zip(columns, places, strict=True):
+            width = c.values.shape[1]
+            if c.array == "sized":
+                scattered.append(((off + at_count, size, k), np.array([[width]], "<u4")))
+            if width:
+                scattered.append(((off + at_value, size, k), c.values))
+        return off + size * k
+    starts = off + np.concatenate([np.zeros(1, np.int64), np.cumsum(sizes[:-1])])
     for i, c in enumerate(columns):
-        at_count = np.array([layouts.get(p, ([(0, 0)] * len(columns), 0))[0][i][0] for p in range(8)])[phase]
-        at_value = np.array([layouts.get(p, ([(0, 0)] * len(columns), 0))[0][i][1] for p in range(8)])[phase]
+        counts_at = np.array([layouts[p][0][i][0] if p in layouts else 0 for p in range(8)])[phase]
+        values_at = np.array([layouts[p][0][i][1] if p in layouts else 0 for p in range(8)])[phase]
         width = c.values.shape[1]
         if c.array == "sized":
-            scattered.append((starts + at_count, np.array([[width]], "<u4")))
+            scattered.append((starts + counts_at, np.array([[width]], "<u4")))
         if width:
-            scattered.append((starts + at_value, c.values))
-    return off
+            scattered.append((starts + values_at, c.values))
+    return int(off + sizes.sum())
 
 
-def _scatter(buf: np.ndarray, where: np.ndarray, values: np.ndarray) -> None:
+def _scatter(buf: np.ndarray, where: np.ndarray | tuple[int, int, int], values: np.ndarray) -> None:
     """Put the bytes of ``values`` (k, width) (or one row, the same for every element) into every message of
-    ``buf`` (messages, bytes), element j's first at column ``where[j]``; a byte position at a time, so that no
-    index is held per byte."""
+    ``buf`` (messages, bytes): element j's first at column ``where[j]``, a byte position at a time so that no
+    index is held per byte; or, ``where`` = (first, stride, k), at first + j·stride, through a strided view."""
     raw = np.ascontiguousarray(values).view(np.uint8)
+    if isinstance(where, tuple):
+        first, stride, k = where
+        w = raw.shape[1]
+        elements = buf[:, first:first + stride * (k - 1) + w]
+        view = np.lib.stride_tricks.as_strided(elements, (buf.shape[0], k, w),
+                                               (buf.strides[0], stride * buf.strides[1], buf.strides[1]))
+        view[...] = raw
+        return
     for b in range(raw.shape[1]):
         buf[:, where + b] = raw[:, b]
 

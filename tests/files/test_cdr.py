@@ -71,3 +71,26 @@ def test_wrong_fields_and_shapes_are_refused():
         encoder.encode(NAME, {"big": np.zeros(3)}, n=2)
     with pytest.raises(ValueError):
         encoder.encode(NAME, {"rgb": np.array([1, 2])})
+
+
+def test_elements_whose_layout_alternates_and_long_sequences_agree_with_rosbags():
+    """An element of a float64 then a float32 takes 12 bytes from an 8-aligned start and 16 from a 4-aligned
+    one: its layouts alternate (laid out per element). 10,000 points share one layout (laid out with a stride)."""
+    definition = "test_msgs/Odd[] odd\ngeometry_msgs/Point[] points\n" + "=" * 80 + \
+        "\nMSG: test_msgs/Odd\nfloat64 b\nfloat32 a\n" + "=" * 80 + \
+        "\nMSG: geometry_msgs/Point\nfloat64 x\nfloat64 y\nfloat64 z\n"
+    name = "test_msgs/msg/Long"
+    encoder = CdrEncoder(parse_schema(name, definition))
+    rng = np.random.default_rng(0)
+    b, a = rng.normal(size=7), rng.normal(size=7).astype(np.float32)
+    x, y, z = rng.normal(size=(3, 10_000))
+    data = encoder.encode(name, {"odd": {"b": b, "a": a}, "points": {"x": x, "y": y, "z": z}}, 2)
+    store = typesys.get_typestore(typesys.Stores.EMPTY)
+    store.register({**typesys.get_types_from_msg("float64 x\nfloat64 y\nfloat64 z\n", "geometry_msgs/msg/Point"),
+                    **typesys.get_types_from_msg("float64 b\nfloat32 a\n", "test_msgs/msg/Odd"),
+                    **typesys.get_types_from_msg(definition.split("=" * 80)[0], name)})
+    for raw in data:
+        msg = store.deserialize_cdr(raw, name)
+        assert [(o.b, o.a) for o in msg.odd] == list(zip(b.tolist(), a.tolist(), strict=True))
+        assert np.array_equal([p.x for p in msg.points], x) and np.array_equal([p.z for p in msg.points], z)
+        assert bytes(store.serialize_cdr(msg, name)) == raw
