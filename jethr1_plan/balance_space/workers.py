@@ -126,7 +126,8 @@ class ForkedSweep:
 
     def __init__(self, spec: SweepSpec, settings: SearchSettings, jobs: int):
         self.t0 = time.perf_counter()
-        self.state = SweepState(tuple(len(a) for a in spec.axes()), shared=True)  # type: ignore[arg-type]
+        shape = tuple(len(a) for a in spec.axes())
+        self.state: SweepState | None = SweepState(shape, shared=True)  # type: ignore[arg-type]
         before_fork()  # (and this process's collections leave the objects it shares with the host alone)
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe(duplex=False)
@@ -136,7 +137,8 @@ class ForkedSweep:
         child.close()
 
     def result(self, progress: Callable[[str, int, int], None] | None = None) -> tuple[SweepState, TaskTimes, int]:
-        """The state, the tasks' times and the evaluations, once the host is done (its progress passed on).
+        """The state, the tasks' times and the evaluations, once the host is done (its progress passed on); this
+        object keeps no reference to the state, so that its shared memory goes when the caller drops it.
 
         Raises:
             the host's exception; RuntimeError: the host ended without an answer.
@@ -156,7 +158,10 @@ class ForkedSweep:
                 raise msg[1]
             else:
                 self._process.join()
-                return self.state, msg[1], msg[2]
+                state, self.state = self.state, None  # the caller's alone: freed when it lets go (sweep())
+                if state is None:
+                    raise RuntimeError("the balance-space sweep's result was taken already")
+                return state, msg[1], msg[2]
 
     def close(self) -> None:
         if self._process.is_alive():

@@ -38,3 +38,17 @@ def test_forked_workers_answer_every_task():
     with workers.ForkedWorkers(2) as pool:
         answers = sorted(pool((divmod, (n, 3)) for n in range(7)))
     assert answers == sorted(divmod(n, 3) for n in range(7))
+
+
+def test_the_shared_state_goes_with_the_sweeps_result():
+    """The sweep's state (33 bytes a cell: 234 MB at 0.5 cm) is memory shared with the host; once the command
+    has the sweep's result, nothing holds that memory while the files are built."""
+    import weakref
+
+    from jethr1_plan.balance_space.sweep import sweep
+
+    with workers.ForkedSweep(COARSE, SearchSettings(), 2) as host:
+        state = weakref.ref(host.state)
+        result = sweep(COARSE, jobs=2, executor="fork", forked=host)
+    assert host.state is None and state() is None
+    assert result.with_thrust.any()
