@@ -81,10 +81,12 @@ def write_balance_space_csv(r: SweepResult, out: TextIO) -> None:
 
 
 def _thrust_colors(thrust_n: np.ndarray, fmax_n: float) -> dict:
-    """``std_msgs/ColorRGBA`` per cell (as columns): viridis of ``thrust_n`` / ``fmax_n``."""
+    """``std_msgs/ColorRGBA`` per cell (as columns, float32 as the message holds them): viridis of ``thrust_n`` /
+    ``fmax_n``."""
     s = np.clip(np.asarray(thrust_n, dtype=float) / fmax_n if fmax_n > 0 else 0.0, 0.0, 1.0)
     grid = np.linspace(0.0, 1.0, len(_VIRIDIS))
-    return {**{c: np.interp(s, grid, _VIRIDIS[:, k]) for k, c in enumerate("rgb")}, "a": np.ones(len(s))}
+    return {**{c: np.interp(s, grid, _VIRIDIS[:, k]).astype(np.float32) for k, c in enumerate("rgb")},
+            "a": np.ones(len(s), np.float32)}
 
 
 def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:
@@ -104,6 +106,7 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
                       "type": 6, "points": {"x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2]},
                       "colors": _thrust_colors(thrust, float(r.spec.fan_limit_n))})
     out.write("/balance_space/cells", 0.0, {"markers": cells})
+    del cells, pts, thrust  # (encoded: let go before the chunks are written)
     return out.finish()
 
 

@@ -135,12 +135,14 @@ class Ros2Mcap:
             times = np.concatenate([t for t, _, _ in self._pending])
             ranks = np.concatenate([np.full(len(t), self._rank[topic]) for t, topic, _ in self._pending])
             channels = [self._channels[topic] for t, topic, _ in self._pending for _ in range(len(t))]
-            data = [d for _, _, messages in self._pending for d in messages]
+            data: list[bytes | None] = [d for _, _, messages in self._pending for d in messages]
+            self._pending = []
             add = self._w.add_message
             # by log time, then topic order; np.lexsort is stable, so a topic's messages keep their order
             for seq, k in enumerate(np.lexsort((ranks, times)).tolist()):
                 ns = int(times[k])
-                add(channel_id=channels[k], log_time=ns, publish_time=ns, sequence=seq, data=data[k])
+                message, data[k] = data[k], None  # (each message's bytes let go once in its chunk)
+                add(channel_id=channels[k], log_time=ns, publish_time=ns, sequence=seq, data=message)
         self._w.finish()
         return self._buf.getvalue()
 
