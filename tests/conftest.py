@@ -48,13 +48,27 @@ def written(tmp_path_factory) -> dict[str, Path]:
 
 
 @pytest.fixture(scope="session")
-def side_step_plan(tmp_path_factory):
-    """configs/side_step.yaml planned once (a plan folder to copy and tamper with; do not edit it)."""
+def plan_of(tmp_path_factory):
+    """``plan_of(name)``: the plan folder of ``configs/<name>.yaml`` as ``jethr1 plan`` writes it with its defaults,
+    planned once per session for every test that reads it (copy it to tamper with; do not edit it)."""
     from jethr1_plan.cli import run
 
-    out = tmp_path_factory.mktemp("side_step_plan")
-    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
-    return out / "side_step"
+    folders: dict[str, Path] = {}
+
+    def get(name: str) -> Path:
+        if name not in folders:
+            out = tmp_path_factory.mktemp(f"plan_{name}")
+            assert run(["plan", str(ROOT / "configs" / f"{name}.yaml"), "-o", str(out), "--no-progress"]) == 0
+            folders[name] = out / name
+        return folders[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def side_step_plan(plan_of):
+    """configs/side_step.yaml planned once (a plan folder to copy and tamper with; do not edit it)."""
+    return plan_of("side_step")
 
 
 #: a small carton field for ``jethr1 route`` (coarse 5 cm maps, 10 samples a swing, short timing: seconds; soles

@@ -23,10 +23,8 @@ FORWARD = ROOT / "configs" / "forward_ditch_450.yaml"
 
 
 @pytest.fixture(scope="module")
-def planned(tmp_path_factory):
-    out = tmp_path_factory.mktemp("plan")
-    assert run(["plan", str(FORWARD), "-o", str(out), "--no-progress"]) == 0
-    return out / "forward_ditch_450"
+def planned(plan_of):
+    return plan_of(FORWARD.stem)
 
 
 def test_outputs_exist_and_summary_reports(planned):

@@ -122,10 +122,8 @@ def test_window_margin_and_command_columns(side_plans, robot):
 
 
 @pytest.fixture(scope="module")
-def ditch_450(tmp_path_factory):
-    out = tmp_path_factory.mktemp("d450")
-    assert run(["plan", str(ROOT / "configs" / "forward_ditch_450.yaml"), "-o", str(out), "--no-progress"]) == 0
-    return out / "forward_ditch_450"
+def ditch_450(plan_of):
+    return plan_of("forward_ditch_450")
 
 
 def test_the_450_ditch_takes_the_largest_share_its_samples_reach(ditch_450):

@@ -8,7 +8,6 @@ import json
 import numpy as np
 import pytest
 
-from jethr1_plan.cli import run
 from jethr1_plan.scenario import load_scenario
 from tests.conftest import ROOT
 
@@ -16,10 +15,8 @@ SCATTERED = ROOT / "configs" / "scattered_steps.yaml"
 
 
 @pytest.fixture(scope="module")
-def scattered(tmp_path_factory):
-    out = tmp_path_factory.mktemp("scattered")
-    assert run(["plan", str(SCATTERED), "-o", str(out), "--no-progress"]) == 0
-    return out / "scattered_steps"
+def scattered(plan_of):
+    return plan_of(SCATTERED.stem)
 
 
 def test_a_paced_robust_plan_keeps_the_multibody_zmp_on_the_sole(scattered):

@@ -10,14 +10,11 @@ import pytest
 from jethr1_plan.cli import run
 from jethr1_plan.files.plan_csv import columns
 from jethr1_plan.robot.model import load_robot
-from tests.conftest import ROOT
 
 
 @pytest.fixture(scope="module")
-def planned(tmp_path_factory):
-    out = tmp_path_factory.mktemp("verify")
-    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
-    return out / "side_step"
+def planned(side_step_plan):
+    return side_step_plan
 
 
 def _tamper(planned, tmp_path, edit):
