@@ -265,7 +265,8 @@ class CdrEncoder:
         m = len(rows)
         off = 0
         runs: list[tuple[int, np.dtype, int, object]] = []  # offset after the header, type, count, values
-        scattered: list[tuple[np.ndarray, np.ndarray]] = []  # where each element's bytes go (after the header), values
+        # where each element's bytes go (after the header: per element, or first, stride, count), values
+        scattered: list[tuple[np.ndarray | tuple[int, int, int], np.ndarray]] = []
 
         def put(dt: np.dtype, count: int, values) -> None:
             nonlocal off
@@ -316,7 +317,7 @@ class CdrEncoder:
         for at, dt, count, values in runs:
             buf[:, 4 + at:4 + at + dt.itemsize * count].view(dt)[...] = values
         for where, values in scattered:
-            _scatter(buf, (4 + where[0], where[1], where[2]) if isinstance(where, tuple) else 4 + where, values)
+            _scatter(buf, where, values, 4)
         raw = buf.tobytes()
         return [raw[i * size:(i + 1) * size] for i in range(m)]
 
@@ -366,14 +367,8 @@ def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int
         layouts[p] = _element_layout(columns, p)
         phases.append(p)
         o += layouts[p][1]
-    if len(phases) == k:
-        phase = np.array(phases, np.int64)
-    else:  # elements first_at[o % 8], ... repeat from here on
-        c0 = first_at[o % 8]
-        phase = np.concatenate([np.array(phases[:c0], np.int64), np.resize(np.array(phases[c0:], np.int64), k - c0)])
-    sizes = np.array([layouts[p][1] if p in layouts else 0 for p in range(8)], np.int64)[phase]
     if len(layouts) == 1:  # one layout: element j at off + j·size
-        (p, (places, size)), = layouts.items()
+        (places, size), = layouts.values()
         for c, (at_count, at_value) in zip(columns, places, strict=True):
             width = c.values.shape[1]
             if c.array == "sized":
@@ -381,10 +376,15 @@ def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int
             if width:
                 scattered.append(((off + at_value, size, k), c.values))
         return off + size * k
+    # elements first_at[o % 8], ... repeat from there on
+    c0 = first_at.get(o % 8, k)
+    phase = np.concatenate([np.array(phases[:c0], np.int64), np.resize(np.array(phases[c0:], np.int64), k - c0)])
+    per_phase = [layouts.get(p, ([(0, 0)] * len(columns), 0)) for p in range(8)]
+    sizes = np.array([size for _, size in per_phase], np.int64)[phase]
     starts = off + np.concatenate([np.zeros(1, np.int64), np.cumsum(sizes[:-1])])
     for i, c in enumerate(columns):
-        counts_at = np.array([layouts[p][0][i][0] if p in layouts else 0 for p in range(8)])[phase]
-        values_at = np.array([layouts[p][0][i][1] if p in layouts else 0 for p in range(8)])[phase]
+        counts_at = np.array([places[i][0] for places, _ in per_phase])[phase]
+        values_at = np.array([places[i][1] for places, _ in per_phase])[phase]
         width = c.values.shape[1]
         if c.array == "sized":
             scattered.append((starts + counts_at, np.array([[width]], "<u4")))
@@ -393,21 +393,22 @@ def _lay_block(columns: list[_Column], k: int, off: int, scattered: list) -> int
     return int(off + sizes.sum())
 
 
-def _scatter(buf: np.ndarray, where: np.ndarray | tuple[int, int, int], values: np.ndarray) -> None:
+def _scatter(buf: np.ndarray, where: np.ndarray | tuple[int, int, int], values: np.ndarray, base: int) -> None:
     """Put the bytes of ``values`` (k, width) (or one row, the same for every element) into every message of
-    ``buf`` (messages, bytes): element j's first at column ``where[j]``, a byte position at a time so that no
-    index is held per byte; or, ``where`` = (first, stride, k), at first + j·stride, through a strided view."""
+    ``buf`` (messages, bytes), ``base`` bytes on from where :func:`_lay_block` put them: element j's first at
+    column ``where[j]``, a byte position at a time so that no index is held per byte; or, ``where`` =
+    (first, stride, k), at first + j·stride, through a strided view."""
     raw = np.ascontiguousarray(values).view(np.uint8)
     if isinstance(where, tuple):
         first, stride, k = where
         w = raw.shape[1]
-        elements = buf[:, first:first + stride * (k - 1) + w]
+        elements = buf[:, base + first:base + first + stride * (k - 1) + w]
         view = np.lib.stride_tricks.as_strided(elements, (buf.shape[0], k, w),
                                                (buf.strides[0], stride * buf.strides[1], buf.strides[1]))
         view[...] = raw
         return
     for b in range(raw.shape[1]):
-        buf[:, where + b] = raw[:, b]
+        buf[:, base + where + b] = raw[:, b]
 
 
 def _default_number(f: Field) -> float | int:
