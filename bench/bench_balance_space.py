@@ -43,7 +43,7 @@ from jethr1_plan.balance_space.agreement import (
 from jethr1_plan.balance_space.blocks import TaskTimes, makespan
 from jethr1_plan.balance_space.spec import SearchSettings
 from jethr1_plan.balance_space.sweep import SweepResult, SweepSpec, sweep, sweep_layers
-from jethr1_plan.balance_space.workers import fork_available
+from jethr1_plan.io.forked import fork_available
 from jethr1_plan.optimisers.search import FINE_DIRECTIONS, INTO_REACH, Evaluator
 from jethr1_plan.reasons import Reason
 

@@ -31,9 +31,9 @@ import numpy as np
 from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, run_blocks
 from jethr1_plan.balance_space.continuation import BlockResult, search_block
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
-from jethr1_plan.io.forked import before_fork, fork_available
+from jethr1_plan.io.forked import before_fork
 
-__all__ = ["ForkedSweep", "ForkedWorkers", "fork_available", "load_kernels"]
+__all__ = ["ForkedSweep", "ForkedWorkers", "load_kernels"]
 
 WARM_UP_RISE_M = 0.15  # the warm-up row's swing sole this far above the support (cells there get the polish)
 WARM_UP_SIDE_M = 0.2  # ... and this far to the swing side of it (most of its cells are members: PlaCo re-checks)

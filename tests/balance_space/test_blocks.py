@@ -10,7 +10,7 @@ from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, makespan, pa
 from jethr1_plan.balance_space.continuation import BlockResult
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
 from jethr1_plan.balance_space.sweep import sweep
-from jethr1_plan.balance_space.workers import fork_available
+from jethr1_plan.io.forked import fork_available
 from jethr1_plan.reasons import Reason
 
 # a coarse grid cut into many small blocks, so that boundary rounds run between them

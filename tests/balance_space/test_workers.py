@@ -9,8 +9,9 @@ import pytest
 
 from jethr1_plan.balance_space import workers
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
+from jethr1_plan.io.forked import fork_available
 
-pytestmark = pytest.mark.skipif(not workers.fork_available(), reason="the forked sweep needs Linux")
+pytestmark = pytest.mark.skipif(not fork_available(), reason="the forked sweep needs Linux")
 COARSE = SweepSpec(resolution_m=0.1)
 
 
