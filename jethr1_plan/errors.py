@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
-__all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "ExpectationFailed",
-           "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed", "interrupt_behind"]
+from collections.abc import Callable
+
+__all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "EXIT_WORKER_LOST", "ExpectationFailed",
+           "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed", "WorkerLost",
+           "interrupt_behind", "lost_worker_behind"]
 
 EXIT_VERIFY_FINDING = 5
 """``jethr1 verify`` found rows or files that do not hold."""
 EXIT_REHEARSAL_FELL = 6
 """``jethr1 simulate``: at least one rehearsal run fell or ended off the cartons."""
+EXIT_WORKER_LOST = 7
+"""A worker process was killed from outside (the out-of-memory killer, a signal) before the command finished."""
 
 EXIT_CODES: dict[int, str] = {
     0: "done: the output was written (and, for verify and simulate, everything held)",
@@ -18,6 +23,8 @@ EXIT_CODES: dict[int, str] = {
     4: "batch: a scenario's `expect:` block did not hold",
     EXIT_VERIFY_FINDING: "verify: a row or file failed an independent check (each named on stderr)",
     EXIT_REHEARSAL_FELL: "simulate: a rehearsal run fell or ended off the cartons",
+    EXIT_WORKER_LOST: "a worker process was killed from outside (the out-of-memory killer, a signal): "
+                      "nothing partial left; run again with fewer --jobs or more memory",
     130: "interrupted (Ctrl-C): workers stopped, nothing partial left",
     143: "terminated (SIGTERM): workers stopped, nothing partial left",
 }
@@ -65,23 +72,44 @@ class ExpectationFailed(Jethr1Error):
     exit_code = 4
 
 
+class WorkerLost(Jethr1Error):
+    """A process of the command's (a worker, the sweep's host, a file's maker) was killed from outside before it
+    answered: the out-of-memory killer, a signal (exit 7). Not a bug of jethr1's, nor the user's input."""
+
+    exit_code = EXIT_WORKER_LOST
+
+
 class SelfCheckFailed(Exception):
     """The planner's own output failed the independent re-check before it was written: a bug (exit 1).
 
     Deliberately not a :class:`Jethr1Error`: nothing a user did causes it."""
 
 
-def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
-    """The Ctrl-C (or SIGTERM) behind ``exc``, if any, following its causes and contexts.
-
-    An interrupt that lands while a compiled kernel runs comes out of it as ``SystemError: CPUDispatcher(...)
-    returned a result with an exception set``, the KeyboardInterrupt its cause: that is the user stopping the
-    run, not a bug."""
+def _behind(exc: BaseException, test: Callable[[BaseException], bool]) -> BaseException | None:
+    """The first of ``exc`` and its causes and contexts (followed in turn) that passes ``test``, if any."""
     seen: set[int] = set()
     e: BaseException | None = exc
     while e is not None and id(e) not in seen:
-        if isinstance(e, KeyboardInterrupt):
+        if test(e):
             return e
         seen.add(id(e))
         e = e.__cause__ or e.__context__
     return None
+
+
+def interrupt_behind(exc: BaseException) -> BaseException | None:
+    """The Ctrl-C (or SIGTERM: a KeyboardInterrupt) behind ``exc``, if any, following its causes and contexts.
+
+    An interrupt that lands while a compiled kernel runs comes out of it as ``SystemError: CPUDispatcher(...)
+    returned a result with an exception set``, the KeyboardInterrupt its cause: that is the user stopping the
+    run, not a bug."""
+    return _behind(exc, lambda e: isinstance(e, KeyboardInterrupt))
+
+
+def lost_worker_behind(exc: BaseException) -> BaseException | None:
+    """The lost worker behind ``exc``, if any, following its causes and contexts: a broken process pool
+    (``concurrent.futures``'s, and loky's, which derives from it: a worker killed while tasks were pending) or
+    Dask's ``KilledWorker``."""
+    from concurrent.futures import BrokenExecutor
+
+    return _behind(exc, lambda e: isinstance(e, BrokenExecutor) or type(e).__name__ == "KilledWorker")

@@ -14,24 +14,30 @@ command's but the pipe it reports on; the host forks its workers before it start
 (:class:`concurrent.futures.ProcessPoolExecutor` forks all of them before its manager thread starts).
 glibc's malloc in the host and workers gives freed arrays back to the system (``M_MMAP_THRESHOLD`` fixed at
 256 kB, trimmed beyond 1 MB): a task's arrays are freed when it ends, not kept for the next one.
+
+The host dies with the command and the workers with the host, however either ends (``io.forked.die_with_parent``):
+a command killed by the out-of-memory killer leaves no sweep behind, and a SIGTERM ends every process at once. A
+worker killed from outside is :class:`~jethr1_plan.errors.WorkerLost` in the command (exit 7), not a traceback.
 """
 
 from __future__ import annotations
 
 import gc
 import multiprocessing
+import os
 import signal
-import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
 from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, run_blocks
 from jethr1_plan.balance_space.continuation import BlockResult, search_block
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
-from jethr1_plan.io.forked import before_fork
+from jethr1_plan.errors import WorkerLost
+from jethr1_plan.io.forked import before_fork, die_with_parent, lost_process
 
 __all__ = ["ForkedSweep", "ForkedWorkers", "load_kernels"]
 
@@ -58,8 +64,10 @@ class ForkedWorkers:
     def __init__(self, jobs: int):
         before_fork()
         self.jobs = jobs
-        self._pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"))
+        self._pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"),
+                                         initializer=die_with_parent, initargs=(os.getpid(),))
         self._pool.submit(int).result()  # forks every worker now, before the pool starts its threads
+        self._workers = list((getattr(self._pool, "_processes", None) or {}).values())  # (their exit codes)
 
     def __call__(self, tasks: Iterable[tuple]) -> Iterator[BlockResult]:
         """The answers of ``tasks``, as they come; one task a worker submitted at a time (a task's arguments are
@@ -75,7 +83,17 @@ class ForkedWorkers:
                 return
             done, running = wait(running, return_when=FIRST_COMPLETED)
             for f in done:
-                yield f.result()
+                try:
+                    answer = f.result()
+                except BrokenProcessPool:
+                    raise WorkerLost(lost_process("a worker process of the balance-space sweep", self._lost())) \
+                        from None
+                yield answer
+
+    def _lost(self) -> int | None:
+        """The exit code of a worker that ended (minus its signal's number), if one is known."""
+        codes = [p.exitcode for p in self._workers if p.exitcode]
+        return codes[0] if codes else None
 
     def close(self) -> None:
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -93,11 +111,12 @@ def _in_process(tasks: Iterable[tuple]) -> Iterator[BlockResult]:
         yield fn(*args)
 
 
-def _host(conn, spec: SweepSpec, settings: SearchSettings, jobs: int, state: SweepState) -> None:
+def _host(conn, parent_pid: int, spec: SweepSpec, settings: SearchSettings, jobs: int, state: SweepState) -> None:
     """The host process: the kernels loaded, ``jobs`` workers forked (none: the tasks run here), the sweep run
     into the shared ``state``; reports ("progress", label, done, total), then ("done", times, evaluations) or
     ("error", exception) on ``conn``."""
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))  # a terminated host closes its workers first
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGTERM, lambda *_: os._exit(1))  # its workers die with it (die_with_parent)
     try:
         load_kernels(spec, settings)
 
@@ -131,7 +150,7 @@ class ForkedSweep:
         before_fork()  # (and this process's collections leave the objects it shares with the host alone)
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe(duplex=False)
-        self._process = ctx.Process(target=_host, args=(child, spec, settings, jobs, self.state),
+        self._process = ctx.Process(target=_host, args=(child, os.getpid(), spec, settings, jobs, self.state),
                                     name="jethr1-balance-space")
         self._process.start()
         child.close()
@@ -141,15 +160,15 @@ class ForkedSweep:
         object keeps no reference to the state, so that its shared memory goes when the caller drops it.
 
         Raises:
-            the host's exception; RuntimeError: the host ended without an answer.
+            the host's exception; WorkerLost: the host or a worker was killed from outside.
         """
         while True:
             try:
                 msg = self._conn.recv()
             except EOFError:
                 self._process.join()
-                raise RuntimeError(f"the balance-space sweep process ended (exit code {self._process.exitcode}) "
-                                   "without an answer") from None
+                raise WorkerLost(lost_process("the balance-space sweep's process", self._process.exitcode)) \
+                    from None
             if msg[0] == "progress":
                 if progress:
                     progress(*msg[1:])

@@ -15,7 +15,7 @@ import sys
 import click
 
 from jethr1_plan.cli.common import StdoutError
-from jethr1_plan.errors import Jethr1Error, interrupt_behind
+from jethr1_plan.errors import Jethr1Error, WorkerLost, interrupt_behind, lost_worker_behind
 
 __all__ = ["entry", "main", "run"]
 
@@ -90,9 +90,15 @@ def run(argv: list[str] | None = None) -> int:
             raise
         return _stdout_failed(exc)
     except Exception as exc:
-        if interrupt_behind(exc) is None:
+        if interrupt_behind(exc) is not None:
+            return _interrupted()  # Ctrl-C inside a compiled kernel (a SystemError caused by it)
+        if lost_worker_behind(exc) is None:
             raise
-        return _interrupted()  # Ctrl-C inside a compiled kernel (a SystemError caused by it)
+        # a worker pool (loky, Dask) lost a process: the out-of-memory killer, a kill
+        print(f"jethr1: a worker process was killed before it finished, by the out-of-memory killer or a signal "
+              f"from outside: run again with fewer --jobs, or with more memory; {_written('the worker was lost')}",
+              file=sys.stderr)
+        return _flushed(WorkerLost.exit_code)
     return 0
 
 
@@ -106,14 +112,14 @@ def _interrupted() -> int:
     return 130
 
 
-def _written() -> str:
-    """What an interrupted run leaves: the outputs it completed, else nothing."""
+def _written(before: str = "the interrupt") -> str:
+    """What a run stopped by ``before`` leaves: the outputs it completed, else nothing."""
     from jethr1_plan.io.atomic import committed
 
     done = list(dict.fromkeys(str(p) for p in committed()))
     if not done:
         return "nothing written"
-    return f"complete before the interrupt: {', '.join(done[:5])}{' and more' if len(done) > 5 else ''}; " \
+    return f"complete before {before}: {', '.join(done[:5])}{' and more' if len(done) > 5 else ''}; " \
            "nothing half-written"
 
 

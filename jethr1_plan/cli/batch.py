@@ -10,7 +10,7 @@ import click
 from rich.table import Table
 
 from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, require_dask
-from jethr1_plan.errors import InputError
+from jethr1_plan.errors import InputError, lost_worker_behind
 from jethr1_plan.io.json_text import json_text
 
 __all__ = ["batch"]
@@ -51,6 +51,10 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
                                 progress=progress)
     except KeyboardInterrupt:
         _note_written(outdir, stems, started)
+        raise
+    except Exception as exc:
+        if lost_worker_behind(exc) is not None:  # the scenarios done before it: reported as written
+            _note_written(outdir, stems, started)
         raise
     code = batch_exit_code(records)
     doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {

@@ -8,6 +8,9 @@ malloc keeping freed memory. :func:`before_fork` settles both; the balance-space
 
 Forking is safe where no other thread of the forking process holds a lock the child needs: fork before a
 thread starts, or after it ends (the commands' progress bars are threads).
+
+A forked child ends with the process that forked it, however that one ends (:func:`die_with_parent`): a command
+killed by the out-of-memory killer or ``kill -9`` leaves no sweep running on without it.
 """
 
 from __future__ import annotations
@@ -15,13 +18,17 @@ from __future__ import annotations
 import ctypes
 import gc
 import multiprocessing
+import os
+import signal
 import sys
 import traceback
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["MMAP_THRESHOLD_B", "TRIM_THRESHOLD_B", "ForkedFile", "before_fork", "fork_available",
-           "give_back_freed_memory"]
+from jethr1_plan.errors import WorkerLost
+
+__all__ = ["MMAP_THRESHOLD_B", "TRIM_THRESHOLD_B", "ForkedFile", "before_fork", "die_with_parent",
+           "fork_available", "give_back_freed_memory", "lost_process"]
 
 MMAP_THRESHOLD_B = 256 * 1024  # glibc: arrays from this size get their own mapping, given back when freed
 TRIM_THRESHOLD_B = 1024 * 1024  # glibc: free memory at the heap's top beyond this is given back
@@ -44,6 +51,31 @@ def give_back_freed_memory() -> None:
     libc.malloc_trim(0)
 
 
+PR_SET_PDEATHSIG = 1  # Linux prctl(2): the signal this process gets when the thread that forked it ends
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Call first thing in a child forked from process ``parent_pid``: the child is killed (SIGKILL) when its
+    parent ends, however the parent ends, even by SIGKILL (Linux ``PR_SET_PDEATHSIG``; the parent's forking
+    thread must live as long as the child is meant to). Where the parent ended already, the child ends now."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # not Linux: a child ends when it finds its pipe closed
+        return
+    if os.getppid() != parent_pid:  # the parent ended before the signal was asked for
+        os._exit(1)
+
+
+def lost_process(what: str, exitcode: int | None) -> str:
+    """The message of a process of this command's that was killed from outside (``exitcode``: its exit code,
+    minus the signal's number where a signal ended it)."""
+    how = f"killed by {signal.Signals(-exitcode).name}" if exitcode is not None and exitcode < 0 and \
+        -exitcode in signal.valid_signals() else f"ended (exit code {exitcode})" if exitcode is not None else "killed"
+    return (f"{what} was {how} before it finished, by the out-of-memory killer or a signal from outside: "
+            "run again with fewer --jobs, or with more memory")
+
+
 def before_fork() -> None:
     """Before forking: garbage collected, and every object left moved out of the collector's sight
     (:func:`gc.freeze`), so that a collection in a child, which writes to the objects it examines, does not copy
@@ -53,7 +85,8 @@ def before_fork() -> None:
     give_back_freed_memory()
 
 
-def _child(conn, path: Path, make: Callable[[], bytes]) -> None:
+def _child(conn, parent_pid: int, path: Path, make: Callable[[], bytes]) -> None:
+    die_with_parent(parent_pid)
     try:
         path.write_bytes(make())
         conn.send(None)
@@ -86,7 +119,8 @@ class ForkedFile:
         before_fork()
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe(duplex=False)
-        self._process = ctx.Process(target=_child, args=(child, self.path, make), name="jethr1-file")
+        self._process = ctx.Process(target=_child, args=(child, os.getpid(), self.path, make),
+                                    name="jethr1-file")
         self._process.start()
         child.close()
 
@@ -95,15 +129,18 @@ class ForkedFile:
 
         Raises:
             OSError: the child could not write the file (a full disk: as this process would have raised it).
-            RuntimeError: the child failed otherwise (its exception and traceback in the message) or ended
-                without a word.
+            RuntimeError: the child failed otherwise (its exception and traceback in the message).
+            WorkerLost: the child was killed from outside (the out-of-memory killer, a signal).
         """
         if self._process is None:
             return
         try:
             failure = self._conn.recv()
         except EOFError:
-            failure = (None, f"the process ended (exit code {self._process.exitcode}) without writing the file")
+            self._process.join()
+            code = self._process.exitcode
+            self.close()
+            raise WorkerLost(lost_process(f"the process making {self.path.name}", code)) from None
         self._process.join()
         self.close()
         if failure is not None:

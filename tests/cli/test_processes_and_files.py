@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -88,3 +89,87 @@ def test_an_unwritable_output_is_found_before_planning(tmp_path, capsys, target)
     assert time.perf_counter() - t0 < 2  # before a single sample is planned
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "blocker" in err[0]
+
+
+def _live(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie waiting for its parent to read its exit does not)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] not in ("Z", "X")
+    except OSError:
+        return False
+
+
+def _start_sweep(tmp_path) -> tuple[subprocess.Popen, int, list[int]]:
+    """A 1 cm balance-space sweep started as a user starts it: the command, its host and the host's two workers."""
+    proc = subprocess.Popen([sys.executable, "-c", "from jethr1_plan.cli import entry; entry()", "balance-space",
+                             "-j", "2", "--executor", "fork", "-o", str(tmp_path / "bs"), "--no-progress"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        hosts = _children(proc.pid)
+        workers = [w for h in hosts for w in _children(h)]
+        if len(hosts) == 1 and len(workers) == 2:
+            return proc, hosts[0], workers
+        time.sleep(0.05)
+    proc.kill()
+    raise AssertionError("the sweep's host and workers did not start")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked sweep: Linux")
+def test_a_command_killed_from_outside_leaves_no_sweep_running(tmp_path):
+    """The out-of-memory killer (or kill -9) ends the command: its host and workers end with it, at once."""
+    proc, host, workers = _start_sweep(tmp_path)
+    proc.kill()
+    proc.wait(timeout=10)
+    deadline = time.time() + 5
+    while time.time() < deadline and any(map(_live, [host, *workers])):
+        time.sleep(0.05)
+    assert not any(map(_live, [host, *workers]))
+    assert not (tmp_path / "bs").exists()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked sweep: Linux")
+def test_a_worker_killed_from_outside_is_one_line_and_exit_7(tmp_path):
+    proc, host, workers = _start_sweep(tmp_path)
+    os.kill(workers[0], signal.SIGKILL)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 7, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert "killed by SIGKILL" in err and "fewer --jobs" in err
+    assert not (tmp_path / "bs").exists()
+    deadline = time.time() + 5
+    while time.time() < deadline and any(map(_live, [host, *workers])):
+        time.sleep(0.05)
+    assert not any(map(_live, [host, *workers]))
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
+
+
+def test_a_batch_worker_killed_from_outside_is_one_line_and_exit_7(tmp_path):
+    """A loky worker of `jethr1 batch` killed (the out-of-memory killer): exit 7, one line naming the scenarios
+    already written; each written folder is whole."""
+    configs = sorted((ROOT / "configs").glob("*.yaml"))
+    proc = subprocess.Popen([sys.executable, "-c", "from jethr1_plan.cli import entry; entry()", "batch",
+                             *map(str, configs), "-j", "2", "-o", str(tmp_path / "b"), "--no-progress"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.time() + 60
+    workers: list[int] = []
+    while time.time() < deadline and not workers:
+        workers = [c for c in _children(proc.pid) if b"popen_loky" in _cmdline(c)]
+        time.sleep(0.05)
+    assert workers
+    time.sleep(1.0)
+    os.kill(workers[0], signal.SIGKILL)
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 7, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert "a worker process was killed" in err and "fewer --jobs" in err
+    for folder in (tmp_path / "b").iterdir() if (tmp_path / "b").exists() else ():
+        assert not folder.name.startswith("."), folder  # no staging folder left
+        assert str(folder) in err and {"summary.json", "trajectory.csv"} <= {f.name for f in folder.iterdir()}

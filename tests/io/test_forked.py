@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import os
+import signal
 import time
 
 import pytest
 
+from jethr1_plan.errors import WorkerLost
 from jethr1_plan.io import forked
 from jethr1_plan.io.forked import ForkedFile, fork_available
 
@@ -55,6 +57,19 @@ def test_leaving_early_ends_the_child_before_it_writes(tmp_path):
     with pytest.raises(KeyboardInterrupt), ForkedFile(tmp_path / "a.bin", slow):
         raise KeyboardInterrupt  # as a Ctrl-C here would
     assert time.monotonic() - t0 < 10
+    assert not (tmp_path / "a.bin").exists()
+
+
+@needs_fork
+def test_a_child_killed_from_outside_is_a_lost_worker_and_writes_nothing(tmp_path):
+    def slow() -> bytes:
+        time.sleep(30)
+        return b"late"
+
+    with pytest.raises(WorkerLost, match=r"a\.bin was killed by SIGKILL"), ForkedFile(tmp_path / "a.bin", slow) as f:
+        assert f._process is not None
+        os.kill(f._process.pid, signal.SIGKILL)  # as the out-of-memory killer does
+        f.wait()
     assert not (tmp_path / "a.bin").exists()
 
 
