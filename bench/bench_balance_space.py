@@ -11,6 +11,11 @@ Sections (all by default; name some on the command line to run only those):
 * ``mirror``: the left support's space against the right's at the mirror image, every cell.
 * ``agreement``: the continuation against the exhaustive search on both supports: 1,000 random cells each, and
   the cells where the two most likely disagree (``balance_space.agreement.suspect_cells``).
+* ``limit``: the 1 cm command inside a memory limit of 300 MB (and 250, 200 MB; and ``-j 1`` in 200 MB), as a
+  container or
+  ``systemd-run -p MemoryMax=`` runs it: a memory cgroup, the page cache dropped before each run so that every page
+  the command reads is charged to it; its wall time against the same run without a limit (needs root and a
+  writable memory cgroup, v1 or v2; says so otherwise).
 * ``scale``: the 0.5 cm sweep on 2 processes; a local Dask cluster of 1, 2, ... workers at 1 cm (as many as
   there are cores: more cannot run faster here); the speed-up 1, 2, 4, 8, 16 workers would get, from the
   measured task times (critical path and greedy schedule: ``balance_space.blocks.makespan``).
@@ -21,7 +26,9 @@ not these (much). ``python bench/bench_balance_space.py timing mirror`` runs two
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -51,7 +58,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.physics.test_compiled import numpy_objective  # the numpy path the test compares with
 
 WORKERS = (1, 2, 4, 8, 16)
-TARGET_MB = 300  # peak PSS of the 1 cm command on 2 processes (issue 28)
+TARGET_MB = 300  # peak memory of the 1 cm command on 2 processes (issue 28)
+LIMITS_MB = ((2, 300), (2, 250), (2, 200), (1, 200))  # (--jobs, memory limit [MB]) of the 1 cm command (limit)
 EXECUTOR = "fork" if fork_available() else "loky"  # the command's default
 JETHR1 = str(Path(sys.executable).with_name("jethr1"))
 
@@ -111,13 +119,15 @@ def search_savings() -> None:
 
 class TreeMemory:
     """The peak memory of a process and all its descendants, sampled every 50 ms: the sum of their RSS (shared
-    pages counted in each) and of their PSS (shared pages divided among their sharers: the true footprint)."""
+    pages counted in each), of their PSS (shared pages divided among their sharers) and of the part of the PSS not
+    backed by a file (``Pss_Anon`` + ``Pss_Shmem``: what the system cannot reclaim without swap; the rest is code
+    and data mapped from the libraries' files, which it drops under pressure and reads again when needed)."""
 
     def __init__(self, pid: int):
         import psutil
 
         self.root = psutil.Process(pid)
-        self.rss = self.pss = 0
+        self.rss = self.pss = self.unfiled = 0
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._poll, daemon=True)
         self._thread.start()
@@ -130,19 +140,28 @@ class TreeMemory:
                 procs = [self.root, *self.root.children(recursive=True)]
             except psutil.Error:
                 break
-            rss = pss = 0
+            rss = pss = unfiled = 0
             for p in procs:
                 try:
                     m = p.memory_full_info()
                 except psutil.Error:
                     continue
-                rss, pss = rss + m.rss, pss + m.pss
-            self.rss, self.pss = max(self.rss, rss), max(self.pss, pss)
+                rss, pss, unfiled = rss + m.rss, pss + m.pss, unfiled + _unfiled_bytes(p.pid)
+            self.rss, self.pss, self.unfiled = max(self.rss, rss), max(self.pss, pss), max(self.unfiled, unfiled)
             self._stop.wait(0.05)
 
     def stop(self) -> None:
         self._stop.set()
         self._thread.join()
+
+
+def _unfiled_bytes(pid: int) -> int:
+    """``Pss_Anon`` + ``Pss_Shmem`` of ``pid`` [B] (0 where it has ended)."""
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as f:
+            return sum(int(line.split()[1]) * 1024 for line in f if line.startswith(("Pss_Anon:", "Pss_Shmem:")))
+    except (OSError, ValueError):
+        return 0
 
 
 def whole_command(resolution: float, jobs: int, side: str = "right") -> None:
@@ -162,7 +181,128 @@ def whole_command(resolution: float, jobs: int, side: str = "right") -> None:
             raise RuntimeError(err)
         print(f"jethr1 balance-space --resolution {resolution} -j {jobs} (whole command): {wall:.1f} s wall; peak "
               f"memory of the command and its processes (a second run, sampled) {mem.pss / 2**20:.0f} MB PSS, "
-              f"{mem.pss / 2**20 / TARGET_MB:.2f} of the {TARGET_MB} MB target ({mem.rss / 2**20:.0f} MB RSS summed)")
+              f"{mem.pss / 2**20 / TARGET_MB:.2f} of the {TARGET_MB} MB target ({mem.rss / 2**20:.0f} MB RSS summed), "
+              f"of it not backed by a file {mem.unfiled / 2**20:.0f} MB ({mem.unfiled / 2**20 / TARGET_MB:.2f})")
+
+
+class MemoryCgroup:
+    """A memory cgroup of its own (v1 or v2, made under the mounted hierarchy; root only) that one command at a
+    time runs in, as ``docker run --memory`` or ``systemd-run -p MemoryMax=`` would run it. :meth:`made` gives
+    None where none can be made here."""
+
+    def __init__(self, path: Path, v2: bool):
+        self.path, self.v2 = path, v2
+
+    @classmethod
+    def made(cls) -> MemoryCgroup | None:
+        name = f"jethr1-bench-{os.getpid()}"
+        for base, v2 in ((Path("/sys/fs/cgroup/memory"), False), (Path("/sys/fs/cgroup"), True),
+                         (Path("/sys/fs/cgroup/unified"), True)):
+            try:
+                (base / name).mkdir()
+            except OSError:
+                continue
+            cg = cls(base / name, v2)
+            if (cg.path / ("memory.max" if v2 else "memory.limit_in_bytes")).exists():
+                return cg
+            cg.remove()
+        return None
+
+    def _write(self, name: str, value: str) -> None:
+        (self.path / name).write_text(value)
+
+    def _read(self, name: str) -> str:
+        try:
+            return (self.path / name).read_text()
+        except OSError:
+            return ""
+
+    def stat(self, key: str) -> int:
+        for line in self._read("memory.stat").splitlines():
+            k, _, v = line.partition(" ")
+            if k == key:
+                return int(v)
+        return 0
+
+    def run(self, args: list[str], limit_mb: int | None, timeout_s: float) -> dict:
+        """``args`` run in the cgroup under ``limit_mb`` (None: no limit), the page cache dropped first (so that
+        the libraries it reads are charged to it, as on a machine that has not run it before): exit code (None:
+        still running after ``timeout_s``, then killed), wall time [s], peak usage [MB], the times the limit was
+        hit and the file pages read again after they were dropped."""
+        limit = str(limit_mb * 2**20) if limit_mb else "max" if self.v2 else "-1"
+        self._write("memory.max" if self.v2 else "memory.limit_in_bytes", limit)
+        if not self.v2:
+            self._write("memory.max_usage_in_bytes", "0")
+            self._write("memory.failcnt", "0")
+        refaults0 = self.stat("workingset_refault_file")
+        os.sync()
+        try:
+            Path("/proc/sys/vm/drop_caches").write_text("3")
+        except OSError:
+            print("  (the page cache could not be dropped: pages read before this run are not charged to it)")
+        procs = self.path / "cgroup.procs"
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: procs.write_text(str(os.getpid())))
+        try:
+            _, err = proc.communicate(timeout=timeout_s)
+            code: int | None = proc.returncode
+        except subprocess.TimeoutExpired:
+            err, code = "", None
+        wall = time.perf_counter() - t0
+        self.kill_all()
+        proc.wait()
+        peak = self._read("memory.peak" if self.v2 else "memory.max_usage_in_bytes").strip()
+        hits = self._read("memory.failcnt").strip() if not self.v2 else \
+            next((line.split()[1] for line in self._read("memory.events").splitlines() if line.startswith("max ")), "0")
+        last = (err.strip().splitlines() or [""])[-1]
+        return {"code": code, "wall_s": wall, "peak_mb": int(peak or 0) / 2**20, "hits": int(hits or 0),
+                "refaults": self.stat("workingset_refault_file") - refaults0, "last": last}
+
+    def kill_all(self) -> None:
+        for _ in range(50):
+            pids = [int(p) for p in self._read("cgroup.procs").split()]
+            if not pids:
+                return
+            for pid in pids:
+                with contextlib.suppress(OSError):
+                    os.kill(pid, 9)
+            time.sleep(0.1)
+
+    def remove(self) -> None:
+        self.kill_all()
+        with contextlib.suppress(OSError):
+            self.path.rmdir()
+
+
+def section_limit(results: dict) -> None:
+    """The 1 cm command in memory limits (see the module); each run's wall time against the run without one."""
+    cg = MemoryCgroup.made()
+    if cg is None:
+        print("memory limit: not measured here (needs root and a writable memory cgroup, v1 or v2)")
+        return
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            def args(jobs: int) -> list[str]:
+                return [JETHR1, "balance-space", "--resolution", "0.01", "-j", str(jobs), "--no-progress", "-o",
+                        str(Path(tmp) / "out")]
+
+            free = cg.run(args(2), None, 600)
+            if free["code"] != 0:
+                raise RuntimeError(f"the 1 cm command failed without a limit: {free['last']}")
+            print(f"1 cm command, -j 2, page cache dropped, no memory limit: {free['wall_s']:.1f} s wall, peak "
+                  f"{free['peak_mb']:.0f} MB charged (with the page cache of everything it read and wrote)")
+            for jobs, mb in LIMITS_MB:
+                shutil.rmtree(Path(tmp) / "out", ignore_errors=True)
+                r = cg.run(args(jobs), mb, 3 * free["wall_s"])
+                how = (f"done in {r['wall_s']:.1f} s ({r['wall_s'] / free['wall_s']:.2f} of the run without a "
+                       f"limit on 2 processes)" if r["code"] == 0 else
+                       f"did not end within {r['wall_s']:.0f} s (pages dropped and read again over and over): "
+                       "killed" if r["code"] is None else f"exit {r['code']}: {r['last'][:100]}...")
+                print(f"  -j {jobs} in {mb} MB: {how}; the limit reached {r['hits']:,} times, {r['refaults']:,} "
+                      "file pages read again after they were dropped")
+    finally:
+        cg.remove()
 
 
 def timed_sweep(side: str, resolution: float, jobs: int, executor: str = EXECUTOR) -> tuple[SweepResult, float]:
@@ -255,7 +395,7 @@ def section_scale(results: dict) -> None:
 
 SECTIONS = {"kernel": lambda results: kernel_speed(), "search": lambda results: search_savings(),
             "timing": section_timing, "mirror": section_mirror, "agreement": section_agreement,
-            "scale": section_scale}
+            "limit": section_limit, "scale": section_scale}
 
 
 def main(names: list[str]) -> None:
