@@ -13,14 +13,12 @@ a set of independent tasks:
    rounds repeat until no cell changes (``max_rounds`` at most).
 
 The parent holds the state: per cell the posture (3 float64), the search's objective (float64) and the reason
-(int8), written in place in grid order, 33 bytes a cell at most (:class:`SweepState`; in memory shared with the
-command where the sweep runs in a process of its own: ``balance_space.workers``). The tasks' arguments are made
-as they are handed out.
+(int8), written in place in grid order, 33 bytes a cell at most (:class:`SweepState`). The tasks' arguments are
+made as they are handed out.
 """
 
 from __future__ import annotations
 
-import mmap
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -87,19 +85,13 @@ class SweepState:
 
     Stored XOR their start values, so that a cell no task changed is zero bytes and a page of cells none changed
     (most of the grid is out of reach or beyond the hip yaw's limits) is never written, and holds no memory
-    (33 bytes a cell at most; about 18 of them written at 1 cm). ``shared``: in memory shared with the processes
-    this one forks later (an anonymous shared mapping), so that one of them can run the sweep."""
+    (33 bytes a cell at most; about 18 of them written at 1 cm: numpy's zeros are pages the system maps only when
+    written)."""
 
-    def __init__(self, shape: tuple[int, int, int], shared: bool = False):
+    def __init__(self, shape: tuple[int, int, int]):
         n = int(np.prod(shape))
         self.shape = shape
-        if shared:
-            buf = mmap.mmap(-1, max(33 * n, 1))  # (MAP_SHARED | MAP_ANONYMOUS: zero until written)
-            self._p = np.frombuffer(buf, np.uint64, 3 * n).reshape(n, 3)
-            self._f = np.frombuffer(buf, np.uint64, n, 24 * n)
-            self._r = np.frombuffer(buf, np.int8, n, 32 * n)
-        else:  # (numpy's zeros: pages untouched until written, too)
-            self._p, self._f, self._r = np.zeros((n, 3), np.uint64), np.zeros(n, np.uint64), np.zeros(n, np.int8)
+        self._p, self._f, self._r = np.zeros((n, 3), np.uint64), np.zeros(n, np.uint64), np.zeros(n, np.int8)
 
     def p_body_at(self, cells: np.ndarray) -> np.ndarray:
         """The postures [m] of ``cells`` (flat indices), (k, 3)."""

@@ -127,11 +127,11 @@ def _in_process(tasks):
 
 def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str | None = None,
           progress=None, settings: SearchSettings | None = None, forked=None) -> SweepResult:
-    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "fork": in a
-    process forked from this one, with ``jobs`` workers forked from it (``balance_space.workers``, Linux; the
-    least memory); "loky"; or "dask": a local cluster, or the one at ``scheduler``). The result does not depend on
+    """The whole sweep, block by block (``balance_space.blocks``) on ``jobs`` processes (``executor`` "fork": ``jobs``
+    workers forked from this process, which loads the kernels first (``balance_space.workers``, Linux; the least
+    memory); "loky"; or "dask": a local cluster, or the one at ``scheduler``). The result does not depend on
     ``jobs`` or the executor. ``forked``: a :class:`~jethr1_plan.balance_space.workers.ForkedSweep` of this spec
-    and settings already started (executor "fork"; made here otherwise). ``result.extra``: ``task_times``
+    and settings already prepared (executor "fork"; made here otherwise). ``result.extra``: ``task_times``
     (:class:`~jethr1_plan.balance_space.blocks.TaskTimes`), ``verified_members`` (every member re-checked by PlaCo
     in its task)."""
     settings = settings or SearchSettings()
@@ -139,9 +139,9 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
     if executor == "fork":
         from jethr1_plan.balance_space.workers import ForkedSweep
 
-        with forked or ForkedSweep(spec, settings, jobs) as host:
-            t0 = min(t0, host.t0)
-            state, times, evaluations = host.result(progress)
+        with forked or ForkedSweep(spec, settings, jobs) as prepared:
+            t0 = min(t0, prepared.t0)
+            state, times, evaluations = prepared.result(progress)
     elif executor == "dask":
         from joblib import Parallel, delayed, parallel_config
 
@@ -160,7 +160,7 @@ def sweep(spec: SweepSpec, jobs: int = 1, executor: str = "loky", scheduler: str
             state, times, evaluations = run_blocks(
                 spec, settings, lambda tasks: par(delayed(fn)(*args) for fn, args in tasks), progress)
     p_body, objective, reason = state.arrays()
-    del state  # (its memory: shared with the forked sweep's host, freed now)
+    del state  # (its memory freed before the files are built)
     thrust = objective  # in place: the objective of a balanced posture is its least thrust
     thrust[:] = balanced_thrust(thrust, reason)
     result = SweepResult(spec, thrust=thrust, p_body=p_body, reason=reason, evaluations=evaluations,

@@ -59,9 +59,9 @@ __all__ = ["balance_space"]
               help="P_body grid step of the exhaustive method [m].")
 @click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1), help="Worker processes.")
 @click.option("--executor", type=click.Choice(["fork", "loky", "dask"]), default=None,
-              help="fork (the default on Linux: the sweep in a process forked from the command, its workers forked "
-                   "from it, sharing the compiled kernels: the least memory), loky (fresh worker processes; the "
-                   "default elsewhere) or dask (a cluster). The output is the same with each.")
+              help="fork (the default on Linux: workers forked from the command once it has loaded the compiled "
+                   "kernels, sharing them: the least memory), loky (fresh worker processes; the default elsewhere) "
+                   "or dask (a cluster). The output is the same with each.")
 @click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
 @click.option("-o", "--output", "outdir", default="out/balance_space", show_default=True,
               type=click.Path(file_okay=False, path_type=Path))
@@ -108,7 +108,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES)
     jobs = cap_jobs(jobs)
     settings = SearchSettings()
-    # the forked sweep starts before the progress bar's thread (balance_space.workers)
+    # the forked sweep's workers are forked before the progress bar's thread starts (balance_space.workers)
     with ForkedSweep(spec, settings, jobs) if executor == "fork" else contextlib.nullcontext() as forked, \
             Progress(not no_progress, f"balance space ({cells:,} cells)") as progress:
         result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, settings=settings,

@@ -10,7 +10,8 @@ Forking is safe where no other thread of the forking process holds a lock the ch
 thread starts, or after it ends (the commands' progress bars are threads).
 
 A forked child ends with the process that forked it, however that one ends (:func:`die_with_parent`): a command
-killed by the out-of-memory killer or ``kill -9`` leaves no sweep running on without it.
+killed by the out-of-memory killer or ``kill -9`` leaves no sweep running on without it. Under memory pressure the
+out-of-memory killer takes a child before the command (:func:`be_killed_first`), which then says so.
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ from pathlib import Path
 
 from jethr1_plan.errors import WorkerLost
 
-__all__ = ["MMAP_THRESHOLD_B", "TRIM_THRESHOLD_B", "ForkedFile", "before_fork", "die_with_parent",
-           "fork_available", "give_back_freed_memory", "lost_process"]
+__all__ = ["MMAP_THRESHOLD_B", "OOM_SCORE_ADJ", "TRIM_THRESHOLD_B", "ForkedFile", "be_killed_first", "before_fork",
+           "die_with_parent", "fork_available", "give_back_freed_memory", "lost_process", "worker_start"]
 
 MMAP_THRESHOLD_B = 256 * 1024  # glibc: arrays from this size get their own mapping, given back when freed
 TRIM_THRESHOLD_B = 1024 * 1024  # glibc: free memory at the heap's top beyond this is given back
@@ -67,13 +68,37 @@ def die_with_parent(parent_pid: int) -> None:
         os._exit(1)
 
 
-def lost_process(what: str, exitcode: int | None) -> str:
+OOM_SCORE_ADJ = 1000  # a forked child: the first the out-of-memory killer takes (-1000..1000; 1000: before any other)
+
+
+def be_killed_first() -> None:
+    """Under memory pressure, the out-of-memory killer takes this process before its parent (Linux
+    ``/proc/self/oom_score_adj``, raised as any process may raise its own): a worker killed is one line and exit 7
+    from the command that forked it, where the command killed could not say anything."""
+    try:
+        with open("/proc/self/oom_score_adj", "w") as f:
+            f.write(str(OOM_SCORE_ADJ))
+    except OSError:  # not Linux
+        pass
+
+
+def worker_start(parent_pid: int) -> None:
+    """The first thing a forked worker does: :func:`die_with_parent`, :func:`be_killed_first`; and the signals
+    its parent's handlers would turn into exceptions set back: SIGTERM ends it at once, silently, and Ctrl-C is
+    left to the parent, which ends its workers itself."""
+    die_with_parent(parent_pid)
+    be_killed_first()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def lost_process(what: str, exitcode: int | None, advice: str = "run again with fewer --jobs, or with more memory") \
+        -> str:
     """The message of a process of this command's that was killed from outside (``exitcode``: its exit code,
-    minus the signal's number where a signal ended it)."""
+    minus the signal's number where a signal ended it), and what to do."""
     how = f"killed by {signal.Signals(-exitcode).name}" if exitcode is not None and exitcode < 0 and \
         -exitcode in signal.valid_signals() else f"ended (exit code {exitcode})" if exitcode is not None else "killed"
-    return (f"{what} was {how} before it finished, by the out-of-memory killer or a signal from outside: "
-            "run again with fewer --jobs, or with more memory")
+    return f"{what} was {how} before it finished, by the out-of-memory killer or a signal from outside: {advice}"
 
 
 def before_fork() -> None:
@@ -86,7 +111,7 @@ def before_fork() -> None:
 
 
 def _child(conn, parent_pid: int, path: Path, make: Callable[[], bytes]) -> None:
-    die_with_parent(parent_pid)
+    worker_start(parent_pid)
     try:
         path.write_bytes(make())
         conn.send(None)
@@ -140,7 +165,8 @@ class ForkedFile:
             self._process.join()
             code = self._process.exitcode
             self.close()
-            raise WorkerLost(lost_process(f"the process making {self.path.name}", code)) from None
+            raise WorkerLost(lost_process(f"the process making {self.path.name}", code,
+                                          "run again with more memory")) from None
         self._process.join()
         self.close()
         if failure is not None:

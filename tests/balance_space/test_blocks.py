@@ -67,9 +67,8 @@ def test_the_forked_sweep_gives_the_same_bytes(one_process, jobs):
                                                                    one_process.extra["task_times"].stages]
 
 
-@pytest.mark.parametrize("shared", [False, True])
-def test_the_state_gives_back_every_value_written_to_the_bit(shared):
-    state = SweepState((3, 4, 5), shared=shared)
+def test_the_state_gives_back_every_value_written_to_the_bit():
+    state = SweepState((3, 4, 5))
     p_body, objective, reason = state.arrays()
     assert np.isnan(p_body).all() and np.isposinf(objective).all() and np.all(reason == Reason.UNREACHABLE)
     rng = np.random.default_rng(3)

@@ -1,15 +1,16 @@
-"""The forked sweep (``balance_space.workers``): its host's failure reaches the command, the host ends with the sweep,
-the forked workers answer every task."""
+"""The forked sweep (``balance_space.workers``): a task's failure reaches the command and ends the workers at once,
+the workers end with the sweep, the forked workers answer every task."""
 
 from __future__ import annotations
 
-import multiprocessing
+import time
+from pathlib import Path
 
 import pytest
 
-from jethr1_plan.balance_space import workers
+from jethr1_plan.balance_space import blocks, workers
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
-from jethr1_plan.io.forked import fork_available
+from jethr1_plan.io.forked import OOM_SCORE_ADJ, fork_available
 
 pytestmark = pytest.mark.skipif(not fork_available(), reason="the forked sweep needs Linux")
 COARSE = SweepSpec(resolution_m=0.1)
@@ -19,37 +20,45 @@ def _fails(*args, **kwargs):
     raise ValueError("a task failed")
 
 
-def test_a_failure_in_the_host_is_raised_in_the_command(monkeypatch):
-    monkeypatch.setattr(workers, "run_blocks", _fails)  # (the host is forked: it runs this module as patched)
-    host = workers.ForkedSweep(COARSE, SearchSettings(), 2)
-    with pytest.raises(ValueError, match="a task failed"):
-        host.result()
-    assert not host._process.is_alive()
+def _slow_or_fails(spec, settings, box, flat):
+    if box[2].start == 0:
+        raise ValueError("a task failed")
+    time.sleep(60)  # a task still running when the other fails
 
 
-def test_the_host_ends_with_the_sweep():
-    with workers.ForkedSweep(COARSE, SearchSettings(), 2) as host:
-        _, times, evaluations = host.result()
+def test_a_failure_in_a_worker_is_raised_in_the_command_and_ends_the_others_at_once(monkeypatch):
+    monkeypatch.setattr(blocks, "search_block", _slow_or_fails)  # (the workers are forked: they run it as patched)
+    prepared = workers.ForkedSweep(COARSE, SearchSettings(block_z_layers=1), 2)
+    pool = prepared._workers
+    assert pool is not None
+    t0 = time.monotonic()
+    with pytest.raises(ValueError, match="a task failed"), prepared:
+        prepared.result()
+    assert time.monotonic() - t0 < 30  # the sleeping task was not waited for
+    assert not any(p.is_alive() for p in pool._workers)
+
+
+def test_the_workers_end_with_the_sweep():
+    with workers.ForkedSweep(COARSE, SearchSettings(), 2) as prepared:
+        pool = prepared._workers
+        assert pool is not None and all(p.is_alive() for p in pool._workers)
+        _, times, evaluations = prepared.result()
+        assert not any(p.is_alive() for p in pool._workers)  # before the caller builds its files
     assert evaluations > 0 and len(times.stages[0]) >= 1
-    assert not host._process.is_alive() and host._process.exitcode == 0
-    assert all(p.name != "jethr1-balance-space" for p in multiprocessing.active_children())
+
+
+def _oom_score_adj() -> int:
+    return int(Path("/proc/self/oom_score_adj").read_text())
+
+
+def test_under_memory_pressure_a_worker_is_killed_before_the_command():
+    """The out-of-memory killer then leaves the command to say so (exit 7) instead of killing it silently."""
+    with workers.ForkedWorkers(2) as pool:
+        theirs = list(pool((_oom_score_adj, ()) for _ in range(2)))
+    assert theirs == [OOM_SCORE_ADJ] * 2 and _oom_score_adj() < OOM_SCORE_ADJ
 
 
 def test_forked_workers_answer_every_task():
     with workers.ForkedWorkers(2) as pool:
         answers = sorted(pool((divmod, (n, 3)) for n in range(7)))
     assert answers == sorted(divmod(n, 3) for n in range(7))
-
-
-def test_the_shared_state_goes_with_the_sweeps_result():
-    """The sweep's state (33 bytes a cell: 234 MB at 0.5 cm) is memory shared with the host; once the command
-    has the sweep's result, nothing holds that memory while the files are built."""
-    import weakref
-
-    from jethr1_plan.balance_space.sweep import sweep
-
-    with workers.ForkedSweep(COARSE, SearchSettings(), 2) as host:
-        state = weakref.ref(host.state)
-        result = sweep(COARSE, jobs=2, executor="fork", forked=host)
-    assert host.state is None and state() is None
-    assert result.with_thrust.any()

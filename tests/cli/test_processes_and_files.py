@@ -100,38 +100,37 @@ def _live(pid: int) -> bool:
         return False
 
 
-def _start_sweep(tmp_path) -> tuple[subprocess.Popen, int, list[int]]:
-    """A 1 cm balance-space sweep started as a user starts it: the command, its host and the host's two workers."""
+def _start_sweep(tmp_path) -> tuple[subprocess.Popen, list[int]]:
+    """A 1 cm balance-space sweep started as a user starts it: the command and its two workers."""
     proc = subprocess.Popen([sys.executable, "-c", "from jethr1_plan.cli import entry; entry()", "balance-space",
                              "-j", "2", "--executor", "fork", "-o", str(tmp_path / "bs"), "--no-progress"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.time() + 60
     while time.time() < deadline:
-        hosts = _children(proc.pid)
-        workers = [w for h in hosts for w in _children(h)]
-        if len(hosts) == 1 and len(workers) == 2:
-            return proc, hosts[0], workers
+        workers = _children(proc.pid)
+        if len(workers) == 2:
+            return proc, workers
         time.sleep(0.05)
     proc.kill()
-    raise AssertionError("the sweep's host and workers did not start")
+    raise AssertionError("the sweep's workers did not start")
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked sweep: Linux")
 def test_a_command_killed_from_outside_leaves_no_sweep_running(tmp_path):
-    """The out-of-memory killer (or kill -9) ends the command: its host and workers end with it, at once."""
-    proc, host, workers = _start_sweep(tmp_path)
+    """The out-of-memory killer (or kill -9) ends the command: its workers end with it, at once."""
+    proc, workers = _start_sweep(tmp_path)
     proc.kill()
     proc.wait(timeout=10)
     deadline = time.time() + 5
-    while time.time() < deadline and any(map(_live, [host, *workers])):
+    while time.time() < deadline and any(map(_live, workers)):
         time.sleep(0.05)
-    assert not any(map(_live, [host, *workers]))
+    assert not any(map(_live, workers))
     assert not (tmp_path / "bs").exists()
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked sweep: Linux")
 def test_a_worker_killed_from_outside_is_one_line_and_exit_7(tmp_path):
-    proc, host, workers = _start_sweep(tmp_path)
+    proc, workers = _start_sweep(tmp_path)
     os.kill(workers[0], signal.SIGKILL)
     err = proc.communicate(timeout=60)[1]
     assert proc.returncode == 7, err
@@ -139,9 +138,20 @@ def test_a_worker_killed_from_outside_is_one_line_and_exit_7(tmp_path):
     assert "killed by SIGKILL" in err and "fewer --jobs" in err
     assert not (tmp_path / "bs").exists()
     deadline = time.time() + 5
-    while time.time() < deadline and any(map(_live, [host, *workers])):
+    while time.time() < deadline and any(map(_live, workers)):
         time.sleep(0.05)
-    assert not any(map(_live, [host, *workers]))
+    assert not any(map(_live, workers))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="forked sweep: Linux")
+def test_sigterm_ends_a_sweep_and_its_workers(tmp_path):
+    proc, workers = _start_sweep(tmp_path)
+    proc.send_signal(signal.SIGTERM)
+    err = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 143 and "Traceback" not in err
+    assert err.strip().splitlines()[-1] == "jethr1: terminated (SIGTERM); workers stopped, nothing written"
+    assert not any(map(_live, workers))  # killed, not left to finish their tasks
+    assert not (tmp_path / "bs").exists()
 
 
 def _cmdline(pid: int) -> bytes:
