@@ -25,6 +25,7 @@ from __future__ import annotations
 import gc
 import multiprocessing
 import os
+import signal
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -73,26 +74,27 @@ class ForkedWorkers:
         made when it is submitted and held until it is done: a round's task carries ~3 MB at 1 cm)."""
         todo = iter(tasks)
         running: set[Future] = set()
-        while True:
-            for fn, args in todo:
-                running.add(self._pool.submit(fn, *args))
-                if len(running) >= self.jobs:
-                    break
-            if not running:
-                return
-            done, running = wait(running, return_when=FIRST_COMPLETED)
-            for f in done:
-                try:
-                    answer = f.result()
-                except BrokenProcessPool:
-                    raise WorkerLost(lost_process("a worker process of the balance-space sweep", self._lost())) \
-                        from None
-                yield answer
+        try:
+            while True:
+                for fn, args in todo:
+                    running.add(self._pool.submit(fn, *args))
+                    if len(running) >= self.jobs:
+                        break
+                if not running:
+                    return
+                done, running = wait(running, return_when=FIRST_COMPLETED)
+                for f in done:
+                    yield f.result()
+        except BrokenProcessPool:  # (from a task's answer, or from a submission once the pool knows)
+            self._pool.shutdown(wait=True, cancel_futures=True)  # (the pool ends the others: exit codes known)
+            raise WorkerLost(lost_process("a worker process of the balance-space sweep", self._lost())) from None
 
     def _lost(self) -> int | None:
-        """The exit code of a worker that ended (minus its signal's number), if one is known."""
+        """The exit code of the worker that was lost (minus its signal's number), once the pool has ended the
+        others (with SIGTERM), if one is known."""
         codes = [p.exitcode for p in self._workers if p.exitcode]
-        return codes[0] if codes else None
+        lost = [c for c in codes if c != -signal.SIGTERM]
+        return (lost or codes or [None])[0]
 
     def close(self, kill: bool = False) -> None:
         """End the workers: when their tasks are done, or at once (``kill``: the answers are no longer wanted)."""
