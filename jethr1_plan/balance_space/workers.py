@@ -9,8 +9,10 @@ writes one. The workers are forked from the command itself, not from a process o
 host copied ~23 MB of the command's pages by writing them (Python's reference counts) while the command waited.
 
 Forking is safe where no thread of the forking process holds a lock the child needs: the workers are forked when
-:class:`ForkedSweep` is made, which the command does before it starts its progress bar
-(:class:`concurrent.futures.ProcessPoolExecutor` forks all of them before its manager thread starts).
+:class:`ForkedSweep` is made, which the command does before it starts its progress bar. Each worker has a pipe of
+its own and no thread stands between it and the command (:class:`ForkedWorkers`): a worker that dies is the end
+of its pipe, and a worker killed while it sends an answer leaves nothing waiting on the rest of it (a process
+pool's result thread did wait for good: a SIGTERM in 1 of 10 runs hung the command).
 glibc's malloc in the command and workers gives freed arrays back to the system (``M_MMAP_THRESHOLD`` fixed at
 256 kB, trimmed beyond 1 MB): a task's arrays are freed when it ends, not kept for the next one.
 
@@ -22,14 +24,13 @@ killed from outside is :class:`~jethr1_plan.errors.WorkerLost` in the command (e
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import multiprocessing
 import os
-import signal
 import time
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+from multiprocessing.connection import Connection, wait
 
 import numpy as np
 
@@ -56,53 +57,108 @@ def load_kernels(spec: SweepSpec, settings: SearchSettings) -> BlockResult:
     return search_block(spec, settings, (slice(None), slice(j, j + 1), slice(k, k + 1)), np.arange(len(ax)))
 
 
+def _serve(conn: Connection, parent_pid: int) -> None:
+    """A forked worker: (function, args) tasks from ``conn``, each answered on it as (True, answer) or (False, the
+    exception), until ``conn`` closes or sends None."""
+    worker_start(parent_pid)
+    while True:
+        try:
+            task = conn.recv()
+        except EOFError:
+            return
+        if task is None:
+            return
+        fn, args = task
+        try:
+            answer: tuple = (True, fn(*args))
+        except Exception as exc:  # (raised in the parent)
+            answer = (False, exc)
+        try:
+            conn.send(answer)
+        except Exception as exc:  # an answer or exception that cannot be pickled
+            conn.send((False, RuntimeError(f"a balance-space task's answer could not be sent: {exc!r}")))
+
+
 class ForkedWorkers:
-    """``jobs`` worker processes forked from this one (which should have loaded the kernels: :func:`load_kernels`);
-    called with (function, args) tasks, it gives their answers in any order. A context manager: the workers end
-    when it closes."""
+    """``jobs`` worker processes forked from this one (which should have loaded the kernels: :func:`load_kernels`),
+    each with a pipe of its own; called with (function, args) tasks, it gives their answers in any order. A worker
+    that dies is seen at once (its pipe's end: :class:`~jethr1_plan.errors.WorkerLost`), and killing the workers
+    leaves nothing waiting on a half-sent answer. A context manager: the workers end when it closes, at once when
+    it is left on an exception."""
 
     def __init__(self, jobs: int):
         before_fork()
-        self.jobs = jobs
-        self._pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"),
-                                         initializer=worker_start, initargs=(os.getpid(),))
-        self._pool.submit(int).result()  # forks every worker now, before the pool starts its threads
-        self._workers = list((getattr(self._pool, "_processes", None) or {}).values())  # (their exit codes)
+        ctx = multiprocessing.get_context("fork")
+        self._conns: list[Connection] = []
+        self._workers: list[multiprocessing.process.BaseProcess] = []
+        try:
+            for _ in range(jobs):
+                mine, theirs = ctx.Pipe()
+                proc = ctx.Process(target=_serve, args=(theirs, os.getpid()), name="jethr1-balance-space-worker")
+                proc.start()
+                theirs.close()  # (so that the worker's death is the pipe's end here)
+                self._conns.append(mine)
+                self._workers.append(proc)
+        except BaseException:
+            self.close(kill=True)
+            raise
 
     def __call__(self, tasks: Iterable[tuple]) -> Iterator[BlockResult]:
-        """The answers of ``tasks``, as they come; one task a worker submitted at a time (a task's arguments are
-        made when it is submitted and held until it is done: a round's task carries ~3 MB at 1 cm)."""
-        todo = iter(tasks)
-        running: set[Future] = set()
-        try:
-            while True:
-                for fn, args in todo:
-                    running.add(self._pool.submit(fn, *args))
-                    if len(running) >= self.jobs:
-                        break
-                if not running:
-                    return
-                done, running = wait(running, return_when=FIRST_COMPLETED)
-                for f in done:
-                    yield f.result()
-        except BrokenProcessPool:  # (from a task's answer, or from a submission once the pool knows)
-            self._pool.shutdown(wait=True, cancel_futures=True)  # (the pool ends the others: exit codes known)
-            raise WorkerLost(lost_process("a worker process of the balance-space sweep", self._lost())) from None
+        """The answers of ``tasks``, as they come; one task a worker at a time (a task's arguments are made when it
+        is handed out and dropped once sent: a round's task carries ~3 MB at 1 cm).
 
-    def _lost(self) -> int | None:
-        """The exit code of the worker that was lost (minus its signal's number), once the pool has ended the
-        others (with SIGTERM), if one is known."""
-        codes = [p.exitcode for p in self._workers if p.exitcode]
-        lost = [c for c in codes if c != -signal.SIGTERM]
-        return (lost or codes or [None])[0]
+        Raises:
+            what a task raised; WorkerLost: a worker died before it answered.
+        """
+        todo = iter(tasks)
+        idle = list(range(len(self._workers)))[::-1]  # (worker 0 takes the first task)
+        busy: dict[Connection, int] = {}
+        while True:
+            while idle:
+                task = next(todo, None)
+                if task is None:
+                    break
+                k = idle.pop()
+                try:
+                    self._conns[k].send(task)
+                except OSError:  # (a broken pipe: it died)
+                    raise self._lost(k) from None
+                del task
+                busy[self._conns[k]] = k
+            if not busy:
+                return
+            ready = wait(list(busy))
+            for conn in [c for c in busy if c in ready]:
+                k = busy.pop(conn)
+                try:
+                    ok, answer = conn.recv()
+                except (EOFError, OSError):
+                    raise self._lost(k) from None
+                idle.append(k)
+                if not ok:
+                    raise answer
+                yield answer
+
+    def _lost(self, k: int) -> WorkerLost:
+        """Worker ``k``'s death, once it is reaped (its exit code: minus the signal that ended it)."""
+        self._workers[k].join(5.0)
+        return WorkerLost(lost_process("a worker process of the balance-space sweep", self._workers[k].exitcode))
 
     def close(self, kill: bool = False) -> None:
-        """End the workers: when their tasks are done, or at once (``kill``: the answers are no longer wanted)."""
-        if kill:
-            for proc in self._workers:
+        """End the workers: once they have their last task done, or at once (``kill``: the answers are no longer
+        wanted)."""
+        for proc, conn in zip(self._workers, self._conns, strict=False):
+            if kill:
                 if proc.is_alive():
                     proc.kill()
-        self._pool.shutdown(wait=True, cancel_futures=True)
+            else:
+                with contextlib.suppress(OSError):  # (one that died is joined all the same)
+                    conn.send(None)
+        for proc in self._workers:
+            proc.join()
+        for conn in self._conns:
+            conn.close()
+        self._workers, self._conns = [], []
         gc.unfreeze()
 
     def __enter__(self) -> ForkedWorkers:
