@@ -73,10 +73,24 @@ class ExpectationFailed(Jethr1Error):
 
 
 class WorkerLost(Jethr1Error):
-    """A process of the command's (a worker, the sweep's host, a file's maker) was killed from outside before it
-    answered: the out-of-memory killer, a signal (exit 7). Not a bug of jethr1's, nor the user's input."""
+    """A process of the command's (a worker, a file's maker) was killed from outside before it answered: the
+    out-of-memory killer, a signal (exit 7). Not a bug of jethr1's, nor the user's input.
+
+    ``what``: the process; ``exitcode``: its exit code, minus the signal's number where a signal ended it (None:
+    not known); ``advice``: what to do."""
 
     exit_code = EXIT_WORKER_LOST
+
+    def __init__(self, what: str, exitcode: int | None = None,
+                 advice: str = "run again with fewer --jobs, or with more memory") -> None:
+        import signal
+
+        if exitcode is not None and exitcode < 0 and -exitcode in signal.valid_signals():
+            how = f"killed by {signal.Signals(-exitcode).name}"
+        else:
+            how = "killed" if exitcode is None else f"ended (exit code {exitcode})"
+        super().__init__(f"{what} was {how} before it finished, by the out-of-memory killer or a signal from "
+                         f"outside: {advice}")
 
 
 class SelfCheckFailed(Exception):

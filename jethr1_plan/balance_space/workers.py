@@ -38,7 +38,7 @@ from jethr1_plan.balance_space.blocks import SweepState, TaskTimes, run_blocks
 from jethr1_plan.balance_space.continuation import BlockResult, search_block
 from jethr1_plan.balance_space.spec import SearchSettings, SweepSpec
 from jethr1_plan.errors import WorkerLost
-from jethr1_plan.io.forked import before_fork, lost_process, worker_start
+from jethr1_plan.io.forked import before_fork, worker_start
 
 __all__ = ["ForkedSweep", "ForkedWorkers", "load_kernels"]
 
@@ -142,7 +142,7 @@ class ForkedWorkers:
     def _lost(self, k: int) -> WorkerLost:
         """Worker ``k``'s death, once it is reaped (its exit code: minus the signal that ended it)."""
         self._workers[k].join(5.0)
-        return WorkerLost(lost_process("a worker process of the balance-space sweep", self._workers[k].exitcode))
+        return WorkerLost("a worker process of the balance-space sweep", self._workers[k].exitcode)
 
     def close(self, kill: bool = False) -> None:
         """End the workers: once they have their last task done, or at once (``kill``: the answers are no longer

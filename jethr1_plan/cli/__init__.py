@@ -94,11 +94,9 @@ def run(argv: list[str] | None = None) -> int:
             return _interrupted()  # Ctrl-C inside a compiled kernel (a SystemError caused by it)
         if lost_worker_behind(exc) is None:
             raise
-        # a worker pool (loky, Dask) lost a process: the out-of-memory killer, a kill
-        print(f"jethr1: a worker process was killed before it finished, by the out-of-memory killer or a signal "
-              f"from outside: run again with fewer --jobs, or with more memory; {_written('the worker was lost')}",
-              file=sys.stderr)
-        return _flushed(WorkerLost.exit_code)
+        lost = WorkerLost("a worker process")  # a worker pool (loky, Dask) lost one: the out-of-memory killer, a kill
+        print(f"jethr1: {lost}; {_written('the worker was lost')}", file=sys.stderr)
+        return _flushed(lost.exit_code)
     return 0
 
 

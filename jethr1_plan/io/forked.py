@@ -3,7 +3,7 @@ made by a forked child while this process goes on.
 
 A forked child shares every page of its parent's until one of them writes it. Two things write pages nobody
 meant to change: Python's garbage collector (a collection writes to every object it examines) and glibc's
-malloc keeping freed memory. :func:`before_fork` settles both; the balance-space sweep's host and workers
+malloc keeping freed memory. :func:`before_fork` settles both; the balance-space sweep's workers
 (``balance_space.workers``) and :class:`ForkedFile` fork after it.
 
 Forking is safe where no other thread of the forking process holds a lock the child needs: fork before a
@@ -29,7 +29,7 @@ from pathlib import Path
 from jethr1_plan.errors import WorkerLost
 
 __all__ = ["MMAP_THRESHOLD_B", "OOM_SCORE_ADJ", "TRIM_THRESHOLD_B", "ForkedFile", "be_killed_first", "before_fork",
-           "die_with_parent", "fork_available", "give_back_freed_memory", "lost_process", "worker_start"]
+           "die_with_parent", "fork_available", "give_back_freed_memory", "worker_start"]
 
 MMAP_THRESHOLD_B = 256 * 1024  # glibc: arrays from this size get their own mapping, given back when freed
 TRIM_THRESHOLD_B = 1024 * 1024  # glibc: free memory at the heap's top beyond this is given back
@@ -90,15 +90,6 @@ def worker_start(parent_pid: int) -> None:
     be_killed_first()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def lost_process(what: str, exitcode: int | None, advice: str = "run again with fewer --jobs, or with more memory") \
-        -> str:
-    """The message of a process of this command's that was killed from outside (``exitcode``: its exit code,
-    minus the signal's number where a signal ended it), and what to do."""
-    how = f"killed by {signal.Signals(-exitcode).name}" if exitcode is not None and exitcode < 0 and \
-        -exitcode in signal.valid_signals() else f"ended (exit code {exitcode})" if exitcode is not None else "killed"
-    return f"{what} was {how} before it finished, by the out-of-memory killer or a signal from outside: {advice}"
 
 
 def before_fork() -> None:
@@ -165,8 +156,7 @@ class ForkedFile:
             self._process.join()
             code = self._process.exitcode
             self.close()
-            raise WorkerLost(lost_process(f"the process making {self.path.name}", code,
-                                          "run again with more memory")) from None
+            raise WorkerLost(f"the process making {self.path.name}", code, "run again with more memory") from None
         self._process.join()
         self.close()
         if failure is not None:
