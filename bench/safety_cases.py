@@ -17,12 +17,16 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import fnmatch
+import hashlib
 import json
 import os
 import re
 import shlex
 import shutil
 import signal
+import socket
+import stat
 import subprocess
 import tempfile
 import threading
@@ -69,6 +73,7 @@ class Outcome:
     peak_procs: int
     first_output_s: float | None  # first byte on stderr
     stopped: str = ""  # "timeout" or "memory" when the harness ended it
+    left_procs: int = 0  # processes of its session still alive a second after it ended
 
     @property
     def lines(self) -> list[str]:
@@ -86,13 +91,15 @@ def _default_signals() -> None:
 
 def run_cmd(argv: list[str], timeout: float = 120.0, max_mb: float = 3000.0, cwd: Path | None = None,
             stdout=None, signal_after: tuple[float | Callable[[], bool], int] | None = None,
-            env: dict | None = None) -> Outcome:
+            env: dict | None = None, main_only: bool = False, stdin=None) -> Outcome:
     """Run ``argv`` in a new session, watch its memory, stop it at ``timeout`` or ``max_mb``;
     ``signal_after`` = (seconds or a condition, signal) sends a signal to the process group after that
-    long or once the condition holds."""
+    long or once the condition holds (with ``main_only``, to the command's own process alone, as
+    ``kill -9 PID`` does). ``left_procs``: the processes of its session alive a second after it ended."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(argv, stdout=stdout if stdout is not None else subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True, cwd=cwd, env=env, preexec_fn=_default_signals)
+                            start_new_session=True, cwd=cwd, env=env, preexec_fn=_default_signals,
+                            stdin=stdin if stdin is not None else subprocess.DEVNULL)
     err_chunks: list[bytes] = []
     out_chunks: list[bytes] = []
     first: list[float] = []
@@ -119,7 +126,10 @@ def run_cmd(argv: list[str], timeout: float = 120.0, max_mb: float = 3000.0, cwd
         if signal_after is not None and not signalled:
             when, sig = signal_after
             if when() if callable(when) else elapsed >= when:
-                os.killpg(proc.pid, sig)
+                if main_only:
+                    os.kill(proc.pid, sig)
+                else:
+                    os.killpg(proc.pid, sig)
                 signalled = True
         if elapsed > timeout or mb > max_mb:
             stopped = "timeout" if elapsed > timeout else "memory"
@@ -129,13 +139,15 @@ def run_cmd(argv: list[str], timeout: float = 120.0, max_mb: float = 3000.0, cwd
             break
         time.sleep(0.05)
     seconds = time.perf_counter() - t0
-    for t in threads:
-        t.join(timeout=5)
+    time.sleep(1.0)
+    left = _session_rss_mb(proc.pid)[1]
     with contextlib.suppress(ProcessLookupError, PermissionError):  # workers the run left behind
         os.killpg(proc.pid, signal.SIGKILL)
+    for t in threads:
+        t.join(timeout=5)
     return Outcome(None if stopped else proc.returncode, b"".join(err_chunks).decode("utf-8", "replace"),
                    b"".join(out_chunks).decode("utf-8", "replace"), seconds, peak, procs,
-                   first[0] if first else None, stopped)
+                   first[0] if first else None, stopped, left)
 
 
 # --- the workspace ------------------------------------------------------------------------------
@@ -696,6 +708,877 @@ def _(ctx):
                           str(ctx.fresh("seed"))))
 
 
+# --- issue 37: every class of the third probe, each case judged ----------------------------------
+#
+# Each case runs in a folder of its own (the command's working folder), holding the user's files it
+# needs. A case passes when the command exits with a code the case allows; exit 2 is one line on stderr
+# and nothing in the folder changed; any other exit changed only the outputs the case names, never a
+# file of the user's; no traceback; no process of the command alive a second after it ended; under
+# LIMIT_S seconds (where the command does no real work) and MAX_MB of memory for its processes together.
+
+LIMIT_S = 5.0
+MAX_MB = 500.0
+CLASSES = ("data loss", "hang", "resource", "traceback", "silent accept", "exit/leftover/message")
+
+
+def tree_state(root: Path) -> dict[str, str]:
+    """Every entry under ``root`` (symbolic links not followed): its kind and content digest."""
+    out: dict[str, str] = {}
+    if not root.exists():
+        return out
+    for dirpath, dirnames, filenames in os.walk(root):
+        for name in dirnames + filenames:
+            p = Path(dirpath, name)
+            rel = str(p.relative_to(root))
+            try:
+                st = os.lstat(p)
+            except OSError:
+                continue
+            if stat.S_ISLNK(st.st_mode):
+                out[rel] = "link:" + os.readlink(p)
+            elif stat.S_ISDIR(st.st_mode):
+                out[rel] = "dir"
+            elif stat.S_ISREG(st.st_mode):
+                if st.st_size > 50_000_000:  # the sparse giants: their size and time, not their bytes
+                    out[rel] = f"big:{st.st_size}:{st.st_mtime_ns}"
+                else:
+                    out[rel] = "file:" + hashlib.sha256(p.read_bytes()).hexdigest()
+            else:
+                out[rel] = f"special:{stat.S_IFMT(st.st_mode):o}"
+    return out
+
+
+def changed_paths(before: dict[str, str], after: dict[str, str]) -> list[str]:
+    return sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
+
+
+@dataclass
+class Probe:
+    """One case of issue 37: its class, the command (``{W}`` the case's folder, ``{ROOT}`` the checkout),
+    the exits it allows, what it may write (fnmatch patterns relative to ``{W}``) and what it must keep."""
+
+    cls: str
+    argv: list[str]
+    expect: tuple[int, ...] = (2,)
+    setup: Callable[[Ctx, Path], None] | None = None
+    outputs: tuple[str, ...] = ()
+    keep: tuple[str, ...] = ()  # the user's files (relative to W): never changed, whatever the exit
+    limit_s: float = LIMIT_S
+    timeout: float = 30.0
+    kill9: Callable[[], bool] | None = None  # when given: SIGKILL to the command alone once it holds
+    kill9_after: float = 0.0
+    not_in_message: str = ""  # a regular expression the stderr must not match
+    judge: Callable[[Path, Outcome], str] | None = None  # more: "" when fine, else what is wrong
+    env: dict | None = None
+
+
+PROBES: dict[str, Probe] = {}
+
+
+def probe37(cid: str, what: str, p: Probe) -> None:
+    PROBES[cid] = p
+
+    def run(ctx: Ctx, p=p, cid=cid) -> dict:
+        return run_probe(ctx, cid, p)
+    case(f"37.{cid}", what)(run)
+
+
+def run_probe(ctx: Ctx, cid: str, p: Probe) -> dict:
+    W = ctx.fresh(f"p37/{cid}")
+    if p.setup is not None:
+        p.setup(ctx, W)
+    argv = [a.replace("{W}", str(W)).replace("{ROOT}", str(ROOT)).replace("{CACHE}", str(ctx.cache()))
+            for a in p.argv]
+    before = tree_state(W)
+    kw = {}
+    if p.kill9 is not None:
+        t_start = time.perf_counter()
+        kw = {"signal_after": (lambda: p.kill9(W) and time.perf_counter() - t_start >= p.kill9_after,
+                               signal.SIGKILL), "main_only": True}
+    o = ctx.run(*argv, cwd=W, timeout=p.timeout, max_mb=max(3 * MAX_MB, ctx.max_mb), env=p.env, **kw)
+    time.sleep(0.2 if p.kill9 is None else 3.0)  # (after a kill: what its workers would still write)
+    after = tree_state(W)
+    changed = changed_paths(before, after)
+    problems = []
+    if p.kill9 is None:
+        if o.code not in p.expect:
+            problems.append(f"exit {o.code}, expected {'/'.join(map(str, p.expect))}")
+        if o.traceback:
+            problems.append("traceback")
+        if o.code == 2 and len(o.lines) != 1:
+            problems.append(f"{len(o.lines)} lines")
+        if o.code == 2 and changed:
+            problems.append(f"wrote {', '.join(changed[:3])}")
+        elif o.code != 2:
+            stray = [c for c in changed if not any(fnmatch.fnmatch(c, pat) for pat in p.outputs)]
+            if stray:
+                problems.append(f"changed {', '.join(stray[:3])}")
+        if o.seconds > p.limit_s:
+            problems.append(f"{o.seconds:.1f} s")
+    elif o.code is not None and o.code != -signal.SIGKILL:
+        problems.append(f"ended by itself (exit {o.code}) before the kill")
+    kept = [k for k in p.keep if before.get(k) != after.get(k)]
+    if kept:
+        problems.append(f"user file changed: {', '.join(kept)}")
+    if o.stopped:
+        problems.append(f"stopped ({o.stopped})")
+    if o.peak_mb > MAX_MB:
+        problems.append(f"{o.peak_mb:.0f} MB")
+    if o.left_procs:
+        problems.append(f"{o.left_procs} processes left")
+    if p.not_in_message and re.search(p.not_in_message, o.stderr):
+        problems.append(f"message matches {p.not_in_message!r}")
+    if p.judge is not None:
+        more = p.judge(W, o)
+        if more:
+            problems.append(more)
+    return report(o, cls=p.cls, ok=not problems, problems=problems, changed=changed[:6], left_procs=o.left_procs)
+
+
+# the fixtures each case copies into its folder
+
+
+def _cache(self) -> Path:
+    """A route map cache for the cases (a copy of the user's, so a route finds its maps and the user's stays)."""
+    d = self.work / "cache"
+    if not d.exists():
+        home = Path(os.environ.get("JETHR1_CACHE") or Path.home() / ".cache" / "jethr1")
+        if home.is_dir():
+            shutil.copytree(home, d)
+        else:
+            d.mkdir(parents=True)
+    return d
+
+
+def _other_plan(self) -> Path:
+    def make():
+        d = self.fresh("fixtures/other")
+        out = self.run("plan", str(ROOT / "configs" / "side_step.yaml"), "--policy", "minimal", "-o", str(d),
+                       "--no-progress")
+        assert out.code == 0, out.stderr
+        return d / "side_step"
+    return self.fixture("other", make)
+
+
+Ctx.cache = _cache  # type: ignore[attr-defined]
+Ctx.other_plan = _other_plan  # type: ignore[attr-defined]
+
+SIDE = "{ROOT}/configs/side_step.yaml"
+WALK = "{ROOT}/configs/walks/jethr1_walk.yaml"
+TERRAIN = "{ROOT}/configs/terrains/jet_hr1_trial.yaml"
+NP = "--no-progress"
+
+
+def _text(rel: str, text: str | bytes) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        p = W / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if isinstance(text, bytes):
+            p.write_bytes(text)
+        else:
+            p.write_text(text)
+    return make
+
+
+def _copy(rel: str, src: str) -> Callable[[Ctx, Path], None]:
+    return _text(rel, Path(src.replace("{ROOT}", str(ROOT))).read_text())
+
+
+def _all(*steps: Callable[[Ctx, Path], None]) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        for s in steps:
+            s(ctx, W)
+    return make
+
+
+def _fifo(rel: str) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        (W / rel).parent.mkdir(parents=True, exist_ok=True)
+        os.mkfifo(W / rel)
+    return make
+
+
+def _symlink(rel: str, target: str) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        (W / rel).parent.mkdir(parents=True, exist_ok=True)
+        os.symlink(target.replace("{W}", str(W)), W / rel)
+    return make
+
+
+def _mkdir(rel: str) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        (W / rel).mkdir(parents=True, exist_ok=True)
+        (W / rel / "mine.txt").write_text("a file of the user's\n")
+    return make
+
+
+def _sparse(rel: str, size: int) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        (W / rel).parent.mkdir(parents=True, exist_ok=True)
+        with open(W / rel, "wb") as f:
+            f.truncate(size)
+    return make
+
+
+def _plan(rel: str = "plan", which: str = "plan") -> Callable[[Ctx, Path], None]:
+    """A copy of the side-step plan folder at W/rel."""
+    def make(ctx: Ctx, W: Path) -> None:
+        src = ctx.plan_folder() if which == "plan" else ctx.other_plan() if which == "other" else ctx.walk_folder()
+        shutil.copytree(src, W / rel)
+    return make
+
+
+def _scenario_yaml(edit: Callable[[dict], None], base: str = "side_step") -> str:
+    doc = yaml.safe_load((ROOT / "configs" / f"{base}.yaml").read_text())
+    edit(doc)
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _scenario(rel: str, edit: Callable[[dict], None], base: str = "side_step") -> Callable[[Ctx, Path], None]:
+    return _text(rel, _scenario_yaml(edit, base))
+
+
+def _walk_yaml(edit: Callable[[dict], None]) -> str:
+    doc = yaml.safe_load((ROOT / "configs" / "walks" / "jethr1_walk.yaml").read_text())
+    edit(doc)
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _terrain_yaml(edit: Callable[[dict], None]) -> str:
+    doc = yaml.safe_load((ROOT / "configs" / "terrains" / "jet_hr1_trial.yaml").read_text())
+    edit(doc)
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+def _robot(rel: str, yaml_edit: Callable[[dict], None] | None = None,
+           urdf_edit: Callable[[str], str] | None = None) -> Callable[[Ctx, Path], None]:
+    """A copy of robots/jethr1 at W/rel/ (jethr1.yaml, jethr1.urdf), edited."""
+    def make(ctx: Ctx, W: Path) -> None:
+        d = W / rel
+        d.mkdir(parents=True, exist_ok=True)
+        src = ROOT / "robots" / "jethr1"
+        urdf = (src / "jethr1.urdf").read_text()
+        (d / "jethr1.urdf").write_text(urdf_edit(urdf) if urdf_edit else urdf)
+        doc = yaml.safe_load((src / "jethr1.yaml").read_text())
+        if yaml_edit:
+            yaml_edit(doc)
+        (d / "jethr1.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    return make
+
+
+def _summary(rel: str, edit: Callable[[dict], None]) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        p = W / rel / "summary.json"
+        s = json.loads(p.read_text())
+        edit(s)
+        p.write_text(json.dumps(s))
+    return make
+
+
+def _summary_text(rel: str, change: Callable[[str], str]) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        p = W / rel / "summary.json"
+        p.write_text(change(p.read_text()))
+    return make
+
+
+def _procs_at_least(n: int) -> Callable[[Path], bool]:
+    """A condition: the harness's newest session holds ``n`` processes (set by run_cmd's caller below)."""
+    def cond(W: Path) -> bool:
+        return _LAST_SESSION[0] is not None and _session_rss_mb(_LAST_SESSION[0])[1] >= n
+    return cond
+
+
+_LAST_SESSION: list[int | None] = [None]
+_popen = subprocess.Popen
+
+
+class _TrackedPopen(_popen):  # type: ignore[misc, valid-type]
+    """subprocess.Popen, remembering the newest process (its session: the command's)."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        _LAST_SESSION[0] = self.pid
+
+
+subprocess.Popen = _TrackedPopen  # type: ignore[misc]
+
+USER = "a file of the user's\n"
+BIG_INT = "1" + "0" * 5000
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def _mcap_bomb(ctx: Ctx, W: Path, rel: str = "plan/trajectory.mcap", declared: int = 3_000_000_000) -> None:
+    """An MCAP whose one chunk declares 3 GB uncompressed (zstd of zeros: a few kB on disk)."""
+    import struct
+
+    import zstandard
+
+    def record(op: int, body: bytes) -> bytes:
+        return bytes([op]) + struct.pack("<Q", len(body)) + body
+
+    def text(s: str) -> bytes:
+        return struct.pack("<I", len(s)) + s.encode()
+    payload = zstandard.ZstdCompressor(level=19).compressobj()
+    compressed = b""
+    chunk = b"\0" * (1 << 24)
+    for _ in range(max(1, declared // len(chunk) // 64)):  # 47 MB of zeros: the bytes; the header claims more
+        compressed += payload.compress(chunk)
+    compressed += payload.flush()
+    header = record(0x01, text("ros2") + text("jethr1-plan"))
+    body = struct.pack("<QQQI", 0, 0, declared, 0) + text("zstd") + struct.pack("<Q", len(compressed)) + compressed
+    data = MCAP_MAGIC + header + record(0x06, body) + record(0x0F, b"") + record(0x02, struct.pack("<QQI", 0, 0, 0)) \
+        + MCAP_MAGIC
+    (W / rel).write_bytes(data)
+
+
+def _cut(rel: str, keep: float) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        p = W / rel
+        data = p.read_bytes()
+        p.write_bytes(data[:int(len(data) * keep)])
+    return make
+
+
+def _copy_file(src_rel: str, dst_rel: str) -> Callable[[Ctx, Path], None]:
+    def make(ctx: Ctx, W: Path) -> None:
+        shutil.copyfile(W / src_rel, W / dst_rel)
+    return make
+
+
+HOST = hashlib.sha1(socket.gethostname().encode()).hexdigest()[:8]  # as jethr1 names its staging folders
+
+
+def _staging_like(rel: str) -> Callable[[Ctx, Path], None]:
+    """A user's folder named like a staging folder of a process that has ended, holding the user's files."""
+    def make(ctx: Ctx, W: Path) -> None:
+        d = W / rel
+        d.mkdir(parents=True)
+        (d / "notes.txt").write_text(USER)
+        (d / "summary.json").write_text(USER)
+    return make
+
+
+def _knee(urdf: str, attrs: str) -> str:
+    m = re.search(r'<joint name="left_knee" type="revolute">', urdf)
+    assert m, "no knee"
+    return urdf.replace('<joint name="left_knee" type="revolute">', f'<joint name="left_knee" {attrs}>')
+
+
+def _mass(urdf: str, link: str, value: str) -> str:
+    m = re.search(rf'<link name="{link}">.*?<mass value="([^"]+)"', urdf, re.S)
+    assert m, link
+    return urdf[:m.start(1)] + value + urdf[m.end(1):]
+
+
+def _mesh(urdf: str, filename: str) -> str:
+    i = urdf.index("<visual>")
+    return urdf[:i] + f'<visual><geometry><mesh filename="{filename}"/></geometry></visual>' + urdf[i:]
+
+
+def _entity(urdf: str) -> str:
+    head, rest = urdf.split("<robot", 1)
+    return head + '<!DOCTYPE robot [<!ENTITY m "0.35">]>\n<robot' + rest
+
+
+def _long(n: int = 300) -> str:
+    return "x" * n
+
+
+# 1. data loss: outputs over a user's files, inputs among outputs, staging-like folders, special outputs
+
+_USER_OUT = {  # command: (its argv with -o {W}/o, the user's file that shares an output's name)
+    "balance-space": (["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/o"], "o/summary.json"),
+    "balance-space.png": (["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/o"], "o/balance_space.png"),
+    "batch": (["batch", SIDE, "-j", "1", NP, "-o", "{W}/o"], "o/summary.json"),
+    "compare": (["compare", SIDE, "--methods", "sqp", NP, "-o", "{W}/o"], "o/compare.json"),
+    "ditch-curve.png": (["ditch-curve", *FAST_DITCH, "-j", "1", NP, "-o", "{W}/o"], "o/ditch_curve.png"),
+    "ditch-curve.json": (["ditch-curve", *FAST_DITCH, "-j", "1", NP, "-o", "{W}/o"], "o/ditch_curve.json"),
+    "walk-sweep": (["walk-sweep", WALK, *FAST_SWEEP, "-j", "1", NP, "-o", "{W}/o"], "o/walk_sweep.csv"),
+    "plan": (["plan", SIDE, NP, "-o", "{W}/o"], "o/side_step/trajectory.csv"),
+    "plan.summary": (["plan", SIDE, NP, "-o", "{W}/o"], "o/side_step/summary.json"),
+    "walk": (["walk", WALK, "--no-rehearse", "-o", "{W}/o"], "o/jethr1_walk/yaw.png"),
+    "replan-steps": (["replan-steps", SIDE, NP, "-o", "{W}/o"], "o/side_step/replan_steps.json"),
+    "route": (["route", TERRAIN, "--cache", "{CACHE}", NP, "-o", "{W}/o"], "o/jet_hr1_trial/route.png"),
+    "terrain": (["terrain", "random", "--seed", "1", "-o", "{W}/o/t.yaml"], "o/t.yaml"),
+    "view": (["view", "{W}/plan", "--save", "{W}/o/x.rrd"], "o/x.rrd"),
+}
+for _name, (_argv, _user) in _USER_OUT.items():
+    probe37(f"data.user-file.{_name}", f"{_name}: a user's {Path(_user).name} inside -o",
+            Probe("data loss", _argv, setup=_all(_text(_user, USER), *([_plan()] if _name == "view" else [])),
+                  keep=(_user,), timeout=60))
+
+probe37("data.user-file.simulate", "simulate: a user's simulation.mcap in the plan folder",
+        Probe("data loss", ["simulate", "{W}/plan", NP], setup=_all(_plan(), _text("plan/simulation.mcap", USER)),
+              keep=("plan/simulation.mcap",), timeout=60))
+probe37("data.user-file.plan-owned-not-written", "plan: a user's simulation.json in the folder re-planned",
+        Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], expect=(0, 2),
+              setup=_all(_text("o/side_step/simulation.json", USER)), keep=("o/side_step/simulation.json",),
+              outputs=("o/side_step/*", "o/side_step"), limit_s=60, timeout=90))
+
+_INPUT_OUT = {  # the input sits in the output folder under an output's name
+    "plan.csv": (["plan", "{W}/o/trajectory/trajectory.csv", NP, "-o", "{W}/o"], "o/trajectory/trajectory.csv", "s"),
+    "plan.summary": (["plan", "{W}/o/summary/summary.json", NP, "-o", "{W}/o"], "o/summary/summary.json", "s"),
+    "walk.summary": (["walk", "{W}/o/summary/summary.json", "--no-rehearse", "-o", "{W}/o"], "o/summary/summary.json",
+                     "w"),
+    "route.yaml": (["route", "{W}/o/route/route.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"], "o/route/route.yaml",
+                   "t"),
+    "batch.summary": (["batch", "{W}/o/summary.json", "-j", "1", NP, "-o", "{W}/o"], "o/summary.json", "s"),
+    "compare.json": (["compare", "{W}/o/compare.json", "--methods", "sqp", NP, "-o", "{W}/o"], "o/compare.json", "s"),
+    "ditch-curve.json": (["ditch-curve", "--scenario", "{W}/o/ditch_curve.json", *FAST_DITCH, "-j", "1", NP, "-o",
+                          "{W}/o"], "o/ditch_curve.json", "s"),
+    "walk-sweep.json": (["walk-sweep", "{W}/o/walk_sweep.json", *FAST_SWEEP, "-j", "1", NP, "-o", "{W}/o"],
+                        "o/walk_sweep.json", "w"),
+    "replan-steps.json": (["replan-steps", "{W}/o/side_step/replan_steps.json", NP, "-o", "{W}/o"],
+                          "o/side_step/replan_steps.json", "s"),
+}
+_SOURCES = {"s": SIDE, "w": WALK, "t": TERRAIN}
+for _name, (_argv, _input, _kind) in _INPUT_OUT.items():
+    probe37(f"data.input-is-output.{_name}", f"{_name.split('.')[0]}: the input is {_input} (an output's name)",
+            Probe("data loss", _argv, setup=_copy(_input, _SOURCES[_kind]), keep=(_input,), timeout=90))
+
+for _where in (f"o/.jethr1-tmp-99999-{HOST}-abc", f"o/side_step/.jethr1-tmp-99999-{HOST}-abc",
+               "o/.side_step.tmp-99999-abc", "o/.side_step.old-99999-abc", f".jethr1-tmp-99999-{HOST}-abc"):
+    probe37(f"data.staging-like.{_where.replace('/', '_').replace(HOST, 'HOST')}",
+            f"plan: a user's folder {_where} holding notes.txt",
+            Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], expect=(0, 2),
+                  setup=_all(_staging_like(_where), _mkdir("o/side_step") if "side_step/" in _where else _mkdir("o")),
+                  outputs=("o/side_step", "o/side_step/trajectory.*", "o/side_step/summary.json", "o/side_step/.jethr1*"),
+                  keep=(f"{_where}/notes.txt", f"{_where}/summary.json"), limit_s=60, timeout=90))
+probe37("data.staging-like.balance-space", "balance-space: a user's folder named like a staging folder in -o",
+        Probe("data loss", ["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/o"], expect=(0, 2),
+              setup=_staging_like(f"o/.jethr1-tmp-99999-{HOST}-abc"),
+              outputs=("o/balance_space.*", "o/summary.json", "o/.jethr1*"),
+              keep=(f"o/.jethr1-tmp-99999-{HOST}-abc/notes.txt", f"o/.jethr1-tmp-99999-{HOST}-abc/summary.json"),
+              limit_s=60, timeout=90))
+
+probe37("data.terrain.symlink", "terrain -o a symbolic link to a user's file",
+        Probe("data loss", ["terrain", "random", "--seed", "1", "-o", "{W}/link.yaml"],
+              setup=_all(_text("victim.txt", USER), _symlink("link.yaml", "{W}/victim.txt")), keep=("victim.txt",
+                                                                                                     "link.yaml")))
+probe37("data.terrain.fifo", "terrain -o a FIFO",
+        Probe("data loss", ["terrain", "random", "--seed", "1", "-o", "{W}/pipe"], setup=_fifo("pipe"), keep=("pipe",),
+              timeout=15))
+probe37("data.terrain.dev-null", "terrain -o /dev/null",
+        Probe("data loss", ["terrain", "random", "--seed", "1", "-o", "/dev/null"], expect=(0, 2),
+              judge=lambda W, o: "" if stat.S_ISCHR(os.stat("/dev/null").st_mode) else "/dev/null replaced"))
+probe37("data.terrain.dangling", "terrain -o a dangling symbolic link",
+        Probe("data loss", ["terrain", "random", "--seed", "1", "-o", "{W}/dangling.yaml"],
+              setup=_symlink("dangling.yaml", "{W}/nowhere/x.yaml"), keep=("dangling.yaml",)))
+probe37("data.plan.summary-symlink", "plan: summary.json in the folder is a symbolic link to a user's file",
+        Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"],
+              setup=_all(_text("victim.txt", USER), _symlink("o/side_step/summary.json", "{W}/victim.txt")),
+              keep=("victim.txt", "o/side_step/summary.json"), timeout=60))
+probe37("data.plan.mcap-is-folder", "plan: trajectory.mcap in the folder is a folder (of the user's)",
+        Probe("traceback", ["plan", SIDE, NP, "-o", "{W}/o"], setup=_mkdir("o/side_step/trajectory.mcap"),
+              keep=("o/side_step/trajectory.mcap/mine.txt",), timeout=60))
+probe37("data.plan.csv-is-fifo", "plan: trajectory.csv in the folder is a FIFO",
+        Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], setup=_fifo("o/side_step/trajectory.csv"),
+              keep=("o/side_step/trajectory.csv",), timeout=60))
+probe37("data.balance-space.csv-is-folder", "balance-space: balance_space.csv in -o is a folder",
+        Probe("traceback", ["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/o"], setup=_mkdir("o/balance_space.csv"),
+              keep=("o/balance_space.csv/mine.txt",), timeout=60))
+probe37("data.simulate.json-is-folder", "simulate: simulation.json in the plan folder is a folder",
+        Probe("traceback", ["simulate", "{W}/plan", NP], setup=_all(_plan(), _mkdir("plan/simulation.json")),
+              keep=("plan/simulation.json/mine.txt",), timeout=60))
+probe37("data.compare.symlink", "compare: compare.json in -o is a symbolic link to a user's file",
+        Probe("data loss", ["compare", SIDE, "--methods", "sqp", NP, "-o", "{W}/o"],
+              setup=_all(_text("victim.txt", USER), _symlink("o/compare.json", "{W}/victim.txt")),
+              keep=("victim.txt", "o/compare.json"), timeout=60))
+probe37("data.batch.summary-is-folder", "batch: summary.json in -o is a folder",
+        Probe("traceback", ["batch", SIDE, "-j", "1", NP, "-o", "{W}/o"], setup=_mkdir("o/summary.json"),
+              keep=("o/summary.json/mine.txt",), timeout=60))
+probe37("data.replan-steps.name-up", "replan-steps: a scenario name: ../escape",
+        Probe("silent accept", ["replan-steps", "{W}/s.yaml", NP, "-o", "{W}/o/deep"],
+              setup=_scenario("s.yaml", lambda d: d.update(name="../../escape")), timeout=60))
+probe37("data.replan-steps.name-absolute", "replan-steps: a scenario name that is an absolute path",
+        Probe("silent accept", ["replan-steps", "{W}/s.yaml", NP, "-o", "{W}/o"],
+              setup=lambda ctx, W: _scenario("s.yaml", lambda d: d.update(name=str(W / "abs")))(ctx, W), timeout=60))
+for _name, _argv in {
+    "plan": ["plan", SIDE, NP, "-o", "{W}/" + _long()],
+    "plan.deep": ["plan", SIDE, NP, "-o", "{W}/o/" + _long() + "/x"],
+    "balance-space": ["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/" + _long()],
+    "walk": ["walk", WALK, "--no-rehearse", "-o", "{W}/" + _long()],
+    "compare": ["compare", SIDE, "--methods", "sqp", NP, "-o", "{W}/" + _long()],
+    "ditch-curve": ["ditch-curve", *FAST_DITCH, "-j", "1", NP, "-o", "{W}/" + _long()],
+    "batch": ["batch", SIDE, "-j", "1", NP, "-o", "{W}/" + _long()],
+    "walk-sweep": ["walk-sweep", WALK, *FAST_SWEEP, "-j", "1", NP, "-o", "{W}/" + _long()],
+    "terrain": ["terrain", "random", "--seed", "1", "-o", "{W}/" + _long() + ".yaml"],
+    "view": ["view", "{W}/plan", "--save", "{W}/" + _long() + ".rrd"],
+    "scenario": ["plan", "{W}/" + _long(260) + ".yaml", NP, "-o", "{W}/o"],
+}.items():
+    probe37(f"data.long-name.{_name}", f"{_name}: a path component of 300 characters",
+            Probe("traceback", _argv, setup=_plan() if _name == "view" else None, timeout=60))
+
+
+# 2. hangs: a FIFO (or a device) where a file is read
+
+_FIFO_IN = {
+    "plan": ["plan", "{W}/in.yaml", NP, "-o", "{W}/o"],
+    "compare": ["compare", "{W}/in.yaml", "--methods", "sqp", NP, "-o", "{W}/o"],
+    "batch": ["batch", "{W}/in.yaml", "-j", "1", NP, "-o", "{W}/o"],
+    "batch.manifest": ["batch", "--manifest", "{W}/in.yaml", "-j", "1", NP, "-o", "{W}/o"],
+    "replan-steps": ["replan-steps", "{W}/in.yaml", NP, "-o", "{W}/o"],
+    "ditch-curve": ["ditch-curve", "--scenario", "{W}/in.yaml", *FAST_DITCH, "-j", "1", NP, "-o", "{W}/o"],
+    "walk": ["walk", "{W}/in.yaml", "--no-rehearse", "-o", "{W}/o"],
+    "walk-sweep": ["walk-sweep", "{W}/in.yaml", *FAST_SWEEP, "-j", "1", NP, "-o", "{W}/o"],
+    "route": ["route", "{W}/in.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+    "verify": ["verify", "{W}/in.yaml"],
+    "verify.scenario": ["verify", "{W}/plan", "--scenario", "{W}/in.yaml"],
+    "view": ["view", "{W}/in.yaml", "--save", "{W}/x.rrd"],
+    "robot-show": ["robot", "show", "{W}/in.yaml"],
+    "balance-space.robot": ["balance-space", "--robot", "{W}/in.yaml", *SMALL_BALANCE, NP, "-o", "{W}/o"],
+    "reach.robot": ["reach", "--robot", "{W}/in.yaml"],
+}
+for _name, _argv in _FIFO_IN.items():
+    probe37(f"hang.fifo.{_name}", f"{_name}: a FIFO as its input",
+            Probe("hang", _argv, setup=_all(_fifo("in.yaml"), *([_plan()] if "scenario" in _name else [])),
+                  timeout=15, not_in_message=r"[Nn]o such file|missing"))
+for _name, (_argv, _setup) in {
+    "simulate.csv": (["simulate", "{W}/plan", NP], lambda ctx, W: (_plan()(ctx, W), (W / "plan/trajectory.csv").unlink(),
+                                                                   os.mkfifo(W / "plan/trajectory.csv"))),
+    "simulate.summary": (["simulate", "{W}/plan", NP], lambda ctx, W: (_plan()(ctx, W), (W / "plan/summary.json").unlink(),
+                                                                       os.mkfifo(W / "plan/summary.json"))),
+    "verify.mcap": (["verify", "{W}/plan"], lambda ctx, W: (_plan()(ctx, W), (W / "plan/trajectory.mcap").unlink(),
+                                                            os.mkfifo(W / "plan/trajectory.mcap"))),
+    "scenario.robot": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"],
+                       lambda ctx, W: (_fifo("r.yaml")(ctx, W),
+                                       _scenario("s.yaml", lambda d: d.update(robot=str(W / "r.yaml")))(ctx, W))),
+    "robot.urdf": (["robot", "show", "{W}/r/jethr1.yaml"],
+                   lambda ctx, W: (_robot("r")(ctx, W), (W / "r/jethr1.urdf").unlink(), os.mkfifo(W / "r/jethr1.urdf"))),
+    "walk.robot": (["walk", "{W}/w.yaml", "--no-rehearse", "-o", "{W}/o"],
+                   lambda ctx, W: (_fifo("r.yaml")(ctx, W), _text("w.yaml", _walk_yaml(
+                       lambda d: d.update(robot=str(W / "r.yaml"))))(ctx, W))),
+}.items():
+    probe37(f"hang.fifo.{_name}", f"{_name.split('.')[0]}: a FIFO as {_name.split('.')[1]}",
+            Probe("hang", _argv, setup=_setup, timeout=15, not_in_message=r"[Nn]o such file|missing"))
+for _name, _argv in {
+    "plan.dev-zero": ["plan", "/dev/zero", NP, "-o", "{W}/o"],
+    "plan.dev-null": ["plan", "/dev/null", NP, "-o", "{W}/o"],
+    "batch.manifest-dev-zero": ["batch", "--manifest", "/dev/zero", "-j", "1", NP, "-o", "{W}/o"],
+    "route.dev-zero": ["route", "/dev/zero", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+    "walk.dev-urandom": ["walk", "/dev/urandom", "--no-rehearse", "-o", "{W}/o"],
+    "verify.dev-zero": ["verify", "/dev/zero"],
+    "view.dev-zero": ["view", "/dev/zero", "--save", "{W}/x.rrd"],
+    "compare.dev-zero": ["compare", "/dev/zero", "--methods", "sqp", NP, "-o", "{W}/o"],
+}.items():
+    probe37(f"hang.device.{_name}", f"{_name.split('.')[0]}: a device as its input",
+            Probe("hang", _argv, timeout=15, not_in_message=r"[Nn]o such file|missing"))
+
+
+# 3. resources: giant files, bombs, sizes that run for minutes
+
+for _name, (_argv, _setup) in {
+    "verify.sparse-csv": (["verify", "{W}/plan"], _all(_plan(), _sparse("plan/trajectory.csv", 2_500_000_000))),
+    "simulate.sparse-csv": (["simulate", "{W}/plan", NP], _all(_plan(), _sparse("plan/trajectory.csv", 2_500_000_000))),
+    "verify.lone-sparse-csv": (["verify", "{W}/trajectory.csv"], _sparse("trajectory.csv", 2_500_000_000)),
+    "verify.sparse-mcap": (["verify", "{W}/plan"], _all(_plan(), _sparse("plan/trajectory.mcap", 3_000_000_000))),
+    "simulate.sparse-mcap": (["simulate", "{W}/plan", NP], _all(_plan(), _sparse("plan/trajectory.mcap",
+                                                                                   3_000_000_000))),
+    "verify.mcap-bomb": (["verify", "{W}/plan"], _all(_plan(), _mcap_bomb)),
+    "simulate.mcap-bomb": (["simulate", "{W}/plan", NP], _all(_plan(), _mcap_bomb)),
+    "verify.lone-mcap-bomb": (["verify", "{W}/plan/trajectory.mcap"], _all(_plan(), _mcap_bomb)),
+    "view.mcap-bomb": (["view", "{W}/plan", "--save", "{W}/x.rrd"], _all(_plan(), _mcap_bomb)),
+    "verify.sparse-summary": (["verify", "{W}/plan"], _all(_plan(), _sparse("plan/summary.json", 2_500_000_000))),
+    "plan.sparse-scenario": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _sparse("s.yaml", 2_500_000_000)),
+    "batch.sparse-manifest": (["batch", "--manifest", "{W}/m.yaml", "-j", "1", NP, "-o", "{W}/o"],
+                              _sparse("m.yaml", 2_500_000_000)),
+    "robot-show.mesh-3gb": (["robot", "show", "{W}/r/jethr1.yaml"],
+                            _all(_robot("r", urdf_edit=lambda u: _mesh(u, "big.stl")), _sparse("r/big.stl",
+                                                                                                3_000_000_000))),
+    "plan.mesh-3gb": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"],
+                      lambda ctx, W: (_robot("r", urdf_edit=lambda u: _mesh(u, str(W / "r/big.stl")))(ctx, W),
+                                      _sparse("r/big.stl", 3_000_000_000)(ctx, W),
+                                      _scenario("s.yaml", lambda d: d.update(robot=str(W / "r/jethr1.yaml")))(ctx, W))),
+    "robot-show.sparse-urdf": (["robot", "show", "{W}/r/jethr1.yaml"],
+                               lambda ctx, W: (_robot("r")(ctx, W), _sparse("r/jethr1.urdf", 3_000_000_000)(ctx, W))),
+    "route.sparse-cache": (["route", TERRAIN, "--cache", "{W}/cache", NP, "-o", "{W}/o"],
+                           lambda ctx, W: [_sparse(f"cache/{p.relative_to(ctx.cache())}", 3_000_000_000)(ctx, W)
+                                           for p in ctx.cache().rglob("*.npz")]),
+    "plan.ga-limits": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", lambda d: d.update(optimiser={
+        "method": "gas", "initial": {"population": 10000, "generations": 10000},
+        "intermediate": {"population": 10000, "generations": 10000}}))),
+    "compare.ga-limits": (["compare", "{W}/s.yaml", "--methods", "ga", NP, "-o", "{W}/o"],
+                          _scenario("s.yaml", lambda d: d.update(optimiser={
+                              "method": "gas", "initial": {"population": 10000, "generations": 10000}}))),
+    "ditch-curve.500-scales": (["ditch-curve", "--gaps", "0.30:0.30:0.01", "--scales",
+                                ",".join(f"{k / 100:g}" for k in range(500)), NP, "-o", "{W}/o"], None),
+    "ditch-curve.200-gaps": (["ditch-curve", "--gaps", "0.005:1:0.005", "--scales", "0,1,2", NP, "-o", "{W}/o"],
+                             None),
+    "compare.1000-yaw-modes": (["compare", SIDE, "--methods", "sqp", "--yaw-modes", ",".join(["eq4", "mpc"] * 500), NP,
+                                "-o", "{W}/o"], None),
+    "route.tiny-spacing": (["route", "{W}/t.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+                           _text("t.yaml", _terrain_yaml(lambda d: d.update(route={**d.get("route", {}),
+                                                                                   "foothold_spacing_m": 0.005})))),
+    "route.tiny-map": (["route", "{W}/t.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+                       _text("t.yaml", _terrain_yaml(lambda d: d.update(route={**d.get("route", {}),
+                                                                               "map_resolution_m": 0.005})))),
+    "balance-space.resolution-0.003": (["balance-space", "--resolution", "0.003", NP, "-o", "{W}/o"], None),
+    "balance-space.resolution-0.005-wide": (["balance-space", "--resolution", "0.005", "--x-range", "-1", "1",
+                                             "--y-range", "-1", "1", NP, "-o", "{W}/o"], None),
+    "simulate.trials-10000": (["simulate", "{W}/plan", "--trials", "10000", NP], _plan()),
+    "walk-sweep.many": (["walk-sweep", WALK, "--steps-m", "0.01:2:0.01", NP, "-o", "{W}/o"], None),
+    "plan.samples-1000-steps-50": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario(
+        "s.yaml", lambda d: d["steps"][0]["path"].update(samples=1000))),
+}.items():
+    probe37(f"resource.{_name}", _name.replace(".", ": ", 1), Probe("resource", _argv, setup=_setup, timeout=30))
+
+
+# 4. tracebacks: integers of 5,000 digits and keys of mixed types in every YAML reader; and the rest
+
+def _yaml_cases() -> dict[str, tuple[list[str], Callable[[Ctx, Path], None]]]:
+    side = (ROOT / "configs" / "side_step.yaml").read_text()
+    walk = (ROOT / "configs" / "walks" / "jethr1_walk.yaml").read_text()
+    terrain = (ROOT / "configs" / "terrains" / "jet_hr1_trial.yaml").read_text()
+    robot_yaml = (ROOT / "robots" / "jethr1" / "jethr1.yaml").read_text()
+    out: dict[str, tuple[list[str], Callable[[Ctx, Path], None]]] = {}
+    for kind, doc, argv in (("scenario", side, ["plan", "{W}/in.yaml", NP, "-o", "{W}/o"]),
+                            ("compare", side, ["compare", "{W}/in.yaml", "--methods", "sqp", NP, "-o", "{W}/o"]),
+                            ("ditch-curve", side, ["ditch-curve", "--scenario", "{W}/in.yaml", *FAST_DITCH, NP,
+                                                   "-o", "{W}/o"]),
+                            ("batch", side, ["batch", "{W}/in.yaml", "-j", "1", NP, "-o", "{W}/o"]),
+                            ("replan-steps", side, ["replan-steps", "{W}/in.yaml", NP, "-o", "{W}/o"]),
+                            ("walk", walk, ["walk", "{W}/in.yaml", "--no-rehearse", "-o", "{W}/o"]),
+                            ("walk-sweep", walk, ["walk-sweep", "{W}/in.yaml", *FAST_SWEEP, NP, "-o", "{W}/o"]),
+                            ("terrain", terrain, ["route", "{W}/in.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"])):
+        out[f"{kind}.big-int-seed"] = (argv, _text("in.yaml", re.sub(r"\nseed: \d+", f"\nseed: {BIG_INT}", doc)
+                                                   if "\nseed:" in doc else doc + f"\nseed: {BIG_INT}\n"))
+        out[f"{kind}.big-int-key"] = (argv, _text("in.yaml", doc + f"\n{BIG_INT}: 1\n"))
+        out[f"{kind}.mixed-keys"] = (argv, _text("in.yaml", doc + "\n1: x\nzz: y\n"))
+        out[f"{kind}.mixed-keys-nested"] = (argv, _text("in.yaml", doc + "\nextra:\n  1: 2\n  zz: 3\n"))
+        out[f"{kind}.null-key"] = (argv, _text("in.yaml", doc + "\n~: x\n"))
+        out[f"{kind}.big-int-value"] = (argv, _text("in.yaml", re.sub(r"(rate_hz|control_hz): [\d.]+",
+                                                                      rf"\1: {BIG_INT}", doc)))
+    out["robot.big-int"] = (["robot", "show", "{W}/r/jethr1.yaml"],
+                            _text("r/jethr1.yaml", robot_yaml.replace("stall_torque_nm:", f"x: {BIG_INT}\n  "
+                                                                      "stall_torque_nm:", 1)))
+    out["robot.mixed-keys"] = (["robot", "show", "{W}/r/jethr1.yaml"], _text("r/jethr1.yaml",
+                                                                             robot_yaml + "\n1: x\nzz: y\n"))
+    out["robot.big-int-key"] = (["robot", "show", "{W}/r/jethr1.yaml"],
+                                _text("r/jethr1.yaml", robot_yaml + f"\n{BIG_INT}: 1\n"))
+    out["manifest.big-int"] = (["batch", "--manifest", "{W}/m.yaml", "-j", "1", NP, "-o", "{W}/o"],
+                               _text("m.yaml", f"scenarios: [{BIG_INT}]\n"))
+    out["manifest.mixed-keys"] = (["batch", "--manifest", "{W}/m.yaml", "-j", "1", NP, "-o", "{W}/o"],
+                                  _text("m.yaml", "1: x\nscenarios: [a.yaml]\n"))
+    out["manifest.not-yaml"] = (["batch", "--manifest", "{W}/m.yaml", "-j", "1", NP, "-o", "{W}/o"],
+                                _text("m.yaml", b"\xff\xfe\x00junk"))
+    for cmd in ("verify", "simulate"):
+        extra = [NP] if cmd == "simulate" else []
+        out[f"summary-yaml.{cmd}.big-int"] = ([cmd, "{W}/plan", *extra], _all(_plan(), _summary(
+            "plan", lambda s: (s.update(scenario_yaml=s["scenario_yaml"] + f"\n{BIG_INT}: 1\n"),
+                               s.update(scenario_file="/nowhere.yaml")))))
+        out[f"summary-yaml.{cmd}.mixed-keys"] = ([cmd, "{W}/plan", *extra], _all(_plan(), _summary(
+            "plan", lambda s: (s.update(scenario_yaml=s["scenario_yaml"] + "\n1: x\nzz: y\n"),
+                               s.update(scenario_file="/nowhere.yaml")))))
+        out[f"summary.{cmd}.nan-rate"] = ([cmd, "{W}/plan", *extra], _all(_plan(), _summary_text(
+            "plan", lambda t: re.sub(r'"rate_hz": [\d.]+', '"rate_hz": NaN', t))))
+        out[f"summary.{cmd}.inf-rate"] = ([cmd, "{W}/plan", *extra], _all(_plan(), _summary_text(
+            "plan", lambda t: re.sub(r'"rate_hz": [\d.]+', '"rate_hz": Infinity', t))))
+        out[f"summary.{cmd}.big-int-rows"] = ([cmd, "{W}/plan", *extra], _all(_plan(), _summary_text(
+            "plan", lambda t: re.sub(r'"row_count": \d+', f'"row_count": {BIG_INT}', t))))
+    return out
+
+
+for _name, (_argv, _setup) in _yaml_cases().items():
+    probe37(f"traceback.{_name}", _name.replace(".", ": ", 1), Probe("traceback", _argv, setup=_setup, timeout=30))
+
+for _name, (_argv, _setup, _expect) in {
+    "rate-1e-9.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"],
+                       _scenario("s.yaml", lambda d: d["timing"].update(rate_hz=1e-9)), (2,)),
+    "continuous-knee.robot-show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                                   _robot("r", urdf_edit=lambda u: _knee(u, 'type="continuous"')), (2,)),
+    "continuous-knee.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], lambda ctx, W: (
+        _robot("r", urdf_edit=lambda u: _knee(u, 'type="continuous"'))(ctx, W),
+        _scenario("s.yaml", lambda d: d.update(robot=str(W / "r/jethr1.yaml")))(ctx, W)), (2,)),
+    "continuous-knee.reach": (["reach", "--robot", "{W}/r/jethr1.yaml"],
+                              _robot("r", urdf_edit=lambda u: _knee(u, 'type="continuous"')), (2,)),
+    "prismatic-knee.robot-show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                                  _robot("r", urdf_edit=lambda u: _knee(u, 'type="prismatic"')), (2,)),
+    "view-save-missing-folder": (["view", "{W}/plan", "--save", "{W}/missing/deeper/x.rrd"], _plan(), (0, 2)),
+    "route.corrupt-cache": (["route", TERRAIN, "--cache", "{W}/cache", NP, "-o", "{W}/o"],
+                            lambda ctx, W: [_text(f"cache/{p.relative_to(ctx.cache())}", b"PK\x03\x04junk")(ctx, W)
+                                            for p in ctx.cache().rglob("*.npz")], (0, 2)),
+    "route.cache-is-file": (["route", TERRAIN, "--cache", "{W}/cache", NP, "-o", "{W}/o"],
+                            _text("cache", USER), (2,)),
+}.items():
+    probe37(f"traceback.{_name}", _name.replace(".", ": ", 1),
+            Probe("traceback", _argv, setup=_setup, expect=_expect, timeout=60,
+                  outputs=("missing", "missing/*", "o", "o/*", "o/*/*", "cache/*", "cache/*/*")))
+
+
+# 5. silent accepts
+
+def _rate(r: float) -> Callable[[dict], None]:
+    return lambda d: d["timing"].update(rate_hz=r)
+
+
+for _name, (_argv, _setup) in {
+    "rate-0.01.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", _rate(0.01))),
+    "rate-0.01.compare": (["compare", "{W}/s.yaml", "--methods", "sqp", NP, "-o", "{W}/o"],
+                          _scenario("s.yaml", _rate(0.01))),
+    "rate-0.01.ditch-curve": (["ditch-curve", "--scenario", "{W}/s.yaml", *FAST_DITCH, NP, "-o", "{W}/o"],
+                              _scenario("s.yaml", _rate(0.01))),
+    "rate-1e-9.compare": (["compare", "{W}/s.yaml", "--methods", "sqp", NP, "-o", "{W}/o"],
+                          _scenario("s.yaml", _rate(1e-9))),
+    "rate-1e-9.ditch-curve": (["ditch-curve", "--scenario", "{W}/s.yaml", *FAST_DITCH, NP, "-o", "{W}/o"],
+                              _scenario("s.yaml", _rate(1e-9))),
+    "rate-0.01.batch": (["batch", "{W}/s.yaml", "-j", "1", NP, "-o", "{W}/o"], _scenario("s.yaml", _rate(0.01))),
+    "rate-0.01.replan-steps": (["replan-steps", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", _rate(0.01))),
+    "rate-0.01.route": (["route", "{W}/t.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+                        _text("t.yaml", _terrain_yaml(_rate(0.01)))),
+    "rate-2.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", _rate(2.0))),
+    "swing-0.01s.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"],
+                         _scenario("s.yaml", lambda d: d["timing"].update(swing_s=0.01))),
+    "walk.control-1hz": (["walk", "{W}/w.yaml", "--no-rehearse", "-o", "{W}/o"],
+                         _text("w.yaml", _walk_yaml(lambda d: d["timing"].update(control_hz=1)))),
+    "simulate.mcap-cut": (["simulate", "{W}/plan", NP], _all(_plan(), _cut("plan/trajectory.mcap", 0.5))),
+    "simulate.mcap-empty": (["simulate", "{W}/plan", NP], _all(_plan(), _text("plan/trajectory.mcap", b""))),
+    "simulate.mcap-junk": (["simulate", "{W}/plan", NP], _all(_plan(), _text("plan/trajectory.mcap", b"junk" * 1000))),
+    "simulate.mcap-of-a-walk": (["simulate", "{W}/plan", NP], _all(_plan(), _plan("walk", "walk"),
+                                                                    _copy_file("walk/trajectory.mcap",
+                                                                               "plan/trajectory.mcap"))),
+    "simulate.mcap-of-another-plan": (["simulate", "{W}/plan", NP], _all(_plan(), _plan("other", "other"),
+                                                                          _copy_file("other/trajectory.mcap",
+                                                                                     "plan/trajectory.mcap"))),
+    "simulate.csv-of-another-plan": (["simulate", "{W}/plan", NP], _all(_plan(), _plan("other", "other"),
+                                                                         _copy_file("other/trajectory.csv",
+                                                                                    "plan/trajectory.csv"))),
+    "simulate.another-scenario": (["simulate", "{W}/plan", NP], _all(_plan(), _summary("plan", lambda s: (
+        s.update(scenario_file=str(ROOT / "configs" / "forward_ditch_robust.yaml")))))),
+    "simulate.another-scenario-yaml": (["simulate", "{W}/plan", NP], _all(_plan(), _summary("plan", lambda s: (
+        s.update(scenario_file="/nowhere.yaml",
+                 scenario_yaml=(ROOT / "configs" / "forward_ditch_robust.yaml").read_text()))))),
+    "verify.mcap-of-another-plan": (["verify", "{W}/plan"], _all(_plan(), _plan("other", "other"),
+                                                                 _copy_file("other/trajectory.mcap",
+                                                                            "plan/trajectory.mcap"))),
+    "view.mcap-of-another-plan": (["view", "{W}/plan", "--save", "{W}/x.rrd"],
+                                  _all(_plan(), _plan("other", "other"), _copy_file("other/trajectory.mcap",
+                                                                                    "plan/trajectory.mcap"))),
+    "replan-steps.name-dots": (["replan-steps", "{W}/s.yaml", NP, "-o", "{W}/o"],
+                               _scenario("s.yaml", lambda d: d.update(name=".."))),
+    "verify.nan-in-summary": (["verify", "{W}/plan"], _all(_plan(), _summary_text(
+        "plan", lambda t: re.sub(r'"max_thrust_n": [\d.]+', '"max_thrust_n": NaN', t, count=1)))),
+    "simulate.nan-in-summary": (["simulate", "{W}/plan", NP], _all(_plan(), _summary_text(
+        "plan", lambda t: re.sub(r'"max_thrust_n": [\d.]+', '"max_thrust_n": NaN', t, count=1)))),
+    "robot.shank-1e30.show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                              _robot("r", urdf_edit=lambda u: _mass(_mass(u, "left_shank", "1e30"), "right_shank",
+                                                                    "1e30"))),
+    "robot.shank-1e30.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], lambda ctx, W: (
+        _robot("r", urdf_edit=lambda u: _mass(_mass(u, "left_shank", "1e30"), "right_shank", "1e30"))(ctx, W),
+        _scenario("s.yaml", lambda d: d.update(robot=str(W / "r/jethr1.yaml")))(ctx, W))),
+    "robot.shank-0.show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                           _robot("r", urdf_edit=lambda u: _mass(_mass(u, "left_shank", "0"), "right_shank", "0"))),
+    "robot.trunk-1e-30.show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                               _robot("r", urdf_edit=lambda u: _mass(u, "trunk", "1e-30"))),
+    "robot.trunk-1e-30.walk": (["walk", "{W}/w.yaml", "--no-rehearse", "-o", "{W}/o"], lambda ctx, W: (
+        _robot("r", urdf_edit=lambda u: _mass(u, "trunk", "1e-30"))(ctx, W),
+        _text("w.yaml", _walk_yaml(lambda d: d.update(robot=str(W / "r/jethr1.yaml"))))(ctx, W))),
+    "robot.xml-entity.show": (["robot", "show", "{W}/r/jethr1.yaml"], _robot("r", urdf_edit=_entity)),
+    "robot.zero-inertia.show": (["robot", "show", "{W}/r/jethr1.yaml"], _robot("r", urdf_edit=lambda u: re.sub(
+        r'(<link name="left_shank">.*?<inertia )[^/]*/>', r'\1ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>', u,
+        count=1, flags=re.S))),
+}.items():
+    probe37(f"silent.{_name}", _name.replace(".", ": ", 1), Probe("silent accept", _argv, setup=_setup, timeout=60))
+
+
+# 6. wrong exit, leftovers, messages
+
+for _name, (_argv, _n, _after) in {
+    "simulate": (["simulate", "{W}/plan", "--trials", "6", "-j", "2", NP], 3, 4.0),
+    "batch": (["batch", SIDE, "{W}/s2.yaml", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+    "route": (["route", TERRAIN, "--cache", "{CACHE}", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+    "walk-sweep": (["walk-sweep", WALK, "--steps-m", "0.10:0.14:0.01", "--rotation", "none", "--no-rehearse",
+                    "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+    "ditch-curve": (["ditch-curve", "--gaps", "0.30:0.33:0.01", "--scales", "0", "-j", "2", NP, "-o", "{W}/o"], 3,
+                    4.0),
+    "compare-pareto": (["compare", SIDE, "--pareto", "--methods", "sqp", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+    "balance-space": (["balance-space", "--resolution", "0.05", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+}.items():
+    probe37(f"exit.kill9.{_name}", f"kill -9 {_name} once its workers run: none left",
+            Probe("exit/leftover/message", _argv, timeout=120, kill9=_procs_at_least(_n), kill9_after=_after,
+                  setup=_all(_plan(), _copy("s2.yaml", "{ROOT}/configs/forward_ditch_robust.yaml"))))
+
+
+@case("37.exit.replan-while-simulating", "plan re-writes a folder while simulate rehearses it: no stale rehearsal")
+def _(ctx: Ctx) -> dict:
+    W = ctx.fresh("p37/exit.replan-while-simulating")
+    _plan("o/side_step")(ctx, W)
+    t0 = time.perf_counter()
+    sim = _popen([ctx.jethr1, "simulate", str(W / "o" / "side_step"), "--trials", "3", "-j", "1", NP],
+                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=W)
+    time.sleep(1.5)
+    plan = _popen([ctx.jethr1, "plan", str(ROOT / "configs" / "side_step.yaml"), "--policy", "minimal", NP, "-o",
+                   str(W / "o")], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=W)
+    plan_err = plan.communicate(timeout=300)[1].decode()
+    sim_err = sim.communicate(timeout=300)[1].decode()
+    seconds = time.perf_counter() - t0
+    o = Outcome(sim.returncode, sim_err, "", seconds, 0.0, 0, None)
+    problems = [] if plan.returncode == 0 else [f"plan exit {plan.returncode}: {plan_err[-200:]}"]
+    folder = W / "o" / "side_step"
+    if (folder / "simulation.json").exists():
+        doc = json.loads((folder / "simulation.json").read_text())
+        summary = json.loads((folder / "summary.json").read_text())
+        if doc.get("plan", {}) if isinstance(doc.get("plan"), dict) else None:
+            pass
+        digests = summary.get("files")
+        if not digests or doc.get("plan_files") != digests:
+            problems.append("a rehearsal of the old plan left beside the new plan")
+    if sim.returncode == 2 and len([ln for ln in sim_err.splitlines() if ln.strip()]) != 1:
+        problems.append("simulate exit 2 with more than one line")
+    if "Traceback" in sim_err:
+        problems.append("traceback")
+    return report(o, cls="exit/leftover/message", ok=not problems, problems=problems, plan_exit=plan.returncode)
+
+
+PROBES["exit.replan-while-simulating"] = Probe("exit/leftover/message", [])
+
+for _name, (_argv, _setup) in {
+    "loop.plan": (["plan", "{W}/loop.yaml", NP, "-o", "{W}/o"], _symlink("loop.yaml", "{W}/loop.yaml")),
+    "loop.verify": (["verify", "{W}/loop"], _symlink("loop", "{W}/loop")),
+    "loop.walk": (["walk", "{W}/loop.yaml", "--no-rehearse", "-o", "{W}/o"], _symlink("loop.yaml", "{W}/loop.yaml")),
+    "loop.robot-show": (["robot", "show", "{W}/loop.yaml"], _symlink("loop.yaml", "{W}/loop.yaml")),
+    "loop.simulate": (["simulate", "{W}/loop", NP], _symlink("loop", "{W}/loop")),
+    "loop.route": (["route", "{W}/loop.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+                   _symlink("loop.yaml", "{W}/loop.yaml")),
+    "device.plan": (["plan", "/dev/zero", NP, "-o", "{W}/o"], None),
+    "fifo.verify-csv": (["verify", "{W}/trajectory.csv"], _fifo("trajectory.csv")),
+    "robot-empty.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", lambda d: d.update(robot=""))),
+    "robot-empty.walk": (["walk", "{W}/w.yaml", "--no-rehearse", "-o", "{W}/o"],
+                         _text("w.yaml", _walk_yaml(lambda d: d.update(robot="")))),
+    "robot-empty.terrain": (["route", "{W}/t.yaml", "--cache", "{CACHE}", NP, "-o", "{W}/o"],
+                            _text("t.yaml", _terrain_yaml(lambda d: d.update(robot="")))),
+    "robot-dot.plan": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], _scenario("s.yaml", lambda d: d.update(robot="."))),
+    "balance-space.robot-empty": (["balance-space", "--robot", "", *SMALL_BALANCE, NP, "-o", "{W}/o"], None),
+    "mesh-junk.robot-show": (["robot", "show", "{W}/r/jethr1.yaml"], _all(
+        _robot("r", urdf_edit=lambda u: _mesh(u, "m.stl")), _text("r/m.stl", "solid junk\n"))),
+    "mesh-missing.robot-show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                                _robot("r", urdf_edit=lambda u: _mesh(u, "none.stl"))),
+    "mesh-package.robot-show": (["robot", "show", "{W}/r/jethr1.yaml"],
+                                _robot("r", urdf_edit=lambda u: _mesh(u, "package://jethr1/m.stl"))),
+    "robot-1e30.plan-exit": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"], lambda ctx, W: (
+        _robot("r", urdf_edit=lambda u: re.sub(r'<mass value="[^"]+"', '<mass value="1e30"', u))(ctx, W),
+        _scenario("s.yaml", lambda d: d.update(robot=str(W / "r/jethr1.yaml")))(ctx, W))),
+}.items():
+    probe37(f"exit.{_name}", _name.replace(".", ": ", 1),
+            Probe("exit/leftover/message", _argv, setup=_setup, timeout=30,
+                  not_in_message=r"[Nn]o such file|missing|current folder|\.cpp|out of reach|unknown robot \(known"))
+
+
+def probe_summary(results: dict) -> str:
+    """Per class: the issue-37 cases that pass, of those run; and the names of those that fail."""
+    lines = ["| class | pass | fail |", "| --- | --- | --- |"]
+    failing = []
+    for cls in CLASSES:
+        rs = {k: r for k, r in results.items() if r.get("cls") == cls}
+        ok = sum(bool(r.get("ok")) for r in rs.values())
+        lines.append(f"| {cls} | {ok} | {len(rs) - ok} |")
+        failing += [f"  {k}: {'; '.join(r.get('problems', []))}" for k, r in rs.items() if not r.get("ok")]
+    total = [r for r in results.values() if "cls" in r]
+    lines.append(f"| all | {sum(bool(r.get('ok')) for r in total)} | {sum(not r.get('ok') for r in total)} |")
+    return "\n".join(lines + ["", "failing:", *failing])
+
+
+
 # --- main ---------------------------------------------------------------------------------------
 
 
@@ -744,9 +1627,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--work", default=None)
     ap.add_argument("--table", nargs=2, metavar=("BEFORE.json", "AFTER.json"),
                     help="print the markdown table of two runs' results and stop")
+    ap.add_argument("--summary", metavar="RESULTS.json", help="print the issue-37 counts of a run's results and stop")
     args = ap.parse_args(argv)
     if args.table:
         print(table(*(json.loads(Path(p).read_text()) for p in args.table)))
+        return
+    if args.summary:
+        print(probe_summary(json.loads(Path(args.summary).read_text())))
         return
     work = Path(args.work) if args.work else Path(tempfile.mkdtemp(prefix="safety-"))
     ctx = Ctx(args.jethr1, work, args.timeout, args.max_mb)
@@ -765,12 +1652,15 @@ def main(argv: list[str] | None = None) -> None:
             res = {"harness_error": f"{type(exc).__name__}: {exc}"}
         res = {"what": what, **res}
         results[cid] = res
-        print(f"{cid:38s} exit {res.get('exit')!s:>4s} lines {res.get('lines', '-')!s:>3s} "
+        verdict = "" if "ok" not in res else ("ok   " if res["ok"] else "FAIL ")
+        print(f"{verdict}{cid:38s} exit {res.get('exit')!s:>4s} lines {res.get('lines', '-')!s:>3s} "
               f"{'TRACEBACK ' if res.get('traceback') else ''}{res.get('stopped', '')} "
-              f"{res.get('seconds', '-')} s {res.get('peak_mb', '-')} MB  {res.get('last_line', '')[:110]}",
-              flush=True)
+              f"{res.get('seconds', '-')} s {res.get('peak_mb', '-')} MB  {res.get('last_line', '')[:110]}"
+              + (f"  [{'; '.join(res.get('problems', []))}]" if res.get("problems") else ""), flush=True)
         if args.json:
             Path(args.json).write_text(json.dumps(results, indent=1))
+    if any("cls" in r for r in results.values()):
+        print(probe_summary(results))
     if not args.work:
         shutil.rmtree(work, ignore_errors=True)
 
