@@ -29,6 +29,9 @@ __all__ = [
     "MAX_FILE_BYTES",
     "MAX_ROWS",
     "MAX_SAMPLES",
+    "MAX_ESTIMATED_S",
+    "MIN_PHASE_ROWS",
+    "MIN_RATE_HZ",
     "MAX_VALUES",
     "POLICIES",
     "ROBUST_DEFAULT",
@@ -38,8 +41,10 @@ __all__ = [
     "Scenario",
     "Step",
     "Timing",
+    "check_plan_time",
     "load_scenario",
     "load_scenario_text",
+    "plan_seconds",
 ]
 
 DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
@@ -53,6 +58,11 @@ MAX_FILE_BYTES = 1_000_000  # a scenario is a few kilobytes
 MAX_VALUES = 100_000  # values in the document, aliases expanded (a scenario has a few hundred)
 MAX_ROWS = 200_000  # output rows of a plan (rate × duration): ~200 MB of CSV and MCAP
 MAX_SAMPLES = 1000  # swing samples per step (each one is optimised)
+MIN_RATE_HZ = 10.0  # the servos and fans are commanded at least this often: a fan's lag is ~50 ms (0.1 s a row at most)
+MIN_PHASE_ROWS = 5  # rows in every swing and every transfer: a phase of fewer is not a motion the rows describe
+MAX_ESTIMATED_S = 3600.0  # a request estimated to take longer on this machine is refused before it starts [s]
+GA_EVALUATION_S = 50e-6  # the least time one GA candidate takes (a posture and its balance; measured 0.1-0.2 ms) [s]
+SQP_SAMPLE_S = 0.01  # the least time sqp takes for one swing sample (measured 0.02-0.05 s) [s]
 _num = {"type": "number", "minimum": -1e9, "maximum": 1e9}
 _pos = {"type": "number", "exclusiveMinimum": 0, "maximum": 1e9}
 _prob = {"type": "number", "minimum": 0, "maximum": 1}
@@ -73,9 +83,11 @@ _phase = _obj({"population": {"type": "integer", "minimum": 2, "maximum": 10000}
                "mutation": _prob})
 
 SCHEMA = _obj({
-    "name": {"type": "string", "maxLength": 200},
+    "name": {"type": "string", "minLength": 1, "maxLength": 100, "pattern": r"^(?!\.\.?$)[^/\\\x00-\x1f]+$",
+             "description": "a plain name: it names folders (replan-steps' OUTDIR/<name>/), so no '/', not '.' or "
+                            "'..', no control characters"},
     "description": {"type": "string", "maxLength": 5000},
-    "robot": {"type": "string", "maxLength": 1000},
+    "robot": {"type": "string", "minLength": 1, "maxLength": 1000},
     "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
     "start": _obj({"left": _vec3, "right": _vec3}, ("left", "right")),
     "terrain": _obj({
@@ -120,7 +132,7 @@ SCHEMA = _obj({
                       "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
                       "beta": {"type": "number", "minimum": 0, "maximum": 1e9}}),
     "timing": _obj({"swing_s": _duration, "transfer_s": _duration,
-                    "rate_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}}),
+                    "rate_hz": {"type": "number", "minimum": MIN_RATE_HZ, "maximum": 1000}}),
     "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
 }, ("steps",))
 
@@ -327,15 +339,59 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
     timing = fill_dataclass(Timing(), doc.get("timing", {}))
+    for key, seconds in (("swing_s", timing.swing_s), ("transfer_s", timing.transfer_s)):
+        if seconds * timing.rate_hz < MIN_PHASE_ROWS - 1e-9:
+            raise InputError(src, f"timing.{key}", f"{seconds:g} s at rate_hz {timing.rate_hz:g} is "
+                             f"{seconds * timing.rate_hz:.3g} rows: every phase needs at least {MIN_PHASE_ROWS} rows "
+                             "(raise rate_hz or the duration)")
     rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
     if rows > MAX_ROWS:
         raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
                          "(lower rate_hz or the durations)")
-    return Scenario(
+    scenario = Scenario(
         source=src, name=doc.get("name", Path(src).stem), robot=robot, seed=doc.get("seed", 0),
         start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
         body_yaw=fill_dataclass(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
         nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
+    check_plan_time(scenario, (optimiser.method,))
+    return scenario
+
+
+def plan_seconds(scenario: Scenario, method: str) -> float:
+    """A low estimate of the time one plan of ``scenario`` takes with ``method`` on one core [s]: the GA family
+    evaluates about population x generations candidates at a step's first sample (the initial phase) and at
+    every other (the intermediate phase); sqp takes a near fixed time a sample."""
+    samples = sum(len(st.path_m) for st in scenario.steps)
+    if method not in ("gas", "ga", "gaex"):
+        return samples * SQP_SAMPLE_S
+    o = scenario.optimiser
+    first = o.initial.population * o.initial.generations
+    other = o.intermediate.population * o.intermediate.generations if method != "gaex" else \
+        (2 * round(o.gaex_half_m / o.gaex_step_m) + 1) ** 3
+    return (len(scenario.steps) * first + (samples - len(scenario.steps)) * other) * GA_EVALUATION_S
+
+
+def check_plan_time(scenario: Scenario, methods: tuple[str, ...], plans: int = 1, workers: int = 1,
+                    key: str = "optimiser", what: str = "") -> None:
+    """Refuse, before it starts, a request of ``plans`` plans of ``scenario`` with each of ``methods`` on
+    ``workers`` cores estimated (:func:`plan_seconds`) to take longer than :data:`MAX_ESTIMATED_S`.
+
+    Raises:
+        InputError: naming the scenario, ``key`` and the estimate.
+    """
+    seconds = plans * sum(plan_seconds(scenario, m) for m in methods) / max(1, workers)
+    if seconds > MAX_ESTIMATED_S:
+        raise InputError(scenario.source, key, f"{what or 'the plan'} would take at least {_duration(seconds)} on "
+                         f"this machine ({'; '.join(methods)}); at most {_duration(MAX_ESTIMATED_S)} is started: "
+                         "fewer samples, a smaller population or fewer generations")
+
+
+def _duration(seconds: float) -> str:
+    if seconds >= 86400:
+        return f"{seconds / 86400:.3g} days"
+    if seconds >= 3600:
+        return f"{seconds / 3600:.3g} h"
+    return f"{seconds / 60:.3g} min" if seconds >= 60 else f"{seconds:.3g} s"
 
 
 def _check_overlaps(cartons: tuple[Carton, ...], src: str) -> None:

@@ -26,6 +26,9 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.mcap import EPOCH_NS, read_mcap
+from jethr1_plan.files.plan_folder import check_belongs
+from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
+from jethr1_plan.io.input_file import check_input_path, read_input
 
 __all__ = ["VIEW_EXTRA", "ViewFiles", "ViewerMissing", "has_display", "record", "view", "view_files"]
 
@@ -83,6 +86,7 @@ def view_files(path: Path) -> ViewFiles:
         InputError: no such path, or nothing jethr1 writes there.
     """
     path = Path(path)
+    check_input_path(path, "a plan, walk or balance-space folder, or one of their MCAP files")
     if path.is_file():
         kind = _kind(path)
         return ViewFiles(kind, [(path, "rehearsal" if kind == "rehearsal" else kind.replace(" ", "_"))])
@@ -94,6 +98,8 @@ def view_files(path: Path) -> ViewFiles:
     if not trajectory.is_file():
         raise InputError(str(path), "", "no trajectory.mcap or balance_space.mcap in this folder")
     kind = _kind(trajectory)
+    if kind == "plan":
+        check_belongs(path)  # a plan folder is one thing: its MCAP is the one its summary.json records
     out = ViewFiles(kind, [(trajectory, kind)])
     if kind == "plan" and (path / "simulation.mcap").is_file():
         out.files.append((path / "simulation.mcap", "rehearsal"))
@@ -149,8 +155,9 @@ def _read(path: Path) -> list:
     Raises:
         InputError: not a ROS 2 MCAP file.
     """
+    data = read_input(path, MAX_MCAP_BYTES, "an MCAP file")
     try:
-        return read_mcap(path.read_bytes())
+        return read_mcap(data)
     except Exception as exc:  # the mcap readers raise many kinds on a corrupt or foreign file
         raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
 

@@ -13,6 +13,8 @@ from jethr1_plan.cli.common import (
     Progress,
     cap_jobs,
     check_memory,
+    check_time,
+    cores,
     err_console,
     pair_option,
     print_json,
@@ -21,8 +23,11 @@ from jethr1_plan.cli.common import (
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.json_text import json_text
 
+MIN_RESOLUTION_M = 0.005  # a finer grid resolves nothing a plan holds to (its sole margin, its 10 mm of CoM error)
+CELL_CPU_S = 57e-6  # CPU time a cell takes (at 1 cm: 51.5 s for 906,471 cells; wider grids take longer a cell) [s]
 CELL_BYTES = 400  # memory a grid cell takes at the peak of a sweep and its files (measured: ~500 MB at 0.9 M cells)
 CELL_FILE_BYTES = 60  # bytes a cell takes in balance_space.csv and .mcap, at least
+BALANCE_SPACE_FILES = ("balance_space.csv", "balance_space.mcap", "balance_space.png", "summary.json")
 
 __all__ = ["balance_space"]
 
@@ -39,7 +44,8 @@ __all__ = ["balance_space"]
               help="Swing sole y bounds [m].")
 @click.option("--z-range", nargs=2, type=FiniteFloat(-100, 100), callback=pair_option, metavar="LOW HIGH",
               help="Swing sole z bounds [m].")
-@click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(0.001, 1.0), help="Grid step [m].")
+@click.option("--resolution", default=0.01, show_default=True, type=FiniteFloat(MIN_RESOLUTION_M, 1.0),
+              help="Grid step [m] (at least 5 mm: the sole margin, and the CoM error the plans hold, are 5-10 mm).")
 @click.option("--thrust-max", default=None, type=FiniteFloat(0.0, 1e4),
               help="F_max of every fan [N] (default: each fan's own maximum).")
 @click.option("--policy", type=click.Choice(["minimal", "robust"]), default="minimal", show_default=True,
@@ -77,6 +83,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     from jethr1_plan.files.balance_space import balance_space_mcap, balance_space_png, write_balance_space_csv
     from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.io.forked import ForkedFile, fork_available
+    from jethr1_plan.io.pool import pool_config
     from jethr1_plan.robot.model import load_robot
 
     if executor is None:
@@ -105,18 +112,20 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
         raise InputError("--sole-margin", f"{sole_margin:g}", "leaves no support polygon (sole "
                          f"{robot.sole_length_m} x {robot.sole_width_m} m)")
     cells = _check_grid(spec, (x_range, y_range, z_range))
-    check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES)
+    check_time(_grid_option(spec, (x_range, y_range, z_range)), cells * CELL_CPU_S / min(jobs, cores()),
+               f"{cells:,} cells")
+    check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES, writes=BALANCE_SPACE_FILES)
     jobs = cap_jobs(jobs)
     settings = SearchSettings()
     # the forked sweep's workers are forked before the progress bar's thread starts (balance_space.workers)
     with ForkedSweep(spec, settings, jobs) if executor == "fork" else contextlib.nullcontext() as forked, \
+            pool_config() if executor == "loky" else contextlib.nullcontext(), \
             Progress(not no_progress, f"balance space ({cells:,} cells)") as progress:
         result = sweep(spec, jobs=jobs, executor=executor, scheduler=scheduler, progress=progress, settings=settings,
                        forked=forked)
     doc = summary(result)
     doc["verified_members"] = result.extra["verified_members"]  # re-checked by PlaCo in the sweep's tasks
-    with staged_directory(outdir, frozenset({"balance_space.csv", "balance_space.mcap", "balance_space.png",
-                                             "summary.json"})) as staging:
+    with staged_directory(outdir, frozenset(BALANCE_SPACE_FILES)) as staging:
         tmp = staging.path
         # the PNG drawn by a forked child (with matplotlib, which this process never imports) beside the rest
         with ForkedFile(tmp / "balance_space.png",
@@ -161,19 +170,24 @@ def _tolerance(policy: str, thrust_error: float | None, mass_error: float | None
                      d.com_m if com_error is None else com_error)
 
 
+def _grid_option(spec, given) -> tuple[str, str]:
+    """The option that makes the grid large: the range of its longest axis where given, else --resolution."""
+    axes = spec.axes()
+    names = ("--x-range", "--y-range", "--z-range")
+    longest = int(np.argmax([len(a) for a in axes]))
+    if given[longest] is not None:
+        lo, hi = given[longest]
+        return names[longest], f"{lo:g} {hi:g}"
+    return "--resolution", f"{spec.resolution_m:g}"
+
+
 def _check_grid(spec, given) -> int:
     """The grid's cell count, after checking the memory it needs (exit 2 naming the range that makes
     it large, or --resolution where none was given)."""
     axes = spec.axes()
     cells = int(np.prod([len(a) for a in axes]))
     need = cells * CELL_BYTES
-    names = ("--x-range", "--y-range", "--z-range")
-    longest = int(np.argmax([len(a) for a in axes]))
-    if given[longest] is not None:
-        lo, hi = given[longest]
-        option, value = names[longest], f"{lo:g} {hi:g}"
-    else:
-        option, value = "--resolution", f"{spec.resolution_m:g}"
+    option, value = _grid_option(spec, given)
     check_memory(option, value, need, f"{len(axes[0])} x {len(axes[1])} x {len(axes[2])} = {cells:,} cells at "
                  f"{spec.resolution_m:g} m")
     return cells

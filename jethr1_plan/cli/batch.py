@@ -40,9 +40,15 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
     if len(set(stems)) != len(stems):
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
     require_dask(executor, scheduler)
+    from jethr1_plan.files.plan_folder import PLAN_WRITES
     from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.scenario import load_scenario
 
-    check_writable(outdir)
+    for path in paths:  # bad input is one line and nothing written: every scenario read before any is planned
+        load_scenario(path)
+    check_writable(outdir, writes=("summary.json",))
+    for stem in stems:
+        check_writable(Path(outdir) / stem, writes=PLAN_WRITES)
     jobs = cap_jobs(jobs)
     started = time.time()
     try:

@@ -18,7 +18,8 @@ from rich.console import Console
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.json_text import json_text
 
-__all__ = ["SEED", "FiniteFloat", "Progress", "StdoutError", "cap_jobs", "check_memory", "cores", "err_console",
+__all__ = ["SEED", "FiniteFloat", "Progress", "StdoutError", "cap_jobs", "check_memory", "check_time", "cores",
+           "err_console",
            "memory_available", "print_json", "range_spec", "report_kept", "stdout_errors"]
 
 err_console = Console(stderr=True)
@@ -92,6 +93,10 @@ class Progress:
 
 
 def _duration(seconds: float) -> str:
+    if seconds >= 86400:
+        return f"{seconds / 86400:.3g} days"
+    if seconds >= 3600:
+        return f"{seconds / 3600:.3g} h"
     minutes, s = divmod(int(seconds), 60)
     return f"{minutes} min {s:02d} s" if minutes else f"{s} s"
 
@@ -140,6 +145,16 @@ def check_memory(option: str, value: str, need_bytes: float, what: str) -> None:
     if need_bytes > have:
         raise InputError(option, value, f"{what} need about {_bytes(need_bytes)}; {_bytes(have)} of memory is "
                          "available")
+
+
+def check_time(option: tuple[str, str], seconds: float, what: str) -> None:
+    """Exit 2 naming ``option`` (its name and value) and the estimate where ``seconds`` (a low estimate of the
+    wall time on this machine's cores) is more than :data:`~jethr1_plan.scenario.MAX_ESTIMATED_S`."""
+    from jethr1_plan.scenario import MAX_ESTIMATED_S
+
+    if seconds > MAX_ESTIMATED_S:
+        raise InputError(option[0], option[1], f"{what} would take at least {_duration(seconds)} on this machine's "
+                         f"{cores()} cores; at most {_duration(MAX_ESTIMATED_S)} is started")
 
 
 def _bytes(n: float) -> str:

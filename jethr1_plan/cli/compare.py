@@ -7,12 +7,15 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_json
+from jethr1_plan.cli.common import SEED, Progress, cap_jobs, cores, err_console, print_json
 from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
 
 __all__ = ["compare_cmd"]
+
+COMPARE_FILES = ("compare.json", "compare_trajectories.png", "compare_time.png")
+PARETO_FILES = ("pareto.json", "pareto.png")
 
 
 @click.command("compare")
@@ -36,7 +39,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
                 no_progress) -> None:
     """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
     from jethr1_plan.io.atomic import staged_directory
-    from jethr1_plan.scenario import load_scenario
+    from jethr1_plan.scenario import check_plan_time, load_scenario
     from jethr1_plan.studies.compare import compare, comparison_pngs
 
     methods = ("gas,sqp" if pareto else "gas,ga,gaex,sqp") if methods is None else methods
@@ -49,21 +52,25 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     from jethr1_plan.scenario import YAW_MODES
 
     modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
-    if not modes or any(m not in YAW_MODES for m in modes):
-        raise InputError("--yaw-modes", yaw_modes, f"expected modes among {', '.join(YAW_MODES)}")
+    if not modes or any(m not in YAW_MODES for m in modes) or len(set(modes)) != len(modes):
+        raise InputError("--yaw-modes", yaw_modes[:60], f"expected distinct modes among {', '.join(YAW_MODES)}")
     scenario = load_scenario(scenario_path)
+    from jethr1_plan.studies.compare import PARETO_WEIGHTS
+
+    runs = max(len(PARETO_WEIGHTS.get(m, ())) for m in names) if pareto else len(modes) * (2 if reference else 1)
+    check_plan_time(scenario, names, plans=runs, workers=min(jobs, cores()) if pareto else 1, key="--methods",
+                    what=f"the comparison ({runs} plans per method)")
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
     from jethr1_plan.io.atomic import check_writable
 
-    check_writable(outdir)
+    check_writable(outdir, writes=PARETO_FILES if pareto else COMPARE_FILES)
     jobs = cap_jobs(jobs)
     if pareto:
         _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress)
         return
     with Progress(not no_progress, "compare") as progress:
         doc = compare(scenario, names, seed, reference, progress, modes)
-    with staged_directory(outdir, frozenset({"compare.json", "compare_trajectories.png", "compare_time.png"})
-                          ) as staging:
+    with staged_directory(outdir, frozenset(COMPARE_FILES)) as staging:
         tmp = staging.path
         (tmp / "compare.json").write_text(json_text(doc))
         for name, data in comparison_pngs(doc).items():
@@ -107,7 +114,7 @@ def _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress) -> None:
 
     with Progress(not no_progress, "pareto") as progress:
         doc = pareto(scenario, names, seed, jobs=jobs, progress=progress)
-    with staged_directory(outdir, frozenset({"pareto.json", "pareto.png"})) as staging:
+    with staged_directory(outdir, frozenset(PARETO_FILES)) as staging:
         (staging.path / "pareto.json").write_text(json_text(doc))
         (staging.path / "pareto.png").write_bytes(pareto_png(doc))
     if as_json:

@@ -9,12 +9,15 @@ import click
 import numpy as np
 from rich.table import Table
 
-from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, range_spec
+from jethr1_plan.cli.common import Progress, cap_jobs, cores, err_console, print_json, range_spec
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.optimisers import METHODS
 
 __all__ = ["ditch_curve_cmd"]
+
+MAX_SCALES = 21  # fixed tolerances in one curve (0 to 5 in steps of 0.25)
+ROBUST_PLANS_PER_GAP = 2  # the robust crossing of a gap: about two plans
 
 
 @click.command("ditch-curve")
@@ -40,7 +43,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
 
     from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.scenario import load_scenario
-    from jethr1_plan.studies.ditch_curve import curve, curve_png, default_base
+    from jethr1_plan.studies.ditch_curve import curve, curve_png, default_base, ditch_scenario
 
     gap_values = np.array(range_spec(gaps, "--gaps"))
     try:
@@ -48,11 +51,20 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     except ValueError:
         raise InputError("--scales", scales, "expected comma-separated numbers") from None
     if any(not math.isfinite(v) or v < 0 or v > 5 for v in scale_values):
-        raise InputError("--scales", scales, "expected numbers in [0, 5]")
+        raise InputError("--scales", scales[:60], "expected numbers in [0, 5]")
+    if len(scale_values) > MAX_SCALES or len(set(scale_values)) != len(scale_values):
+        raise InputError("--scales", scales[:60], f"{len(scale_values)} values: at most {MAX_SCALES}, each once (the "
+                         "tolerance itself is known to ±25 %: finer steps of it mean nothing)")
     from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.scenario import check_plan_time
 
     base = load_scenario(base_path) if base_path else default_base()
-    check_writable(outdir)
+    method = optimiser or base.optimiser.method
+    check_plan_time(ditch_scenario(base, float(gap_values[0]), base.balance.robust, base.robot.sole_length_m),
+                    (method,), plans=len(gap_values) * (ROBUST_PLANS_PER_GAP + len(scale_values)),
+                    workers=min(jobs, cores()), key="--gaps",
+                    what=f"the curve ({len(gap_values)} gaps x {len(scale_values)} fixed tolerances)")
+    check_writable(outdir, writes=("ditch_curve.json", "ditch_curve.png"))
     jobs = cap_jobs(jobs)
     if optimiser:
         base = replace(base, optimiser=replace(base.optimiser, method=optimiser))

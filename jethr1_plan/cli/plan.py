@@ -42,15 +42,17 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from dataclasses import replace
 
-    from jethr1_plan.files.plan_folder import plan_folder
+    from jethr1_plan.files.plan_folder import PLAN_WRITES, plan_folder
     from jethr1_plan.io.atomic import check_writable
     from jethr1_plan.pipeline.plan import plan_to_folder
-    from jethr1_plan.scenario import load_scenario
+    from jethr1_plan.scenario import check_plan_time, load_scenario
 
     scenario = load_scenario(scenario_path)
+    if optimiser is not None:
+        check_plan_time(scenario, (optimiser,), key="--optimiser")
     if policy is not None:
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
-    check_writable(plan_folder(outdir, scenario), need_bytes=plan_bytes(scenario))
+    check_writable(plan_folder(outdir, scenario), need_bytes=plan_bytes(scenario), writes=PLAN_WRITES)
     jobs = cap_jobs(jobs)
     try:
         with Progress(not no_progress, scenario.name) as progress:

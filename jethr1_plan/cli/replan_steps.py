@@ -36,9 +36,13 @@ def replan_steps_cmd(scenario_path: Path, outdir: Path, controller: str, as_json
     from jethr1_plan.scenario import load_scenario
     from jethr1_plan.studies.step_by_step import replan_steps
 
+    from jethr1_plan.files.plan_folder import PLAN_WRITES
+
     scenario = load_scenario(scenario_path)
-    folder = outdir / scenario.name
-    check_writable(folder)
+    folder = outdir / scenario.name  # (a name is one plain file name: the scenario's schema)
+    check_writable(folder, writes=("replan_steps.json",))
+    for k in range(len(scenario.steps)):
+        check_writable(folder / f"{scenario.name}_step{k}", writes=PLAN_WRITES)
     with Progress(not no_progress, f"{scenario.name}: steps") as progress:
         doc = replan_steps(scenario, folder, controller, progress)
     write_text_atomic(folder / "replan_steps.json", json_text(doc))

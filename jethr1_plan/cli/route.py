@@ -32,13 +32,23 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     summary.json), route.mcap and route.png. Exit 3 when no route exists, naming the frontier reached.
     """
     from jethr1_plan.io.atomic import check_writable
-    from jethr1_plan.route.planner import NoRoute, find_route, route_maps, steps_text, write_route
+    from jethr1_plan.files.plan_folder import SIMULATION_FILES
+    from jethr1_plan.route.planner import (
+        ROUTE_OWN,
+        NoRoute,
+        check_map_cache,
+        find_route,
+        route_maps,
+        steps_text,
+        write_route,
+    )
     from jethr1_plan.route.terrain import load_terrain
 
     t0 = time.perf_counter()
     terrain = load_terrain(terrain_path)
     folder = Path(outdir) / Path(terrain_path).stem
-    check_writable(folder, need_bytes=2_000_000)
+    check_writable(folder, need_bytes=2_000_000, writes=sorted(ROUTE_OWN - SIMULATION_FILES))
+    check_map_cache(terrain, cache)
     jobs = cap_jobs(jobs)
 
     def say(line: str) -> None:

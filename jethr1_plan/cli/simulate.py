@@ -8,13 +8,24 @@ import click
 import numpy as np
 from rich.table import Table
 
-from jethr1_plan.cli.common import SEED, FiniteFloat, Progress, cap_jobs, check_memory, err_console, print_json
-from jethr1_plan.errors import EXIT_REHEARSAL_FELL
+from jethr1_plan.cli.common import (
+    SEED,
+    FiniteFloat,
+    Progress,
+    cap_jobs,
+    check_memory,
+    check_time,
+    cores,
+    err_console,
+    print_json,
+)
+from jethr1_plan.errors import EXIT_REHEARSAL_FELL, InputError
 from jethr1_plan.io.json_text import json_text
 
 __all__ = ["simulate_cmd"]
 
 TRIAL_BYTES = 20_000  # a trial's result held until the end (its measurements, landing errors) [bytes]
+REALTIME_FACTOR = 10.0  # the most the twin runs faster than real time (measured 4-5x) [1]
 
 
 @click.command("simulate")
@@ -55,16 +66,18 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
 
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
     from jethr1_plan.files.simulation import simulation_mcap
-    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.atomic import check_writable, file_sha256, staged_directory
     from jethr1_plan.sim.certificate import certificate, describe, draws
     from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
 
     if within_tolerance and trials is None:
         raise click.BadParameter("needs --trials", param_hint="'--within-tolerance'")
     track = load_plan(plan_dir)
-    check_writable(plan_dir, need_bytes=len(track) * 600)
+    check_writable(plan_dir, need_bytes=len(track) * 600, writes=sorted(SIMULATION_FILES))
     if trials is not None:
         check_memory("--trials", str(trials), trials * TRIAL_BYTES, f"{trials} trials' results")
+        check_time(("--trials", str(trials)), trials * float(track.time_s[-1]) / REALTIME_FACTOR / min(jobs, cores()),
+                   f"{trials} rehearsals of {float(track.time_s[-1]):.1f} s")
     jobs = cap_jobs(jobs)
     if trials is None:
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
@@ -78,14 +91,23 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
 
     ok = sum(r.survived for r in runs)
     simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)
-    doc = {"plan": str(plan_dir), "controller": controller, "compensated": not raw,
+    doc = {"plan": str(plan_dir), "plan_files": track.plan_files, "controller": controller, "compensated": not raw,
            "gains": Gains.of(track.robot).__dict__,
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
            "certificate": (certificate(runs, perturbations, track.tolerance, randomisation)
                            if trials is not None else None),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
-    with staged_directory(plan_dir, SIMULATION_FILES) as staging:  # both files or neither
+    def still_the_plan() -> None:  # under the folder's lock: a rehearsal is committed only beside the plan it is of
+        try:
+            now = file_sha256(plan_dir / "summary.json")
+        except OSError:
+            now = ""
+        if now != track.summary_sha256:
+            raise InputError(str(plan_dir), "", "planned again while it was rehearsed: this rehearsal is of a plan "
+                             "no longer there; nothing written (simulate it again)")
+
+    with staged_directory(plan_dir, SIMULATION_FILES, precondition=still_the_plan) as staging:  # both or neither
         (staging.path / "simulation.json").write_text(json_text(doc))
         if runs[0].record is not None:
             (staging.path / "simulation.mcap").write_bytes(simulation_mcap(track.robot, runs[0].record,

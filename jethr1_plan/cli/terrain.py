@@ -55,8 +55,6 @@ def random_cmd(seed: int, cartons: int, gaps: str, heights: float, side: float, 
         with stdout_errors():
             click.echo(text, nl=False)
         return
-    check_writable(Path(output).parent)
-    if Path(output).is_dir():
-        raise InputError(str(output), "", "a folder: expected a file name")
+    check_writable(Path(output).parent, writes=(Path(output).name,))
     write_text_atomic(output, text)
     err_console.print(f"wrote {output}", markup=False, highlight=False)

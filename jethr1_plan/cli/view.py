@@ -27,7 +27,15 @@ def view_cmd(path: Path, save: Path | None) -> None:
     if save is not None and save.suffix != ".rrd":
         raise InputError(str(save), "--save", "expected a .rrd file name")
     try:
-        message = view(path, save)
+        if save is None:
+            message = view(path, None)
+        else:  # written as every output is (io.atomic): staged, then committed; a folder made where missing
+            from jethr1_plan.io.atomic import check_writable, staged_directory
+
+            check_writable(save.parent, writes=(save.name,))
+            with staged_directory(save.parent, frozenset({save.name})) as staging:
+                staged = staging.path / save.name
+                message = view(path, staged).replace(str(staged), str(save))
     except ViewerMissing as exc:
         print(exc, file=sys.stderr)
         raise click.exceptions.Exit(2) from None

@@ -41,13 +41,13 @@ def _load(walk_path: Path, rehearse: bool | None):
 def walk_cmd(walk_path: Path, outdir: Path, as_json: bool, rehearse: bool | None, write_infeasible: bool) -> None:
     """Walk WALK.yaml (Paper B): CoM by MPC, pelvic rotation by look-ahead MPC, QP IK, arm swing; write
     trajectory.csv, trajectory.mcap, summary.json and the yaw, momentum and κ figures."""
-    from jethr1_plan.files.walk_folder import walk_folder, write_walk_outputs
+    from jethr1_plan.files.walk_folder import WALK_FILES, walk_folder, write_walk_outputs
     from jethr1_plan.io.atomic import check_writable
     from jethr1_plan.pipeline.walk import run_walk
     from jethr1_plan.walking.result import walk_summary
 
     spec = _load(walk_path, rehearse)
-    check_writable(walk_folder(outdir, spec.source))
+    check_writable(walk_folder(outdir, spec.source), writes=sorted(WALK_FILES))
     with err_console.status(f"walking {spec.name}", spinner="dots") if err_console.is_terminal else nullcontext():
         result = run_walk(spec)
     summary = walk_summary(result)
@@ -123,14 +123,17 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
     if spec.footsteps.kind != "repetitive":
         raise InputError(spec.source, "footsteps.kind", "walk-sweep varies the step length: it needs repetitive "
                          "footsteps")
-    for length in lengths:  # every length must make a valid walk (soles apart, rows bounded)
-        check_walk(spec.varied(step_length_m=length), spec.source)
+    for length in lengths:  # every length must make a valid walk (soles apart, rows bounded, within reach)
+        try:
+            check_walk(spec.varied(step_length_m=length), spec.source)
+        except InputError as exc:
+            raise InputError("--steps-m", steps_m, f"{length:g} m: {exc.problem}") from None
     outdir = outdir if outdir is not None else Path("out/walk_sweep") / Path(spec.source).stem
-    check_writable(outdir)
+    check_writable(outdir, writes=SWEEP_FILES)
     jobs = cap_jobs(jobs)
     with Progress(not no_progress, f"walk-sweep {spec.name}") as progress:
         doc = sweep(spec, lengths, modes, jobs=jobs, progress=progress)
-    with staged_directory(outdir, frozenset({"walk_sweep.json", "walk_sweep.csv", "walk_sweep.png"})) as staging:
+    with staged_directory(outdir, frozenset(SWEEP_FILES)) as staging:
         (staging.path / "walk_sweep.json").write_text(json_text(doc))
         (staging.path / "walk_sweep.csv").write_text(_sweep_csv(doc))
         (staging.path / "walk_sweep.png").write_bytes(sweep_png(doc))
@@ -140,6 +143,7 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
     _report_sweep(doc, outdir)
 
 
+SWEEP_FILES = ("walk_sweep.json", "walk_sweep.csv", "walk_sweep.png")
 _SWEEP_COLUMNS = ("step_m", "mode", "ok", "energy_two_steps_j", "peak_kappa", "peak_kappa_leg", "peak_yaw_rad",
                   "peak_yaw_momentum_nms", "peak_yaw_momentum_arms_held_nms", "least_knee_bend_rad",
                   "least_zmp_margin_m", "peak_friction_ratio", "peak_torque_ratio", "peak_joint_acceleration_rad_s2",

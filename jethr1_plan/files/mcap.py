@@ -44,7 +44,10 @@ __all__ = [
     "joint_rotations",
     "joint_state",
     "joint_trajectory",
+    "MCAP_MAGIC",
+    "McapTooLarge",
     "log_times",
+    "mcap_expanded_bytes",
     "point_cloud2",
     "pose_stamped",
     "prefixed_urdf",
@@ -147,19 +150,80 @@ class Ros2Mcap:
         return self._buf.getvalue()
 
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+MAX_MCAP_EXPANSION = 50  # the chunks of jethr1's files expand 3 to 12 times; no more than this many
+MCAP_SLACK_BYTES = 20_000_000  # ... plus this (a small file's URDF, schemas)
+
+
+class McapTooLarge(ValueError):
+    """An MCAP whose chunks would expand beyond the bound its reader gives (a bomb, or not jethr1's)."""
+
+
+def mcap_expanded_bytes(data: bytes, max_bytes: int | None = None) -> int:
+    """The bytes the chunks of MCAP ``data`` decompress to, read from the chunk records and their zstd frame
+    headers before anything is decompressed; at most ``max_bytes`` (default: :data:`MAX_MCAP_EXPANSION` times
+    the file plus :data:`MCAP_SLACK_BYTES`).
+
+    Raises:
+        McapTooLarge: more than ``max_bytes``; a chunk whose compression jethr1 does not read (not zstd, not
+            none), or whose zstd frame says it holds more than its chunk record says.
+        ValueError: not an MCAP file (its records do not parse).
+    """
+    import struct
+
+    import zstandard
+
+    limit = len(data) * MAX_MCAP_EXPANSION + MCAP_SLACK_BYTES if max_bytes is None else max_bytes
+    if not data.startswith(MCAP_MAGIC):
+        raise ValueError("not an MCAP file (no MCAP magic at its start)")
+    pos, total = len(MCAP_MAGIC), 0
+    while pos + 9 <= len(data):
+        op = data[pos]
+        (length,) = struct.unpack_from("<Q", data, pos + 1)
+        body = pos + 9
+        if body + length > len(data):
+            raise ValueError(f"a record at byte {pos} runs past the end of the file (cut?)")
+        if op == 0x06:  # Chunk: start, end, uncompressed size, CRC, compression, records
+            if length < 32:
+                raise ValueError(f"a chunk record at byte {pos} is too short")
+            size = struct.unpack_from("<Q", data, body + 16)[0]
+            (n,) = struct.unpack_from("<I", data, body + 28)
+            compression = data[body + 32:body + 32 + n].decode("utf-8", "replace")
+            records = body + 32 + n + 8
+            if compression not in ("", "zstd"):
+                raise McapTooLarge(f"a chunk compressed with {compression[:20]!r}: jethr1 reads zstd chunks (what "
+                                   "it writes)")
+            if compression == "zstd" and records < body + length:
+                frame = zstandard.get_frame_parameters(data[records:body + length]).content_size
+                if frame not in (0, zstandard.CONTENTSIZE_UNKNOWN) and frame > size:
+                    raise McapTooLarge(f"a chunk at byte {pos} expands to {frame:,} bytes, though it says {size:,}")
+            total += size
+            if total > limit:
+                raise McapTooLarge(f"its chunks expand to more than {limit:,} bytes: more than this kind of file "
+                                   "holds")
+        elif op == 0x02:  # Footer: the end
+            break
+        pos = body + length
+    return total
+
+
 def read_mcap(data: bytes, topics: Iterable[str] | None = None,
-              ordered: bool = True) -> list[tuple[str, str, Any, int]]:
+              ordered: bool = True, max_expanded_bytes: int | None = None) -> list[tuple[str, str, Any, int]]:
     """The messages of a ROS 2 MCAP (of ``topics``, else all), in log-time order (``ordered``; else in
     the file's order, which the writer makes the same, and a third faster): (topic, type name,
     the message decoded by ``mcap_ros2`` from the definitions stored in the file, log time [ns]);
-    the chunks' CRCs checked. Fields are attributes (``msg.header.stamp.sec``), sequences lists.
+    the chunks' CRCs checked. Fields are attributes (``msg.header.stamp.sec``), sequences lists. The
+    chunks' sizes are checked before any is decompressed (:func:`mcap_expanded_bytes`, with
+    ``max_expanded_bytes``).
 
     Raises:
         Exception: of many kinds on a corrupt file or one not in the ROS 2 profile (the callers turn
-            them into bad input).
+            them into bad input); :class:`McapTooLarge` for chunks that would expand beyond the bound.
     """
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
+
+    mcap_expanded_bytes(data, max_expanded_bytes)
 
     reader = make_reader(io.BytesIO(data), validate_crcs=True, decoder_factories=[DecoderFactory()])
     profile = reader.get_header().profile

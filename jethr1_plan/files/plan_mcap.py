@@ -119,9 +119,11 @@ def table_mcap(robot: RobotModel, table: dict[str, np.ndarray], cartons, paths,
     return out.finish()
 
 
-def read_trajectory_mcap(data: bytes, source: str, robot: RobotModel) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
+def read_trajectory_mcap(data: bytes, source: str, robot: RobotModel, max_expanded_bytes: int | None = None
+                         ) -> tuple[dict[str, np.ndarray], list[np.ndarray]]:
     """A plan's table from its MCAP (every column of :func:`~.plan_table.columns`, the numbers the
-    CSV holds) and its swing paths.
+    CSV holds) and its swing paths; the chunks expanding to at most ``max_expanded_bytes``
+    (:func:`~.mcap.mcap_expanded_bytes`).
 
     Raises:
         InputError: not an MCAP file, or not a plan of ``robot`` in this format.
@@ -129,7 +131,8 @@ def read_trajectory_mcap(data: bytes, source: str, robot: RobotModel) -> tuple[d
     if len(data) > MAX_MCAP_BYTES:
         raise InputError(source, "", f"{len(data):,} bytes: larger than any plan's MCAP")
     try:
-        messages = read_mcap(data, [*_PER_ROW, "/joint_trajectory", "/swing_path", "/swing_sole"], ordered=False)
+        messages = read_mcap(data, [*_PER_ROW, "/joint_trajectory", "/swing_path", "/swing_sole"], ordered=False,
+                             max_expanded_bytes=max_expanded_bytes)
     except Exception as exc:  # the mcap readers raise many kinds on a corrupt file
         raise InputError(source, "", f"not a valid MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
     by_topic: dict[str, list] = {}

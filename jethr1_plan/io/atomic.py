@@ -1,23 +1,41 @@
-"""Output files, staged and committed so that nothing a user owns is ever moved or lost.
+"""Output files: one rule for every file any command writes, implemented here and nowhere else.
 
-Every command writes its output through :func:`staged_directory` (a set of files in one folder) or
-:func:`write_bytes_atomic` (one file). The rules:
+**The rule.** A command writes only names it owns, into a folder it made or into one it finds, and it
+replaces only a file that jethr1 wrote there and that nobody changed since:
+
+* **A record of what jethr1 wrote.** Every folder jethr1 writes into holds a record,
+  ``.jethr1-files.json``: each file jethr1 wrote there, with its size and SHA-256. A file of an
+  output's name that is not in the record (a user's ``summary.json``), or that differs from it (edited
+  since), is never replaced or removed: the command says so in one line and writes nothing.
+* **Inputs are never outputs.** A file the command read (``io.input_file``) is never replaced, under
+  any name, whatever folder it sits in.
+* **Only files.** A symbolic link, a FIFO, a device, a socket or a folder where an output goes is
+  refused with one line (never written through, never replaced); so is a name longer than the file
+  system allows.
+* **Checked first.** :func:`check_writable` runs these checks before any work, with the names the
+  command will write: a refusal costs a second, not the plan; the commit checks again under a lock.
+
+How files are written:
 
 * **Nothing is created before the work is done.** :func:`check_writable` probes the nearest folder
   that exists on the way to the output (a hidden file created and removed there) and, where the size
   is known, its free space; an interrupted run leaves no empty folder behind.
 * **Staging beside the files.** Where the output folder exists, the new files are written into a
-  hidden folder inside it (``.jethr1-tmp-<pid>-…``) and each is moved into place with
+  hidden folder inside it (``.jethr1-tmp-<pid>-<host>-<random>``) and each is moved into place with
   :func:`os.replace` at the commit: the folder itself is never renamed, so it may be a mount point (a
   USB stick, a container volume, a tmpfs). Where it does not exist, the new files are staged in a
   hidden folder in the nearest folder that exists and renamed into place as one folder.
-* **Only jethr1's files are touched.** At the commit, files the command owns (``own``) that this run
-  did not write (an old ``simulation.json`` after re-planning) are removed; every other file in the
-  folder is left where it is and named in :attr:`Staging.kept`.
+* **Files owned, not written, go.** At the commit, files the command owns (``own``) that this run did
+  not write (a rehearsal of the plan a re-plan replaces) are removed where the record says jethr1
+  wrote them and they are unchanged; otherwise they are left and named in :attr:`Staging.kept`, as is
+  every other file in the folder.
+* **One commit at a time.** A commit holds a lock on its folder (``flock``) and may be given a
+  ``precondition``, checked under the lock (``simulate``: the plan it rehearsed is still the folder's).
 * **No half set.** SIGINT and SIGTERM that arrive during the commit are held until it ends; a run that
-  fails or is interrupted before it removes its staging folder. Staging folders of runs that were
-  killed (their process on this machine is gone) are cleared by the next run into the same place: jethr1's own
-  files in them are removed, anything else is left (and reported) rather than deleted.
+  fails or is interrupted before it removes its staging folder. A staging folder holds a marker naming
+  the very folder (its device and inode) and the run that made it; the next run into the same place
+  removes a staging folder whose run has ended only when its marker proves jethr1 made it: a folder of
+  the user's that merely has such a name is never touched.
 * **Usual modes.** Files are written ``0666 & ~umask`` (``0644`` under the usual umask), folders
   ``0777 & ~umask``.
 * **One-line errors.** A full disk, a read-only file system or a folder that cannot be written is an
@@ -26,27 +44,36 @@ Every command writes its output through :func:`staged_directory` (a set of files
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
+import json
 import os
+import secrets
 import shutil
 import signal
 import socket
+import stat
 import tempfile
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from jethr1_plan.errors import InputError
+from jethr1_plan.io.input_file import describe_kind, is_input
 
-__all__ = ["STAGING_PREFIX", "Staging", "check_writable", "clean_stale", "committed", "deferred_signals",
-           "nearest_existing", "note_committed", "staged_directory", "write_bytes_atomic", "write_text_atomic"]
+__all__ = ["MARKER", "RECORD", "STAGING_PREFIX", "Staging", "check_targets", "check_writable", "clean_stale",
+           "committed", "deferred_signals", "file_sha256", "nearest_existing", "note_committed", "read_record",
+           "staged_directory", "write_bytes_atomic", "write_text_atomic"]
 
 STAGING_PREFIX = ".jethr1-tmp-"  # + "<pid>-<host>-<random>": a staging folder of process <pid> on machine <host>
-_OLD_PREFIXES = (".tmp-", ".old-")  # staging folders of earlier versions: ".<name>.tmp-<pid>-…", ".<name>.old-<pid>-…"
+MARKER = ".jethr1-staging"  # inside a staging folder: {"pid", "host", "token", "device", "inode"} of that folder
+RECORD = ".jethr1-files.json"  # in every folder jethr1 writes into: the files it wrote there, size and SHA-256
+MAX_RECORD_BYTES = 10_000_000
+NAME_MAX = 255  # bytes in one name (Linux, macOS), where the file system does not say
 _COMMITTED: list[Path] = []  # every output committed by this process, in order (the interrupt message names them)
 
 
@@ -67,6 +94,10 @@ def _umask() -> int:
 
 
 def _os_problem(exc: OSError) -> str:
+    if exc.errno == errno.ENAMETOOLONG:
+        return "a name longer than the file system allows"
+    if exc.errno == errno.ELOOP:
+        return "a loop of symbolic links"
     return exc.strerror or str(exc)
 
 
@@ -78,17 +109,118 @@ def nearest_existing(path: Path) -> Path:
     return p
 
 
-def check_writable(folder: Path, need_bytes: int = 0) -> None:
-    """Check, before any work, that ``folder`` can be created (or written, where it exists) and that
-    its file system has ``need_bytes`` free; nothing is created.
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, hex."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _check_names(path: Path, names: Iterable[str] = ()) -> None:
+    """Refuse a path (or a name to be written in it) with a component longer than the file system allows."""
+    parts = [*Path(os.path.abspath(path)).parts, *names]
+    for part in parts:
+        n = len(os.fsencode(part))
+        if n > NAME_MAX:
+            raise InputError(str(path), "", f"a name of {n} bytes ({part[:24]}...): the file system allows "
+                             f"{NAME_MAX}; nothing written")
+    if len(os.fsencode(os.path.abspath(path))) > 3800:
+        raise InputError(str(path), "", "a path longer than the file system allows; nothing written")
+
+
+def read_record(folder: Path) -> dict[str, dict[str, Any]]:
+    """The files jethr1 wrote in ``folder`` (its :data:`RECORD`): name → {"sha256", "bytes"}; empty where it has
+    none, or one that is not jethr1's (not a regular file, not its format).
 
     Raises:
-        InputError: a file in the way, a folder that cannot be written, too little space (exit 2).
+        InputError: the record's name holds something other than a file (a link, a folder, a FIFO).
+    """
+    p = Path(folder) / RECORD
+    try:
+        st = os.lstat(p)
+    except FileNotFoundError:
+        return {}
+    except OSError as exc:
+        raise InputError(str(p), "", f"cannot read jethr1's record of its files: {_os_problem(exc)}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(str(p), "", f"{describe_kind(st.st_mode)} where jethr1 keeps its record of the files it "
+                         "wrote here; nothing written")
+    if st.st_size > MAX_RECORD_BYTES:
+        return {}
+    try:
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
+        with os.fdopen(fd, "rb") as f:
+            doc = json.loads(f.read(MAX_RECORD_BYTES + 1).decode("utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) and doc.get("written_by") == "jethr1" else None
+    if not isinstance(files, dict):
+        return {}
+    return {k: v for k, v in files.items() if isinstance(k, str) and isinstance(v, dict)
+            and isinstance(v.get("sha256"), str) and isinstance(v.get("bytes"), int)}
+
+
+def _record_text(files: dict[str, dict[str, Any]]) -> str:
+    return json.dumps({"written_by": "jethr1", "format": 1, "what": "the files jethr1 wrote in this folder, "
+                       "which it may replace; it never replaces any other file",
+                       "files": dict(sorted(files.items()))}, indent=1) + "\n"
+
+
+def check_targets(folder: Path, names: Iterable[str], record: dict[str, dict[str, Any]] | None = None,
+                  digests: dict[str, str] | None = None) -> None:
+    """Refuse, with one line, any name of ``names`` in ``folder`` that holds something jethr1 may not replace
+    (see the module): not a regular file, one of this command's inputs, not in the folder's record, or
+    changed since jethr1 wrote it. ``digests``: the current SHA-256 of files already hashed.
+
+    Raises:
+        InputError: the first such name (exit 2), "nothing written".
     """
     folder = Path(folder)
+    if record is None:
+        record = read_record(folder) if folder.is_dir() else {}
+    for name in names:
+        p = folder / name
+        try:
+            st = os.lstat(p)
+        except FileNotFoundError:
+            continue
+        except OSError as exc:
+            raise InputError(str(p), "", f"cannot write here: {_os_problem(exc)}; nothing written") from None
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(str(p), "", f"{describe_kind(st.st_mode)} where jethr1 writes its {name}: jethr1 "
+                             "replaces only files it wrote; move it away or choose another output; nothing written")
+        if is_input(st):
+            raise InputError(str(p), "", f"this command's own input, where it writes its {name}: jethr1 never "
+                             "writes over its inputs; copy the input elsewhere or choose another output; nothing "
+                             "written")
+        rec = record.get(name)
+        if rec is None:
+            raise InputError(str(p), "", f"a file jethr1 did not write (its record here, {RECORD}, does not name "
+                             "it): move it away or choose another output; nothing written")
+        if rec["bytes"] != st.st_size or ((digests or {}).get(name) or file_sha256(p)) != rec["sha256"]:
+            raise InputError(str(p), "", "changed since jethr1 wrote it: move it away (or remove it) to write here "
+                             "again; nothing written")
+
+
+def check_writable(folder: Path, need_bytes: int = 0, writes: Iterable[str] = ()) -> None:
+    """Check, before any work, that ``folder`` can be created (or written, where it exists), that its file
+    system has ``need_bytes`` free, and that every name of ``writes`` may be written there
+    (:func:`check_targets`); nothing is created.
+
+    Raises:
+        InputError: a file in the way, a folder that cannot be written, too little space, a name that may not
+            be replaced (exit 2).
+    """
+    folder = Path(folder)
+    writes = tuple(writes)
+    _check_names(folder, writes)
     base = nearest_existing(folder)
     if not base.is_dir():
-        what = "exists and is not a folder" if base == Path(os.path.abspath(folder)) else f"{base} is not a folder"
+        kind = "a file" if base.is_file() else describe_kind(os.stat(base).st_mode) if base.exists() else "a broken link"
+        what = f"exists and is not a folder ({kind})" if base == Path(os.path.abspath(folder)) else \
+            f"{base} is not a folder"
         raise InputError(str(folder), "", what)
     try:
         fd, probe = tempfile.mkstemp(prefix=".jethr1-write-check-", dir=base)
@@ -97,6 +229,8 @@ def check_writable(folder: Path, need_bytes: int = 0) -> None:
     except OSError as exc:
         where = "here" if base == Path(os.path.abspath(folder)) else f"in {base}"
         raise InputError(str(folder), "", f"cannot write {where}: {_os_problem(exc)}") from None
+    if base == Path(os.path.abspath(folder)) and writes:
+        check_targets(folder, writes)
     if need_bytes > 0:
         try:
             free = shutil.disk_usage(base).free
@@ -136,7 +270,7 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file beside it and a rename (see the module).
 
     Raises:
-        InputError: the folder cannot be written (full, read-only).
+        InputError: the folder cannot be written (full, read-only), or ``path`` may not be replaced.
     """
     path = Path(path)
     with staged_directory(path.parent, frozenset({path.name})) as staging:
@@ -161,106 +295,121 @@ def _host() -> str:
     return hashlib.sha1(socket.gethostname().encode()).hexdigest()[:8]
 
 
-def _pid_of(rest: str, host: bool) -> int | None:
-    """The process id at the start of a staging folder's name after its prefix (and, with ``host``,
-    only where this machine made it), or None."""
-    parts = rest.split("-", 2)
-    if host and (len(parts) < 3 or parts[1] != _host()):
-        return None
-    return int(parts[0]) if parts[0].isdigit() else None
-
-
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:  # another user's process
+    except (PermissionError, OverflowError):  # another user's process; a number no process has
         return True
     return True
 
 
-def _clear_own(folder: Path, own: frozenset[str]) -> bool:
-    """Remove the files named in ``own`` from a folder, then the folders left empty; True when it is gone."""
-    for root, dirs, files in os.walk(folder, topdown=False):
-        for name in files:
-            if name in own:
-                Path(root, name).unlink(missing_ok=True)
-        for name in dirs:
-            with suppress(OSError):
-                Path(root, name).rmdir()
-    try:
-        folder.rmdir()
-    except OSError:
+def _proven_stale(entry: Path) -> bool:
+    """Whether ``entry`` is a staging folder jethr1 made (its marker names this very folder and the run in its
+    name) on this machine, whose run has ended."""
+    parts = entry.name[len(STAGING_PREFIX):].split("-", 2)
+    if len(parts) != 3 or not parts[0].isdigit() or parts[1] != _host():
         return False
-    return True
+    pid = int(parts[0])
+    if pid == os.getpid() or _alive(pid):
+        return False
+    try:
+        st = os.lstat(entry)
+        if not stat.S_ISDIR(st.st_mode):
+            return False
+        fd = os.open(entry / MARKER, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
+        with os.fdopen(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+                return False
+            marker = json.loads(f.read(4096).decode("utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return False
+    return isinstance(marker, dict) and marker.get("token") == parts[2] and marker.get("pid") == pid and \
+        marker.get("host") == parts[1] and marker.get("device") == st.st_dev and marker.get("inode") == st.st_ino
 
 
-def clean_stale(places: list[Path], own: frozenset[str] = frozenset(), final_name: str = "") -> list[Path]:
-    """Clear the staging folders in ``places`` whose process has gone; return those left in place.
-
-    A staging folder of this version holds only files jethr1 wrote: it is removed. One of an earlier
-    version (``.<final_name>.tmp-<pid>-…`` or ``.old-…``) may hold a user's files moved there: only
-    the ``own`` files are removed from it, and it is left (and returned) when anything else remains.
-    """
-    left: list[Path] = []
-    old = tuple(f".{final_name}{kind}" for kind in _OLD_PREFIXES) if final_name else ()
+def clean_stale(places: list[Path]) -> list[Path]:
+    """Remove, from ``places``, the staging folders of runs that ended before their commit (killed), where
+    their marker proves jethr1 made them (:func:`_proven_stale`); return those removed. Anything else of
+    that name, a user's folder among them, is left as it is."""
+    removed: list[Path] = []
     for place in dict.fromkeys(places):
         try:
             entries = list(place.iterdir()) if place.is_dir() else []
         except OSError:
             continue
         for entry in entries:
-            name = entry.name
-            prefix = STAGING_PREFIX if name.startswith(STAGING_PREFIX) else next(
-                (p for p in old if name.startswith(p)), None)
-            if prefix is None or not entry.is_dir() or entry.is_symlink():
-                continue
-            pid = _pid_of(name[len(prefix):], host=prefix == STAGING_PREFIX)
-            if pid is None or pid == os.getpid() or _alive(pid):
-                continue
-            if prefix == STAGING_PREFIX:
+            if entry.name.startswith(STAGING_PREFIX) and _proven_stale(entry):
                 shutil.rmtree(entry, ignore_errors=True)
-            elif not _clear_own(entry, own | ({"x"} if ".old-" in prefix else frozenset())):
-                left.append(entry)
-    return left
+                removed.append(entry)
+    return removed
+
+
+def _make_staging(base: Path) -> Path:
+    """A new staging folder in ``base``, with its marker."""
+    token = secrets.token_hex(8)
+    tmp = base / f"{STAGING_PREFIX}{os.getpid()}-{_host()}-{token}"
+    os.mkdir(tmp, 0o700)
+    st = os.lstat(tmp)
+    (tmp / MARKER).write_text(json.dumps({"pid": os.getpid(), "host": _host(), "token": token,
+                                          "device": st.st_dev, "inode": st.st_ino}))
+    os.chmod(tmp, 0o777 & ~_umask())
+    return tmp
 
 
 @contextmanager
-def staged_directory(final: Path, own: frozenset[str] = frozenset()) -> Iterator[Staging]:
+def _locked(folder: Path) -> Iterator[None]:
+    """An exclusive lock on ``folder`` (``flock`` of the folder itself) for the block; none where the file
+    system has none."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    except OSError:
+        yield
+        return
+    try:
+        with contextlib.suppress(OSError):
+            import fcntl
+
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def staged_directory(final: Path, own: frozenset[str] = frozenset(),
+                     precondition: Callable[[], None] | None = None) -> Iterator[Staging]:
     """Yield a :class:`Staging` whose ``path`` receives the new files of folder ``final``; at the end
     of the block they are committed (see the module). ``own``: every name this command writes into
-    such a folder, whether or not this run writes it.
+    such a folder, whether or not this run writes it. ``precondition``: called under the folder's lock
+    just before an existing folder's files are replaced (it raises to refuse the commit).
 
     On an exception nothing is committed, the staging folder is removed and ``final`` is untouched.
 
     Raises:
-        InputError: the place cannot be written (a full disk, a read-only file system).
+        InputError: the place cannot be written (a full disk, a read-only file system), or a name there
+            may not be replaced (:func:`check_targets`).
     """
     final = Path(os.path.abspath(final))
+    _check_names(final, own)
     base = nearest_existing(final)
     if not base.is_dir():
         raise InputError(str(final), "", f"{base} is not a folder")
-    left = clean_stale([base, final.parent, final], own, final.name)
+    clean_stale([base, final.parent, final])
     try:
-        tmp = Path(tempfile.mkdtemp(prefix=f"{STAGING_PREFIX}{os.getpid()}-{_host()}-", dir=base))
-        os.chmod(tmp, 0o777 & ~_umask())
+        tmp = _make_staging(base)
     except OSError as exc:
         raise InputError(str(final), "", f"cannot write in {base}: {_os_problem(exc)}") from None
     inner = tmp.joinpath(*final.relative_to(base).parts)  # tmp mirrors the path from base down to final
-    staging = Staging(inner, kept=[f"{p.name}/ (left by an interrupted run: it holds files jethr1 did not write)"
-                                   for p in left])
+    staging = Staging(inner)
     try:
         inner.mkdir(parents=True, exist_ok=True)
         yield staging
-        with deferred_signals():
-            _commit(tmp, base, final, own, staging)
+        _commit(tmp, base, final, own, staging, precondition)
     except OSError as exc:
         shutil.rmtree(tmp, ignore_errors=True)
-        if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG,
-                         errno.EIO):
-            raise InputError(str(final), "", f"cannot write: {_os_problem(exc)}; nothing written") from None
-        raise
+        raise InputError(str(final), "", f"cannot write: {_os_problem(exc)}; nothing written") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -268,38 +417,88 @@ def staged_directory(final: Path, own: frozenset[str] = frozenset()) -> Iterator
     staging.path = final
 
 
-def _commit(tmp: Path, base: Path, final: Path, own: frozenset[str], staging: Staging) -> None:
+def _written(inner: Path) -> list[str]:
+    """The files staged in ``inner`` (relative names), the staging marker and any record aside."""
+    out = []
+    for p in sorted(inner.rglob("*")):
+        rel = str(p.relative_to(inner))
+        if rel in (MARKER, RECORD) or p.is_dir():
+            continue
+        if p.is_symlink() or not p.is_file():
+            raise InputError(str(p), "", "not a file: only files are written")  # (a bug of the command)
+        out.append(rel)
+    return out
+
+
+def _commit(tmp: Path, base: Path, final: Path, own: frozenset[str], staging: Staging,
+            precondition: Callable[[], None] | None) -> None:
     """Move the staged files into ``final``: as one folder where none of it exists yet, else file by file."""
+    inner = tmp.joinpath(*final.relative_to(base).parts)
+    written = _written(inner)
+    digests = {rel: file_sha256(inner / rel) for rel in written}
+    sizes = {rel: (inner / rel).stat().st_size for rel in written}
     while True:
         there = nearest_existing(final)
         if there == final:
             break
         if not there.is_dir():
             raise InputError(str(final), "", f"{there} is not a folder")
+        (inner / RECORD).write_text(_record_text({rel: {"sha256": digests[rel], "bytes": sizes[rel]}
+                                                  for rel in written}))
         top = there / final.relative_to(there).parts[0]  # the first missing folder on the way
         src = tmp.joinpath(*top.relative_to(base).parts)
         try:
-            os.rename(src, top)  # a new folder: its files arrive together
-            _COMMITTED.append(final)
+            with deferred_signals():
+                os.rename(src, top)  # a new folder: its files arrive together
+                _COMMITTED.append(final)
             return
         except OSError as exc:
             if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY, errno.ENOTDIR):
                 raise
             # another process made it meanwhile: look again
-    if not final.is_dir():
-        raise InputError(str(final), "", "exists and is not a folder")
-    inner = tmp.joinpath(*final.relative_to(base).parts)
-    written = sorted(p.relative_to(inner) for p in inner.rglob("*") if not p.is_dir())
-    for rel in written:
-        dest = final / rel
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(inner / rel, dest)
-    names = {str(rel) for rel in written}
+    st = os.stat(final)
+    if not stat.S_ISDIR(st.st_mode):
+        raise InputError(str(final), "", f"exists and is {describe_kind(st.st_mode)}, not a folder")
+    (inner / RECORD).unlink(missing_ok=True)
+    with _locked(final):
+        record = read_record(final)
+        check_targets(final, written, record)
+        if precondition is not None:
+            precondition()
+        with deferred_signals():
+            for rel in written:
+                dest = final / rel
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(inner / rel, dest)
+                record[rel] = {"sha256": digests[rel], "bytes": sizes[rel]}
+            for name in sorted(own - set(written)):
+                _remove_owned(final / name, record.get(name), staging)
+                if not os.path.lexists(final / name):
+                    record.pop(name, None)
+            record = {k: v for k, v in record.items() if os.path.lexists(final / k)}
+            _write_record(final, record, tmp)
+            _COMMITTED.append(final)
+    names = set(written) | own
     for entry in sorted(final.iterdir()):
-        if entry.name in names or entry.name.startswith(STAGING_PREFIX):
-            continue
-        if entry.name in own and (entry.is_file() or entry.is_symlink()):
-            entry.unlink()  # jethr1's, from an earlier run, not part of this set
-        elif not entry.name.startswith("."):
+        if entry.name not in names and not entry.name.startswith("."):
             staging.kept.append(entry.name)
-    _COMMITTED.append(final)
+
+
+def _remove_owned(p: Path, rec: dict[str, Any] | None, staging: Staging) -> None:
+    """Remove a file the command owns but did not write this run, where jethr1 wrote it and it is unchanged."""
+    try:
+        st = os.lstat(p)
+    except OSError:
+        return
+    if rec is not None and stat.S_ISREG(st.st_mode) and not is_input(st) and rec["bytes"] == st.st_size and \
+            file_sha256(p) == rec["sha256"]:
+        p.unlink()
+    else:
+        staging.kept.append(p.name)
+
+
+def _write_record(folder: Path, record: dict[str, dict[str, Any]], tmp: Path) -> None:
+    """The folder's record, replaced atomically (written in the staging folder, renamed into place)."""
+    staged = tmp / RECORD
+    staged.write_text(_record_text(record))
+    os.replace(staged, folder / RECORD)

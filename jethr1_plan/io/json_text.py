@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.errors import InputError
+from jethr1_plan.io.input_file import read_input
 
-__all__ = ["MAX_JSON_BYTES", "MAX_JSON_DEPTH", "json_text", "read_json"]
+__all__ = ["MAX_JSON_BYTES", "MAX_JSON_DEPTH", "json_document", "json_text", "read_json"]
 
 MAX_JSON_BYTES = 50_000_000  # a summary.json is a few kilobytes (a balance space's, a few hundred)
 MAX_JSON_DEPTH = 32  # jethr1 writes documents 6 levels deep
@@ -42,21 +43,24 @@ def _jsonable(x: Any) -> Any:
 
 
 def read_json(path: Path, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH) -> dict:
-    """The JSON object in ``path``, at most ``max_bytes`` long and ``max_depth`` levels deep.
+    """The JSON object in the regular file ``path``, at most ``max_bytes`` long and ``max_depth`` levels deep,
+    every number finite (jethr1 writes ``null`` where there is none).
 
     Raises:
-        InputError: unreadable, too large, not JSON, nested too deeply, or not an object.
+        InputError: not a regular file, unreadable, too large, not JSON, NaN or an infinity, nested too deeply,
+            or not an object.
     """
-    src = str(path)
+    return json_document(read_input(path, max_bytes, "a JSON document"), str(path), max_depth)
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a finite number (jethr1 writes null where there is no number)")
+
+
+def json_document(data: bytes, src: str, max_depth: int = MAX_JSON_DEPTH) -> dict:
+    """The JSON object in ``data`` (see :func:`read_json`); ``src`` names it in messages."""
     try:
-        with open(path, "rb") as f:
-            data = f.read(max_bytes + 1)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
-    if len(data) > max_bytes:
-        raise InputError(src, "", f"larger than {max_bytes:,} bytes: not one of jethr1's documents")
-    try:
-        doc = json.loads(data.decode("utf-8"))
+        doc = json.loads(data.decode("utf-8"), parse_constant=_no_constant)
     except RecursionError:
         raise InputError(src, "", f"nested more than {max_depth} levels deep") from None
     except (UnicodeDecodeError, ValueError) as exc:

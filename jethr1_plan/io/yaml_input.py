@@ -1,9 +1,12 @@
 """YAML input files (scenarios, walks): bounded reading, parsing, and one-line messages for every problem.
 
 Every problem is an :class:`~jethr1_plan.errors.InputError` naming the file, the key path and what
-is wrong: bytes that are not UTF-8, a file far larger than any input, YAML that does not parse or
-expands (through aliases) to too many values, a number that is not finite, a key the schema does
-not know or a value it does not allow.
+is wrong: a path that is not a regular file (a FIFO, a device: ``io.input_file``), bytes that are not
+UTF-8, a file far larger than any input, YAML that does not parse or expands (through aliases) to too
+many values, a key that is not text (``1:`` beside ``name:``), an integer of more digits than any
+bound allows, a number that is not finite, a key the schema does not know or a value it does not
+allow. Every YAML document jethr1 reads (scenarios, walks, terrains, robot YAMLs, batch manifests, the
+scenario a summary.json holds) goes through :func:`read_document` or :class:`YamlLoader`.
 """
 
 from __future__ import annotations
@@ -16,14 +19,20 @@ from pathlib import Path
 import yaml
 
 from jethr1_plan.errors import InputError
+from jethr1_plan.io.input_file import read_input_text
 
-__all__ = ["YamlLoader", "check_finite", "check_schema", "count_values", "describe", "fill_dataclass", "keypath",
-           "read_document", "read_text", "short"]
+__all__ = ["MAX_INT_DIGITS", "YamlLoader", "check_finite", "check_schema", "count_values", "describe", "fill_dataclass", "keypath",
+           "load_yaml", "read_document", "read_text", "short"]
+
+
+MAX_INT_DIGITS = 30  # an integer in any of jethr1's files: a seed (19 digits) at most
 
 
 class YamlLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string, and
-    refusing a key given twice in one mapping (YAML forbids it; PyYAML would keep the last)."""
+    """PyYAML's safe loader, reading ``1e-10`` as a float (YAML 1.2) rather than as a string, refusing
+    a key given twice in one mapping (YAML forbids it; PyYAML would keep the last), a key that is not
+    text (every key of jethr1's files is a name) and an integer longer than :data:`MAX_INT_DIGITS`
+    (Python refuses to read one of over 4,300 digits; none of jethr1's bounds needs more than 19)."""
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -31,15 +40,24 @@ class YamlLoader(yaml.SafeLoader):
             if key_node.tag == "tag:yaml.org,2002:merge":
                 continue
             key = self.construct_object(key_node, deep=True)
-            try:
-                duplicate = key in seen
-            except TypeError:  # an unhashable key: the schema refuses it
-                continue
-            if duplicate:
+            if not isinstance(key, str):
+                raise yaml.constructor.ConstructorError(None, None, f"the key {short(key, 30)} is not text: every key "
+                                                        "is a name", key_node.start_mark)
+            if key in seen:
                 raise yaml.constructor.ConstructorError(None, None, f"the key {short(key)} appears twice in one "
                                                         "mapping", key_node.start_mark)
             seen.add(key)
         return super().construct_mapping(node, deep=deep)
+
+    def construct_yaml_int(self, node):
+        text = str(node.value).replace("_", "").lstrip("+-")
+        if len(text) > MAX_INT_DIGITS:
+            raise yaml.constructor.ConstructorError(None, None, f"an integer of {len(text):,} digits: no value of "
+                                                    f"jethr1's has more than {MAX_INT_DIGITS}", node.start_mark)
+        return super().construct_yaml_int(node)
+
+
+YamlLoader.add_constructor("tag:yaml.org,2002:int", YamlLoader.construct_yaml_int)
 
 
 YamlLoader.add_implicit_resolver(
@@ -122,6 +140,8 @@ def describe(err) -> str:
         return f"{short(value)}: expected one of {', '.join(map(str, bound))}"
     if kind == "const":
         return f"{short(value)}: expected {bound!r}"
+    if kind == "pattern":
+        return f"{short(value)}: must be {err.schema.get('description') or f'text matching {bound}'}"
     if kind in ("minItems", "maxItems"):
         return f"{len(value)} items: expected {'at least' if kind == 'minItems' else 'at most'} {bound}"
     if kind == "maxLength":
@@ -146,28 +166,15 @@ def count_values(doc, src: str, cap: int, what: str) -> None:
 
 
 def read_text(path: str | Path, max_bytes: int, what: str) -> str:
-    """The UTF-8 text of ``path`` (at most ``max_bytes``); ``what`` names the kind of file in messages."""
-    src = str(path)
-    try:
-        p = Path(path)
-        if p.is_dir():
-            raise InputError(src, "", f"a folder, not {what} file")
-        with p.open("rb") as f:
-            data = f.read(max_bytes + 1)
-    except OSError as exc:
-        raise InputError(src, "", f"cannot read: {exc.strerror or exc}") from None
-    if len(data) > max_bytes:
-        raise InputError(src, "", f"larger than {max_bytes:,} bytes: {what} is a few kilobytes")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(src, "", f"not UTF-8 text (byte {data[exc.start]:#04x} at offset {exc.start})") from None
+    """The UTF-8 text of the regular file ``path`` (at most ``max_bytes``; :func:`~jethr1_plan.io.input_file.
+    read_input_text`); ``what`` names the kind of file in messages."""
+    return read_input_text(path, max_bytes, what)
 
 
-def read_document(text: str, src: str, schema: dict, max_values: int, what: str) -> dict:
-    """The YAML mapping in ``text``, its size, numbers and structure checked against ``schema``."""
+def load_yaml(text: str, src: str):
+    """The YAML document in ``text`` (:class:`YamlLoader`), any problem one line naming ``src``."""
     try:
-        doc = yaml.load(text, Loader=YamlLoader)  # a SafeLoader subclass
+        return yaml.load(text, Loader=YamlLoader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark else ""
@@ -175,6 +182,13 @@ def read_document(text: str, src: str, schema: dict, max_values: int, what: str)
         raise InputError(src, where, f"not valid YAML: {problem}") from None
     except RecursionError:
         raise InputError(src, "", "not valid YAML: nested too deeply") from None
+    except ValueError as exc:  # a number PyYAML's constructors cannot read (an integer too long for Python)
+        raise InputError(src, "", f"not valid YAML: {str(exc).splitlines()[0][:120]}") from None
+
+
+def read_document(text: str, src: str, schema: dict, max_values: int, what: str) -> dict:
+    """The YAML mapping in ``text``, its size, numbers and structure checked against ``schema``."""
+    doc = load_yaml(text, src)
     if not isinstance(doc, dict):
         raise InputError(src, "(top level)", "expected a mapping")
     count_values(doc, src, max_values, what)

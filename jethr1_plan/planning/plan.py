@@ -186,10 +186,12 @@ def _plan(scenario: Scenario, method: str | None = None, seed: int | None = None
     early_bad: dict | None = None
     keys = [step_key(job) for job in jobs_of] if memo is not None else []
     if jobs > 1 and n > 1:
-        from joblib import Parallel, delayed
+        from joblib import delayed
+
+        from jethr1_plan.io.pool import parallel
 
         todo = [k for k in range(n) if memo is None or keys[k] not in memo]
-        fresh = iter(Parallel(n_jobs=min(jobs, len(todo)), return_as="generator")(
+        fresh = iter(parallel(min(jobs, len(todo)), return_as="generator")(
             delayed(optimise_step)(jobs_of[k]) for k in todo)) if todo else iter(())
         outcomes = []
         for k in range(n):

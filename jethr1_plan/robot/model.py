@@ -8,6 +8,8 @@ loaded model, never copied from the YAML. Frames and joint names follow docs/rob
 from __future__ import annotations
 
 import functools
+import os
+import re
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -246,9 +248,12 @@ class RobotModel:
 
 
 def _resolve(name_or_path: str | Path) -> Path:
+    if not str(name_or_path).strip():
+        raise RobotModelError(str(name_or_path), "robot", "empty: expected a robot's name (a folder of robots/), "
+                              "a folder or a robot YAML")
     p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml") and p.is_file():
-        return p
+    if p.suffix in (".yaml", ".yml") and os.path.lexists(p):
+        return p  # (read as a regular file, or refused as what it is: io.input_file)
     if p.is_dir():
         cands = sorted(p.glob("*.yaml"))
         if len(cands) == 1:
@@ -295,7 +300,7 @@ def _load(yaml_path: Path) -> RobotModel:
     src = str(yaml_path)
     doc = read_robot_yaml(yaml_path)
     urdf = yaml_path.parent / doc["urdf"]
-    if not urdf.is_file():
+    if not os.path.lexists(urdf):
         raise RobotModelError(src, "urdf", f"no such file {urdf}")
     checked = check_urdf(urdf.resolve())
     robot = _placo_robot(str(urdf))
@@ -471,6 +476,8 @@ def _placo_robot(urdf: str):
             return placo.RobotWrapper(urdf, placo.Flags.ignore_collisions)
     except Exception as exc:  # PlaCo/pinocchio raise RuntimeError on a bad URDF
         first = (str(exc) or (said[0] if said else type(exc).__name__)).splitlines()[0][:160]
+        if re.search(r"\.(cpp|hpp|cc|cxx|h)\b|From file", first):  # the C++ source file that threw: not the user's
+            first = "a mesh or an element it names cannot be read (its parser failed)"
         raise RobotModelError(urdf, "", f"PlaCo cannot load it: {first}") from None
 
 

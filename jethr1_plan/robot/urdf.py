@@ -8,6 +8,14 @@ links, a non-zero axis, and for revolute and prismatic joints ordered limits and
 visual boxes and cylinders of positive size. Every problem is one
 :class:`~jethr1_plan.errors.RobotModelError` naming the file, the element and what is wrong.
 
+What is physical, and what the model takes: every link with an ``<inertial>`` has a mass between
+:data:`MIN_LINK_MASS_KG` and :data:`MAX_LINK_MASS_KG` and an inertia tensor that is positive definite
+(every principal moment above zero) and obeys the triangle inequality; every joint is revolute (with
+its limits) or fixed (:data:`MODEL_JOINT_TYPES`: the legs' closed form and the statics count one angle
+a joint); no document type or entity declarations (nothing expands the file); every mesh a regular
+file beside the URDF, of at most :data:`MAX_MESH_BYTES`. The file itself is a regular file of at most
+:data:`MAX_URDF_BYTES` (``io.input_file``).
+
 PlaCo (pinocchio) parses the file next; what it prints on the C stderr goes to a temporary file
 (:func:`quiet_stderr`) and its first line into the message if it fails, so nothing of it reaches
 the terminal.
@@ -29,12 +37,18 @@ from pathlib import Path
 
 import numpy as np
 
-from jethr1_plan.errors import RobotModelError
+from jethr1_plan.errors import InputError, RobotModelError
+from jethr1_plan.io.input_file import check_input_file, read_input
 
-__all__ = ["MAX_URDF_BYTES", "UrdfJoint", "UrdfModel", "check_urdf", "geometry_boxes", "quiet_stderr", "urdf_joints"]
+__all__ = ["MAX_LINK_MASS_KG", "MAX_MESH_BYTES", "MAX_URDF_BYTES", "MIN_LINK_MASS_KG", "MODEL_JOINT_TYPES", "UrdfJoint", "UrdfModel", "check_urdf", "geometry_boxes", "quiet_stderr", "urdf_joints"]
 
 MAX_URDF_BYTES = 20_000_000  # a URDF without meshes is tens of kilobytes
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+MODEL_JOINT_TYPES = ("revolute", "fixed")  # what jethr1's robot model takes
+MIN_LINK_MASS_KG = 1e-6  # a link with an <inertial> weighs at least a milligram ...
+MAX_LINK_MASS_KG = 1e4  # ... and at most ten tonnes: anything else is a typo (1e30, 1e-30)
+MAX_MESH_BYTES = 50_000_000  # a mesh of a robot's link: a few megabytes
+MESH_SUFFIXES = (".stl", ".obj", ".dae")
 
 
 @dataclass(frozen=True)
@@ -109,6 +123,9 @@ def _check_inertial(link: ET.Element, name: str, urdf: Path) -> float | None:
     mass = _number(mass_el, "value", urdf, f"{where} mass")
     if mass < 0:
         raise _fail(urdf, f"{where} mass", f"{mass:g} kg: a mass is not negative")
+    if not MIN_LINK_MASS_KG <= mass <= MAX_LINK_MASS_KG:
+        raise _fail(urdf, f"{where} mass", f"{mass:g} kg: a link with an <inertial> weighs between "
+                    f"{MIN_LINK_MASS_KG:g} and {MAX_LINK_MASS_KG:g} kg (a massless frame has no <inertial>)")
     el = inertial.find("inertia")
     keys = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
     vals = dict.fromkeys(keys, 0.0) if el is None else {k: _number(el, k, urdf, f"{where} inertia") for k in keys}
@@ -122,12 +139,34 @@ def _check_inertial(link: ET.Element, name: str, urdf: Path) -> float | None:
     if moments[2] > moments[0] + moments[1] + 1e-9 * scale:
         raise _fail(urdf, f"{where} inertia", f"principal moments {', '.join(f'{m:.3g}' for m in moments)} kg·m² "
                     "break the triangle inequality (no body has them)")
-    if mass == 0 and scale > 1e-12:
-        raise _fail(urdf, f"{where} mass", "0 kg with a non-zero inertia")
+    if not moments.min() > 0:
+        raise _fail(urdf, f"{where} inertia", f"principal moments {', '.join(f'{m:.3g}' for m in moments)} kg·m²: "
+                    "a body of positive mass has positive moments (positive definite)")
     return mass
 
 
+def _check_meshes(link: ET.Element, name: str, urdf: Path) -> None:
+    """Every mesh a link names: a regular file beside the URDF (or at an absolute path), bounded in size."""
+    for kind in ("visual", "collision"):
+        for k, el in enumerate(link.iter(kind)):
+            for mesh in el.iter("mesh"):
+                where = f"link {name} {kind} {k} mesh"
+                filename = _attr(mesh, "filename", urdf, where)
+                if "://" in filename:
+                    raise _fail(urdf, where, f"filename={filename[:60]!r}: a URI is not resolved (give a path "
+                                "relative to the URDF's folder)")
+                path = Path(filename) if os.path.isabs(filename) else urdf.parent / filename
+                if path.suffix.lower() not in MESH_SUFFIXES:
+                    raise _fail(urdf, where, f"filename={filename[:60]!r}: expected a mesh file "
+                                f"({', '.join(MESH_SUFFIXES)})")
+                try:
+                    check_input_file(path, MAX_MESH_BYTES, "a mesh")
+                except InputError as exc:
+                    raise _fail(urdf, where, f"{filename[:60]}: {exc.problem}") from None
+
+
 def _check_visuals(link: ET.Element, name: str, urdf: Path) -> None:
+    _check_meshes(link, name, urdf)
     for k, vis in enumerate(link.iter("visual")):
         where = f"link {name} visual {k}"
         _numbers(vis.find("origin"), "xyz", "0 0 0", 3, urdf, f"{where} origin")
@@ -148,6 +187,9 @@ def _check_joint(j: ET.Element, urdf: Path, links: set[str]) -> UrdfJoint:
     kind = _attr(j, "type", urdf, where)
     if kind not in JOINT_TYPES:
         raise _fail(urdf, where, f"type {kind!r}: expected one of {', '.join(JOINT_TYPES)}")
+    if kind not in MODEL_JOINT_TYPES:
+        raise _fail(urdf, where, f"type {kind!r}: jethr1's robot model takes revolute joints (with their limits) and "
+                    "fixed joints")
     parent = _attr(j.find("parent"), "link", urdf, f"{where} parent")
     child = _attr(j.find("child"), "link", urdf, f"{where} child")
     for role, link in (("parent", parent), ("child", child)):
@@ -184,12 +226,12 @@ def check_urdf(urdf: Path) -> UrdfModel:
     """
     urdf = Path(urdf)
     try:
-        with open(urdf, "rb") as f:
-            data = f.read(MAX_URDF_BYTES + 1)
-    except OSError as exc:
-        raise _fail(urdf, "", f"cannot read: {exc.strerror or exc}") from None
-    if len(data) > MAX_URDF_BYTES:
-        raise _fail(urdf, "", f"larger than {MAX_URDF_BYTES:,} bytes")
+        data = read_input(urdf, MAX_URDF_BYTES, "a URDF")
+    except InputError as exc:
+        raise _fail(urdf, exc.key, exc.problem) from None
+    if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
+        raise _fail(urdf, "", "a document type or entity declaration (<!DOCTYPE, <!ENTITY): a URDF declares none, "
+                    "and nothing in it is expanded")
     try:
         root = ET.fromstring(data)
     except ET.ParseError as exc:

@@ -29,6 +29,7 @@ import json
 import math
 import os
 import time
+import zipfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -37,6 +38,7 @@ import numpy as np
 
 from jethr1_plan import __version__
 from jethr1_plan.errors import InputError
+from jethr1_plan.io.input_file import read_input
 from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import RobotModel
@@ -80,6 +82,8 @@ class MapSettings:
                 "z_range_m": list(self.z_range), "method": "continuation"}
 
 
+MAX_MAP_BYTES = 200_000_000  # a cached map is a few megabytes (compressed)
+MAX_MAP_EXPANDED_BYTES = 2_000_000_000  # its arrays: 17 bytes a cell, at most
 SWEEP_CODE = ("balance_space", "physics", "kinematics", "optimisers")  # the packages that compute a map
 
 
@@ -201,34 +205,49 @@ class BalanceMap:
         return buf.getvalue()
 
     @classmethod
-    def from_file(cls, path: Path, settings: MapSettings, key: str) -> BalanceMap | None:
-        """The map cached at ``path``, or None where it is missing, unreadable or another key's."""
+    def from_file(cls, path: Path, settings: MapSettings, key: str) -> BalanceMap:
+        """The map cached at ``path`` (a regular file, bounded; its archive's members bounded before they are
+        decompressed).
+
+        Raises:
+            InputError: not a regular file, too large, or not a map of this key (corrupt, edited): the file is
+                left as it is and named.
+        """
+        data = read_input(path, MAX_MAP_BYTES, "a balance-space map")
         try:
-            with np.load(path, allow_pickle=False) as f:
+            with zipfile.ZipFile(io.BytesIO(data)) as z:
+                expanded = sum(i.file_size for i in z.infolist())
+            if expanded > MAX_MAP_EXPANDED_BYTES:
+                raise ValueError(f"its arrays expand to {expanded:,} bytes")
+            with np.load(io.BytesIO(data), allow_pickle=False) as f:
                 meta = json.loads(bytes(f["meta"]).decode())
-                if meta.get("key") != key:
-                    return None
+                if not isinstance(meta, dict) or meta.get("key") != key:
+                    raise ValueError("another map's key")
                 axes = (f["x"].astype(float), f["y"].astype(float), f["z"].astype(float))
                 thrust, reason = f["thrust"].astype(float), f["reason"].astype(np.int8)
                 p_body = f["p_body"].astype(float)
-        except (OSError, ValueError, KeyError, json.JSONDecodeError, UnicodeDecodeError, EOFError):
-            return None
-        if thrust.shape != reason.shape or thrust.shape != tuple(len(a) for a in axes) or \
-                p_body.shape != (*thrust.shape, 3):
-            return None
+            if thrust.shape != reason.shape or thrust.shape != tuple(len(a) for a in axes) or \
+                    p_body.shape != (*thrust.shape, 3):
+                raise ValueError("arrays of different shapes")
+        except Exception as exc:  # zip, numpy and json raise many kinds on a corrupt file
+            raise InputError(str(path), "", f"not a balance-space map jethr1 wrote ({type(exc).__name__}: "
+                             f"{str(exc)[:60]}): remove it (it is recomputed), or give --cache another folder") \
+                from None
         return cls(settings, axes, thrust, reason, p_body, key=key, path=path, reused=True)
 
 
 def compute_map(robot: RobotModel, settings: MapSettings, jobs: int = 1, progress=None) -> BalanceMap:
     """Sweep the balance space around a support sole at the origin (``balance_space.sweep``)."""
     from jethr1_plan.balance_space.sweep import SweepSpec, sweep
+    from jethr1_plan.io.pool import pool_config
 
     spec = SweepSpec(robot=robot, support_side=settings.support_side, support_xyz=(0.0, 0.0, 0.0),
                      x_range=settings.x_range, y_range=settings.y, z_range=settings.z_range,
                      resolution_m=settings.resolution_m, thrust_max_n=settings.thrust_max_n, rho_rad=settings.rho_rad,
                      sole_margin_m=settings.sole_margin_m, tolerance=settings.tolerance)
     t0 = time.perf_counter()
-    r = sweep(spec, jobs=jobs, progress=progress)
+    with pool_config():  # its workers die with the command
+        r = sweep(spec, jobs=jobs, progress=progress)
     axes = spec.axes()
     shape = tuple(len(a) for a in axes)
     swing = r.swing.reshape(*shape, 3)
@@ -241,7 +260,7 @@ def compute_map(robot: RobotModel, settings: MapSettings, jobs: int = 1, progres
 
 
 def cached_map(robot: RobotModel, settings: MapSettings, cache: Path | str | None = None, jobs: int = 1,
-               say: Callable[[str], None] | None = None, progress=None) -> BalanceMap:
+               say: Callable[[str], None] | None = None, progress=None, compute: bool = True) -> BalanceMap | None:
     """The map of ``settings``: read from the cache, else computed and cached (``say`` gets one line each way).
 
     Raises:
@@ -249,12 +268,17 @@ def cached_map(robot: RobotModel, settings: MapSettings, cache: Path | str | Non
     """
     from jethr1_plan.io.atomic import write_bytes_atomic
 
+    from jethr1_plan.io.atomic import check_writable
+
     key = map_key(robot, settings)
     folder = cache_dir(cache) / "balance_space"
+    check_writable(folder)  # before minutes of work: a file in the way, a folder that cannot be written
     path = folder / f"{robot.name}-{settings.support_side}-{key[:20]}.npz"
     what = (f"{settings.support_side} support, {_policy(settings.tolerance)}, "
             f"{1000 * settings.resolution_m:g} mm grid, F_max {settings.thrust_max_n:g} N")
-    found = BalanceMap.from_file(path, settings, key) if path.is_file() else None
+    found = BalanceMap.from_file(path, settings, key) if os.path.lexists(path) else None
+    if not compute:
+        return found
     if found is not None:
         if say:
             say(f"balance-space map ({what}): reused {path}")

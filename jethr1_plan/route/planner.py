@@ -35,7 +35,7 @@ from jethr1_plan.route.search import Footholds, Frontier, RouteStep, SearchResul
 from jethr1_plan.route.terrain import Terrain, dump_yaml
 from jethr1_plan.scenario import Scenario, load_scenario_text
 
-__all__ = ["MAX_REPLANS", "ROUTE_OWN", "NoRoute", "RouteOutcome", "find_route", "route_maps", "route_scenario_text",
+__all__ = ["MAX_REPLANS", "ROUTE_OWN", "NoRoute", "check_map_cache", "RouteOutcome", "find_route", "route_maps", "route_scenario_text",
            "steps_text", "write_route"]
 
 MAX_REPLANS = 25  # steps blacklisted before the route gives up
@@ -67,13 +67,26 @@ class RouteOutcome:
     plan_s: float = 0.0
 
 
+def _map_settings(terrain: Terrain, side: str) -> MapSettings:
+    b = terrain.base.balance
+    return MapSettings(side, terrain.options.map_resolution_m, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
+
+
+def check_map_cache(terrain: Terrain, cache: Path | str | None = None) -> None:
+    """Before any work: the cache can hold the maps, and the maps it holds for the terrain read.
+
+    Raises:
+        InputError: a cache folder that cannot be written, a cached map that is not one (corrupt, edited).
+    """
+    for side in SIDES:
+        cached_map(terrain.robot, _map_settings(terrain, side), cache, compute=False)
+
+
 def route_maps(terrain: Terrain, cache: Path | str | None = None, jobs: int = 1, say: Say | None = None,
                progress=None) -> dict[str, BalanceMap]:
     """The map of each support side for the terrain's robot, balance policy, tolerance and resolution."""
-    b = terrain.base.balance
-    return {side: cached_map(terrain.robot, MapSettings(side, terrain.options.map_resolution_m, b.thrust_max_n,
-                                                        b.rho_rad, b.sole_margin_m, b.tolerance),
-                             cache, jobs=jobs, say=say, progress=progress) for side in SIDES}
+    return {side: cached_map(terrain.robot, _map_settings(terrain, side), cache, jobs=jobs, say=say, progress=progress)
+            for side in SIDES}
 
 
 def _flow(value) -> str:

@@ -60,12 +60,12 @@ TERRAIN_SCHEMA = {
             "max_steps": {"type": "integer", "minimum": 1, "maximum": 50},
             "peak_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}},
         "route": {"type": "object", "additionalProperties": False, "properties": {
-            "foothold_spacing_m": {"type": "number", "minimum": 0.005, "maximum": 1},
+            "foothold_spacing_m": {"type": "number", "minimum": 0.01, "maximum": 1},  # finer than the twin lands
             "edge_margin_m": {"type": "number", "minimum": 0, "maximum": 0.1},
             "clearances_m": {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.5},
                              "minItems": 1, "maxItems": 5},
             "samples": {"type": "integer", "minimum": 5, "maximum": 200},
-            "map_resolution_m": {"type": "number", "minimum": 0.005, "maximum": 0.1},
+            "map_resolution_m": {"type": "number", "minimum": 0.01, "maximum": 0.1},  # 1 cm: ~8 min once, cached
             "cost": {"type": "object", "additionalProperties": False, "properties": {
                 "step": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}, "peak_thrust": _weight,
                 "mean_thrust": _weight, "margin": _weight, "margin_m": _pos, "edge": _weight,

@@ -34,6 +34,7 @@ from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
+from jethr1_plan.io.input_file import input_folder
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
 from jethr1_plan.swing_path import Carton, sole_on_carton
@@ -126,6 +127,10 @@ class PlanTrack:
     #: the tolerance the plan holds at every row: thrust_error, mass_error (fractions), com_error_m [m],
     #: and ``source`` (see :func:`held_tolerance`)
     tolerance: dict = field(default_factory=dict)
+    #: the plan's files as summary.json records them (name → sha256, bytes), and summary.json's own SHA-256: what
+    #: a rehearsal is of (``simulate`` writes them into simulation.json and commits only while they are the folder's)
+    plan_files: dict = field(default_factory=dict)
+    summary_sha256: str = ""
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -143,8 +148,7 @@ def load_plan(folder: Path) -> PlanTrack:
         InputError: a missing or unreadable file, a plan written infeasible, a robot that cannot load.
     """
     folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(str(folder), "", "not a plan folder (expected trajectory.csv and summary.json in it)")
+    input_folder(folder, "a plan folder (trajectory.csv, trajectory.mcap and summary.json)")
     plan = read_plan(folder, suffixes=(".csv",), strict=True, purpose="simulate rehearses a plan's folder")
     summary_path, csv_path = folder / "summary.json", folder / "trajectory.csv"
     summary = plan.summary or {}
@@ -166,6 +170,7 @@ def load_plan(folder: Path) -> PlanTrack:
                       joint_matrix(c, robot, "_cmd_rad"), fan_matrix(c, robot, "thrust_cmd_"))
     if len(track) < 2 or not np.all(np.isfinite(q)) or not np.all(np.isfinite(pelvis)):
         raise InputError(str(csv_path), "", "malformed trajectory: fewer than 2 rows or non-finite poses")
+    track.plan_files, track.summary_sha256 = dict(summary.get("files") or {}), plan.summary_sha256
     try:
         track.tolerance = held_tolerance(summary)
     except (TypeError, ValueError, AttributeError) as exc:
@@ -484,11 +489,13 @@ def simulate(folder: Path, controller: str, perturbations: list[Perturbation], j
             if progress:
                 progress(f"run {k + 1}", k + 1, len(perturbations))
         return out
-    from joblib import Parallel, delayed
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
 
     out = []
     tasks = [delayed(_run_one)(str(folder), controller, p, k == 0, compensate) for k, p in enumerate(perturbations)]
-    for k, r in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):
+    for k, r in enumerate(parallel(jobs, return_as="generator")(tasks)):
         out.append(r)
         if progress:
             progress(f"run {k + 1}", k + 1, len(perturbations))

@@ -5,25 +5,41 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from jethr1_plan.errors import InfeasiblePlan, InputError, interrupt_behind
 
 __all__ = ["batch_exit_code", "check_expectations", "read_manifest", "run_batch", "run_scenario"]
 
 
-def read_manifest(path: Path) -> list[Path]:
-    """Scenario paths listed in a manifest: a YAML list (or ``scenarios:`` list), relative to the manifest."""
-    from jethr1_plan.io.yaml_input import YamlLoader
+MAX_MANIFEST_BYTES = 1_000_000  # a manifest lists a few hundred paths at most
+MAX_SCENARIOS = 1000  # scenarios in one batch
 
-    try:
-        doc = yaml.load(Path(path).read_text(), Loader=YamlLoader)  # a SafeLoader: no key twice
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
-        raise InputError(str(path), "", f"cannot read the manifest: {exc}".splitlines()[0]) from None
+
+def read_manifest(path: Path) -> list[Path]:
+    """Scenario paths listed in a manifest: a YAML list (or ``scenarios:`` list), relative to the manifest.
+
+    Raises:
+        InputError: not a regular file, too large, not YAML, not a list of paths (exit 2).
+    """
+    from jethr1_plan.io.input_file import read_input_text
+    from jethr1_plan.io.yaml_input import count_values, load_yaml
+
+    src = str(path)
+    doc = load_yaml(read_input_text(path, MAX_MANIFEST_BYTES, "a manifest"), src)
+    count_values(doc, src, 10 * MAX_SCENARIOS, "a manifest")
+    key = "(top level)"
     if isinstance(doc, dict):
-        doc = doc.get("scenarios")
-    if not isinstance(doc, list) or not all(isinstance(p, str) for p in doc) or not doc:
-        raise InputError(str(path), "scenarios", "expected a non-empty list of scenario paths")
+        unknown = sorted(set(doc) - {"scenarios"})
+        if unknown:
+            raise InputError(src, unknown[0], "unknown key (a manifest is a list of scenario paths, or scenarios: "
+                             "that list)")
+        doc, key = doc.get("scenarios"), "scenarios"
+    if not isinstance(doc, list) or not doc:
+        raise InputError(src, key, "expected a non-empty list of scenario paths")
+    if len(doc) > MAX_SCENARIOS:
+        raise InputError(src, key, f"{len(doc)} scenarios: at most {MAX_SCENARIOS} in one batch")
+    for k, p in enumerate(doc):
+        if not isinstance(p, str) or not p or len(p) > 4096:
+            raise InputError(src, f"{key}[{k}]", "expected a scenario path (text)")
     return [(Path(path).parent / p) for p in doc]
 
 
@@ -92,6 +108,8 @@ def run_batch(paths: list[Path], outdir: Path, jobs: int = 1, executor: str = "l
     """Run every scenario (in parallel processes); records come back in the order given."""
     from joblib import Parallel, delayed, parallel_config
 
+    from jethr1_plan.io.pool import parallel
+
     tasks = [delayed(run_scenario)(str(p), str(outdir)) for p in paths]
     if executor == "dask":
         from jethr1_plan.io.cluster import dask_client
@@ -99,7 +117,7 @@ def run_batch(paths: list[Path], outdir: Path, jobs: int = 1, executor: str = "l
         with dask_client(scheduler, jobs), parallel_config(backend="dask"):
             return list(Parallel()(tasks))
     records = []
-    for k, rec in enumerate(Parallel(n_jobs=jobs, return_as="generator")(tasks)):
+    for k, rec in enumerate(parallel(jobs, return_as="generator")(tasks)):
         records.append(rec)
         if progress:
             progress(rec["name"], k + 1, len(tasks))

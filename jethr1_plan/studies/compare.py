@@ -220,12 +220,14 @@ def pareto(scenario: Scenario, methods: tuple[str, ...] = ("gas", "sqp"), seed: 
     method is as good in all three and better in one). ``verdict``: per method, whether its point at the
     scenario's weight dominates GAS's at its weight with ``EVALUATION_FACTOR`` times fewer evaluations.
     """
-    from joblib import Parallel, delayed
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
 
     weights = {**PARETO_WEIGHTS, **(weights or {})}
     runs = [(m, w) for m in methods for w in sorted(set(weights[m]) | {default_weight(scenario, m)})]
     if jobs > 1:
-        points = list(Parallel(n_jobs=jobs)(delayed(_point)(scenario, m, w, seed) for m, w in runs))
+        points = list(parallel(jobs)(delayed(_point)(scenario, m, w, seed) for m, w in runs))
     else:
         points = []
         for k, (m, w) in enumerate(runs):

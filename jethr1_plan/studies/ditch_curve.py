@@ -92,12 +92,14 @@ def robustness_curve(base: Scenario, gaps_m: np.ndarray, sole_length_m: float, j
                      progress=None) -> list[dict[str, Any]]:
     """Per gap (in order): :func:`share_of_gap` of Paper A's step planned with the base scenario's
     robust tolerance as the objective, with ``gap_m``."""
-    from joblib import Parallel, delayed
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
 
     scenarios = [ditch_scenario(base, float(g), base.balance.robust, sole_length_m) for g in gaps_m]
     out: list[dict[str, Any]] = []
-    with Parallel(n_jobs=jobs, return_as="generator") as parallel:
-        for g, r in zip(gaps_m, parallel(delayed(share_of_gap)(sc) for sc in scenarios), strict=True):
+    with parallel(jobs, return_as="generator") as pool:
+        for g, r in zip(gaps_m, pool(delayed(share_of_gap)(sc) for sc in scenarios), strict=True):
             out.append({"gap_m": float(g), **r})
             if progress:
                 progress(f"{len(out)}/{len(scenarios)} robust plans", len(out), len(scenarios))
@@ -138,7 +140,9 @@ def curve(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_le
 def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_length_m: float, jobs: int,
            progress) -> list[dict[str, Any]]:
     """Per tolerance of ``scales``: the max thrust at every gap, the widest crossable gap and its thrust."""
-    from joblib import Parallel, delayed
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
 
     robust = base.balance.robust
     tolerances = [robust.scaled(k) for k in scales]
@@ -150,10 +154,10 @@ def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_l
     pending = {t: 0 for t in range(len(tolerances))}
     misses = {t: 0 for t in range(len(tolerances))}
     done, total = 0, len(gaps_m) * len(tolerances)
-    with Parallel(n_jobs=jobs) as parallel:
+    with parallel(jobs) as pool:
         while pending:
             batch = [(t, pending[t]) for t in sorted(pending)]
-            outs = parallel(delayed(_feasible_thrust)(ditch_scenario(base, float(gaps_m[g]), tolerances[t],
+            outs = pool(delayed(_feasible_thrust)(ditch_scenario(base, float(gaps_m[g]), tolerances[t],
                                                                      sole_length_m, min_share=1.0))
                             for t, g in batch)
             for (t, g), (thrust, reason) in zip(batch, outs, strict=True):

@@ -66,18 +66,20 @@ def _stop_index(ok: list[bool | None]) -> int | None:
 
 def sweep(spec: WalkSpec, lengths_m: list[float], modes: list[str], jobs: int = 1, progress=None) -> dict[str, Any]:
     """Walk ``spec`` at every length of ``lengths_m`` [m] in every rotation mode; the sweep document."""
-    from joblib import Parallel, delayed
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
 
     results: dict[str, list[dict | None]] = {m: [None] * len(lengths_m) for m in modes}
     nxt = dict.fromkeys(modes, 0)
     stopped: dict[str, int] = {}
     done, total = 0, len(lengths_m) * len(modes)
-    with Parallel(n_jobs=jobs) as parallel:
+    with parallel(jobs) as pool:
         while any(m not in stopped and nxt[m] < len(lengths_m) for m in modes):
             live = [m for m in modes if m not in stopped and nxt[m] < len(lengths_m)]
             per = max(1, jobs // len(live))
             batch = [(m, k) for m in live for k in range(nxt[m], min(nxt[m] + per, len(lengths_m)))]
-            outs = parallel(delayed(walk_point)(spec.varied(step_length_m=lengths_m[k], mode=m)) for m, k in batch)
+            outs = pool(delayed(walk_point)(spec.varied(step_length_m=lengths_m[k], mode=m)) for m, k in batch)
             for (m, k), out in zip(batch, outs, strict=True):
                 results[m][k] = out
                 nxt[m] = max(nxt[m], k + 1)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,10 +28,13 @@ class Failure:
 
 
 def csv_header(path: Path) -> list[str] | None:
-    """The first line of a CSV split at commas (None: no such file or not text)."""
+    """The first line of a CSV split at commas (None: no such regular file, or not text)."""
     try:
-        with open(path, encoding="utf-8") as f:
-            return f.readline(100_000).strip().split(",")
+        if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO or a device: never opened
+            return None
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        with os.fdopen(fd, "rb") as f:
+            return f.readline(100_000).decode("utf-8").strip().split(",")
     except (OSError, UnicodeDecodeError):
         return None
 

@@ -25,12 +25,16 @@ rate, start soles, footholds, IK limits and success criteria) every row must hol
 
 from __future__ import annotations
 
+import os
 from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
 from jethr1_plan.errors import InputError
+from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
+from jethr1_plan.io.csv_table import MAX_CSV_BYTES
+from jethr1_plan.io.input_file import read_input, read_input_text
 from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
@@ -86,12 +90,9 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
         raise InputError(src, "robot", "missing")
     robot = load_robot(robot_ref)
     csv_path = folder / "trajectory.csv"
-    if not csv_path.is_file():
+    if not os.path.lexists(csv_path):
         raise InputError(str(folder), "", "a walk is verified from its trajectory.csv, which is missing")
-    try:
-        text = csv_path.read_bytes().decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(str(csv_path), "", f"cannot read as UTF-8 text: {exc}") from None
+    text = read_input_text(csv_path, MAX_CSV_BYTES, "a walk's CSV")
     c = read_walk_csv(text, str(csv_path))
     missing = [k for k in walk_columns(robot) if k not in c]
     if missing:
@@ -301,8 +302,8 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
     """The MCAP's ``/joint_states`` (decoded from the definitions it carries) against the CSV's rows."""
     from jethr1_plan.files.mcap import log_times, read_mcap
 
+    data = read_input(path, MAX_MCAP_BYTES, "a walk's MCAP")
     try:
-        data = path.read_bytes()
         messages = read_mcap(data, ["/joint_states"])
     except Exception as exc:  # any corrupt MCAP is bad input, not a bug
         raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None

@@ -119,7 +119,7 @@ _coord = {"type": "number", "minimum": -1000, "maximum": 1000}  # [m]
 SCHEMA = _obj({
     "name": {"type": "string", "maxLength": 200},
     "description": {"type": "string", "maxLength": 5000},
-    "robot": {"type": "string", "maxLength": 1000},
+    "robot": {"type": "string", "minLength": 1, "maxLength": 1000},
     "footsteps": {"oneOf": [
         _obj({"kind": {"const": "repetitive"},
               "step_length_m": {"type": "number", "minimum": 0, "maximum": 5},
@@ -227,8 +227,13 @@ def check_walk(spec: WalkSpec, src: str) -> None:
         raise InputError(src, "timing", f"the walk would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
                          "(fewer steps, shorter phases or a lower control_hz)")
     feet = dict(timeline.start)
+    span = 2 * (robot.leg_length_m + robot.hip_offset_m)  # both legs straight, hips side by side
     for k, st in enumerate(timeline.steps):
         key = f"footsteps.landings[{k}].position_m" if spec.footsteps.kind == "explicit" else "footsteps"
+        reach = float(np.linalg.norm(np.asarray(st.position_m) - np.asarray(feet[other_side(st.side)])))
+        if reach > span:
+            raise InputError(src, key, f"out of reach: step {k} lands the {st.side} sole {reach:.3f} m from the "
+                             f"other; {robot.name}'s legs span at most {span:.3f} m")
         if abs(st.position_m[2]) > 1e-9:
             raise InputError(src, key, f"z = {st.position_m[2]:g} m: the walk is on flat ground (z = 0)")
         other = feet[other_side(st.side)]

@@ -1,6 +1,8 @@
-"""The one staging and commit mechanism of every command: a user's file is never moved or lost, an
-output folder that is a mount point is never renamed, a new folder appears whole or not at all,
-files get the usual modes, a full disk is one line, and an interrupt during the commit waits for it."""
+"""The one staging and commit mechanism of every command: a user's file is never moved, replaced or lost
+(only files jethr1's record says it wrote, unchanged, are replaced; never an input, a link, a FIFO, a
+device or a folder), an output folder that is a mount point is never renamed, a new folder appears whole
+or not at all, files get the usual modes, a full disk is one line, a user's folder named like a staging
+folder is never touched, and an interrupt during the commit waits for it."""
 
 from __future__ import annotations
 
@@ -14,19 +16,31 @@ import pytest
 from jethr1_plan.errors import InputError
 from jethr1_plan.io import atomic
 from jethr1_plan.io.atomic import (
+    RECORD,
     STAGING_PREFIX,
     check_writable,
     clean_stale,
+    read_record,
     staged_directory,
     write_bytes_atomic,
     write_text_atomic,
 )
+from jethr1_plan.io.input_file import read_input
 
 OWN = frozenset({"a.csv", "b.json", "c.json"})
 
 
 def _tree(folder):
-    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+    """Every path under ``folder`` but jethr1's records of its files."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.name != RECORD)
+
+
+def _write(final, **files):
+    """One commit of ``files`` (name → text) into ``final``; the staging's ``kept``."""
+    with staged_directory(final, OWN) as staging:
+        for name, text in files.items():
+            (staging.path / name).write_text(text)
+    return staging.kept
 
 
 def test_a_new_folder_appears_whole_and_nothing_else_is_created(tmp_path):
@@ -43,19 +57,93 @@ def test_a_new_folder_appears_whole_and_nothing_else_is_created(tmp_path):
 
 def test_an_existing_folder_keeps_the_users_files_and_loses_only_jethr1s_stale_ones(tmp_path):
     final = tmp_path / "plan"
-    final.mkdir()
+    _write(final, **{"a.csv": "old", "c.json": "old rehearsal"})  # jethr1's, recorded
     (final / "notes.txt").write_text("mine")
-    (final / "c.json").write_text("old rehearsal")  # jethr1's, from an earlier run: not part of the new set
-    (final / "a.csv").write_text("old")
     inode = final.stat().st_ino
     with staged_directory(final, OWN) as staging:
         (staging.path / "a.csv").write_text("new")
         assert staging.path.parent == final  # staged inside the folder itself
     assert final.stat().st_ino == inode  # the folder was not replaced
     assert (final / "notes.txt").read_text() == "mine" and (final / "a.csv").read_text() == "new"
-    assert not (final / "c.json").exists()
+    assert not (final / "c.json").exists()  # jethr1 wrote it, unchanged, not part of the new set: gone
     assert staging.kept == ["notes.txt"]
     assert _tree(tmp_path) == ["plan", "plan/a.csv", "plan/notes.txt"]
+    assert set(read_record(final)) == {"a.csv"}
+
+
+@pytest.mark.parametrize("name", ["a.csv", "c.json"])
+def test_a_users_file_of_an_outputs_name_is_never_replaced_nor_removed(tmp_path, name):
+    final = tmp_path / "plan"
+    final.mkdir()
+    (final / name).write_text("mine")  # not in jethr1's record: the user's
+    if name == "a.csv":  # an output of this run: the commit is refused, nothing written
+        with pytest.raises(InputError, match="a file jethr1 did not write .*nothing written"):
+            _write(final, **{"a.csv": "new", "b.json": "new"})
+        with pytest.raises(InputError, match="did not write"):  # and before any work
+            check_writable(final, writes=("a.csv", "b.json"))
+        assert _tree(tmp_path) == ["plan", "plan/a.csv"]
+    else:  # owned but not written this run: left, and named
+        assert _write(final, **{"a.csv": "new"}) == ["c.json"]
+    assert (final / name).read_text() == "mine"
+
+
+def test_a_file_jethr1_wrote_and_the_user_edited_is_kept(tmp_path):
+    final = tmp_path / "plan"
+    _write(final, **{"a.csv": "jethr1's", "c.json": "jethr1's"})
+    (final / "a.csv").write_text("edited by hand")
+    (final / "c.json").write_text("edited by hand")
+    with pytest.raises(InputError, match="a.csv: changed since jethr1 wrote it"):
+        _write(final, **{"a.csv": "new"})
+    assert _write(final, **{"b.json": "new"}) == ["a.csv", "c.json"]  # owned, not written, edited: kept
+    assert (final / "a.csv").read_text() == "edited by hand" == (final / "c.json").read_text()
+
+
+def test_an_input_is_never_an_output(tmp_path):
+    final = tmp_path / "plan"
+    _write(final, **{"a.csv": "jethr1's"})
+    read_input(final / "a.csv", 100, "a test")  # this process read it: an input now
+    with pytest.raises(InputError, match="this command's own input"):
+        check_writable(final, writes=("a.csv",))
+    with pytest.raises(InputError, match="this command's own input"):
+        _write(final, **{"a.csv": "new"})
+    assert (final / "a.csv").read_text() == "jethr1's"
+
+
+def test_links_fifos_devices_and_folders_are_never_outputs(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("mine")
+    final = tmp_path / "plan"
+    final.mkdir()
+    (final / "a.csv").symlink_to(victim)
+    os.mkfifo(final / "b.json")
+    (final / "c.json").mkdir()
+    for name, kind in (("a.csv", "a symbolic link"), ("b.json", r"a FIFO \(named pipe\)"), ("c.json", "a folder")):
+        with pytest.raises(InputError, match=f"{kind} where jethr1 writes its {name}"):
+            _write(final, **{name: "new"})
+    with pytest.raises(InputError, match="a character device"):
+        write_text_atomic(os.devnull, "x")
+    assert victim.read_text() == "mine" and (final / "a.csv").is_symlink()
+    assert stat.S_ISFIFO(os.lstat(final / "b.json").st_mode) and stat.S_ISCHR(os.stat(os.devnull).st_mode)
+
+
+def test_a_name_longer_than_the_file_system_allows_is_one_line(tmp_path):
+    with pytest.raises(InputError, match="a name of 300 bytes"):
+        check_writable(tmp_path / ("x" * 300))
+    with pytest.raises(InputError, match="a name of 300 bytes"), staged_directory(tmp_path / "o" / ("y" * 300)):
+        pass
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_precondition_refuses_the_commit_under_the_lock(tmp_path):
+    final = tmp_path / "plan"
+    _write(final, **{"a.csv": "plan 1"})
+
+    def replanned():
+        raise InputError(str(final), "", "planned again meanwhile")
+    with pytest.raises(InputError, match="planned again"), \
+            staged_directory(final, OWN, precondition=replanned) as staging:
+        (staging.path / "c.json").write_text("a rehearsal of plan 1")
+    assert _tree(tmp_path) == ["plan", "plan/a.csv"]
 
 
 def test_a_folder_that_cannot_be_renamed_is_written_file_by_file(tmp_path, monkeypatch):
@@ -136,7 +224,7 @@ def test_writability_and_space_are_checked_before_and_create_nothing(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(InputError, match="is not a folder"):
         check_writable(tmp_path / "file" / "below")
-    with pytest.raises(InputError, match="exists and is not a folder"):
+    with pytest.raises(InputError, match="exists and is not a folder \\(a file\\)"):
         check_writable(tmp_path / "file")
     with pytest.raises(InputError, match=r"needs about .* MB free"):
         check_writable(tmp_path / "new", need_bytes=10**18)
@@ -148,39 +236,38 @@ def test_writability_and_space_are_checked_before_and_create_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) in (["file"], ["file", "ro"])
 
 
-def test_stale_staging_folders_are_cleared_but_never_a_users_file(tmp_path):
+def test_only_staging_folders_jethr1_made_are_cleared_never_a_users_folder(tmp_path):
     final = tmp_path / "plan"
     final.mkdir()
     dead = 2**22 + 12345  # above the usual pid_max: no such process
     host = atomic._host()
-    mine = tmp_path / f"{STAGING_PREFIX}{dead}-{host}-abc"  # this version's: only jethr1's files, removed whole
-    (mine / "plan").mkdir(parents=True)
-    (mine / "plan" / "a.csv").write_text("half")
-    inside = final / f"{STAGING_PREFIX}{dead}-{host}-def"
-    elsewhere = final / f"{STAGING_PREFIX}{dead}-0000beef-xyz"  # another machine's (a shared folder): not touched
+    mine = atomic._make_staging(tmp_path)  # a run killed before its commit: made by jethr1, its marker inside
+    marker = (mine / atomic.MARKER).read_text()
+    proven = tmp_path / f"{STAGING_PREFIX}{dead}-{host}-{mine.name.rsplit('-', 1)[1]}"
+    os.rename(mine, proven)
+    (proven / atomic.MARKER).write_text(marker.replace(f'"pid": {os.getpid()}', f'"pid": {dead}'))
+    (proven / "a.csv").write_text("half")
+    users = final / f"{STAGING_PREFIX}{dead}-{host}-def"  # a user's folder of that name, no marker: never touched
+    users.mkdir()
+    (users / "notes.txt").write_text("mine")
+    copied = final / f"{STAGING_PREFIX}{dead}-{host}-{proven.name.rsplit('-', 1)[1]}"  # a copy: another inode
+    (copied).mkdir()
+    (copied / atomic.MARKER).write_text((proven / atomic.MARKER).read_text())
+    elsewhere = final / f"{STAGING_PREFIX}{dead}-0000beef-xyz"  # another machine's (a shared folder)
     elsewhere.mkdir()
-    inside.mkdir()
-    (inside / "a.csv").write_text("half")
-    old = tmp_path / f".plan.tmp-{dead}-ghi"  # an earlier version moved the user's notes into its staging folder
+    old = tmp_path / f".plan.tmp-{dead}-ghi"  # named like an earlier version's: left as it is
     old.mkdir()
-    (old / "a.csv").write_text("half")
-    (old / "notes.txt").write_text("mine")
-    alive = tmp_path / f"{STAGING_PREFIX}{os.getppid()}-{host}-jkl"  # a live process's: not touched
+    (old / "a.csv").write_text("mine too")
+    alive = tmp_path / f"{STAGING_PREFIX}{os.getppid()}-{host}-jkl"  # a live process's
     alive.mkdir()
-    left = clean_stale([tmp_path, final], OWN, "plan")
-    assert left == [old]
-    assert not mine.exists() and not inside.exists() and alive.exists() and elsewhere.exists()
-    assert sorted(p.name for p in old.iterdir()) == ["notes.txt"]
-    with staged_directory(final, OWN) as staging:  # a run reports what it left
-        (staging.path / "a.csv").write_text("1")
-    assert any(old.name in k for k in staging.kept)
+    assert clean_stale([tmp_path, final]) == [proven]
+    assert not proven.exists()
+    assert all(p.exists() for p in (users / "notes.txt", copied, elsewhere, old / "a.csv", alive))
 
 
 def test_an_interrupt_during_the_commit_waits_until_the_set_is_whole(tmp_path, monkeypatch):
     final = tmp_path / "plan"
-    final.mkdir()
-    for name in OWN:
-        (final / name).write_text("old")
+    _write(final, **dict.fromkeys(OWN, "old"))
     real = os.replace
     calls = []
 
@@ -194,5 +281,6 @@ def test_an_interrupt_during_the_commit_waits_until_the_set_is_whole(tmp_path, m
     with pytest.raises(KeyboardInterrupt), staged_directory(final, OWN) as staging:
         for name in OWN:
             (staging.path / name).write_text("new")
-    assert len(calls) == 3 and all((final / n).read_text() == "new" for n in OWN)
+    assert len([c for c in calls if os.path.basename(c) in OWN]) == 3 and all((final / n).read_text() == "new"
+                                                                            for n in OWN)
     assert final in atomic.committed()  # the interrupt message names it as complete
