@@ -1143,7 +1143,8 @@ for _where in (f"o/.jethr1-tmp-99999-{HOST}-abc", f"o/side_step/.jethr1-tmp-9999
             f"plan: a user's folder {_where} holding notes.txt",
             Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], expect=(0, 2),
                   setup=_all(_staging_like(_where), _mkdir("o/side_step") if "side_step/" in _where else _mkdir("o")),
-                  outputs=("o/side_step", "o/side_step/trajectory.*", "o/side_step/summary.json", "o/side_step/.jethr1*"),
+                  outputs=("o/side_step", "o/side_step/trajectory.*", "o/side_step/summary.json",
+                           "o/side_step/.jethr1*"),
                   keep=(f"{_where}/notes.txt", f"{_where}/summary.json"), limit_s=60, timeout=90))
 probe37("data.staging-like.balance-space", "balance-space: a user's folder named like a staging folder in -o",
         Probe("data loss", ["balance-space", *SMALL_BALANCE, NP, "-o", "{W}/o"], expect=(0, 2),
@@ -1246,17 +1247,18 @@ for _name, _argv in _FIFO_IN.items():
             Probe("hang", _argv, setup=_all(_fifo("in.yaml"), *([_plan()] if "scenario" in _name else [])),
                   timeout=15, not_in_message=r"[Nn]o such file|missing"))
 for _name, (_argv, _setup) in {
-    "simulate.csv": (["simulate", "{W}/plan", NP], lambda ctx, W: (_plan()(ctx, W), (W / "plan/trajectory.csv").unlink(),
-                                                                   os.mkfifo(W / "plan/trajectory.csv"))),
-    "simulate.summary": (["simulate", "{W}/plan", NP], lambda ctx, W: (_plan()(ctx, W), (W / "plan/summary.json").unlink(),
-                                                                       os.mkfifo(W / "plan/summary.json"))),
+    "simulate.csv": (["simulate", "{W}/plan", NP], lambda ctx, W: (
+        _plan()(ctx, W), (W / "plan/trajectory.csv").unlink(), os.mkfifo(W / "plan/trajectory.csv"))),
+    "simulate.summary": (["simulate", "{W}/plan", NP], lambda ctx, W: (
+        _plan()(ctx, W), (W / "plan/summary.json").unlink(), os.mkfifo(W / "plan/summary.json"))),
     "verify.mcap": (["verify", "{W}/plan"], lambda ctx, W: (_plan()(ctx, W), (W / "plan/trajectory.mcap").unlink(),
                                                             os.mkfifo(W / "plan/trajectory.mcap"))),
     "scenario.robot": (["plan", "{W}/s.yaml", NP, "-o", "{W}/o"],
                        lambda ctx, W: (_fifo("r.yaml")(ctx, W),
                                        _scenario("s.yaml", lambda d: d.update(robot=str(W / "r.yaml")))(ctx, W))),
     "robot.urdf": (["robot", "show", "{W}/r/jethr1.yaml"],
-                   lambda ctx, W: (_robot("r")(ctx, W), (W / "r/jethr1.urdf").unlink(), os.mkfifo(W / "r/jethr1.urdf"))),
+                   lambda ctx, W: (_robot("r")(ctx, W), (W / "r/jethr1.urdf").unlink(),
+                                   os.mkfifo(W / "r/jethr1.urdf"))),
     "walk.robot": (["walk", "{W}/w.yaml", "--no-rehearse", "-o", "{W}/o"],
                    lambda ctx, W: (_fifo("r.yaml")(ctx, W), _text("w.yaml", _walk_yaml(
                        lambda d: d.update(robot=str(W / "r.yaml"))))(ctx, W))),
@@ -1571,7 +1573,8 @@ for _name, (_argv, _setup) in {
 }.items():
     probe37(f"exit.{_name}", _name.replace(".", ": ", 1),
             Probe("exit/leftover/message", _argv, setup=_setup, timeout=30,
-                  not_in_message=r"[Nn]o such file|missing|current folder|\.cpp|out of reach|unknown robot \(known"))
+                  not_in_message=r"\.cpp|From file" if _name.startswith("mesh") else
+                  r"[Nn]o such file|missing|current folder|\.cpp|out of reach|unknown robot \(known"))
 
 
 def probe_summary(results: dict) -> str:
@@ -1585,7 +1588,7 @@ def probe_summary(results: dict) -> str:
         failing += [f"  {k}: {'; '.join(r.get('problems', []))}" for k, r in rs.items() if not r.get("ok")]
     total = [r for r in results.values() if "cls" in r]
     lines.append(f"| all | {sum(bool(r.get('ok')) for r in total)} | {sum(not r.get('ok') for r in total)} |")
-    return "\n".join(lines + ["", "failing:", *failing])
+    return "\n".join([*lines, "", "failing:", *failing])
 
 
 

@@ -26,13 +26,13 @@ from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_ca
 __all__ = [
     "DEFAULT_CARTON_M",
     "F3_UNITS",
+    "MAX_ESTIMATED_S",
     "MAX_FILE_BYTES",
     "MAX_ROWS",
     "MAX_SAMPLES",
-    "MAX_ESTIMATED_S",
+    "MAX_VALUES",
     "MIN_PHASE_ROWS",
     "MIN_RATE_HZ",
-    "MAX_VALUES",
     "POLICIES",
     "ROBUST_DEFAULT",
     "SCHEMA",
@@ -381,12 +381,12 @@ def check_plan_time(scenario: Scenario, methods: tuple[str, ...], plans: int = 1
     """
     seconds = plans * sum(plan_seconds(scenario, m) for m in methods) / max(1, workers)
     if seconds > MAX_ESTIMATED_S:
-        raise InputError(scenario.source, key, f"{what or 'the plan'} would take at least {_duration(seconds)} on "
-                         f"this machine ({'; '.join(methods)}); at most {_duration(MAX_ESTIMATED_S)} is started: "
+        raise InputError(scenario.source, key, f"{what or 'the plan'} would take at least {_time_text(seconds)} on "
+                         f"this machine ({'; '.join(methods)}); at most {_time_text(MAX_ESTIMATED_S)} is started: "
                          "fewer samples, a smaller population or fewer generations")
 
 
-def _duration(seconds: float) -> str:
+def _time_text(seconds: float) -> str:
     if seconds >= 86400:
         return f"{seconds / 86400:.3g} days"
     if seconds >= 3600:

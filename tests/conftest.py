@@ -109,3 +109,22 @@ def small_route(tmp_path_factory, route_cache) -> Path:
     (out / "small.yaml").write_text(SMALL_TERRAIN)
     assert run(["route", str(out / "small.yaml"), "-o", str(out), "--cache", str(route_cache), "--no-progress"]) == 0
     return out / "small"
+
+
+def rewritten(folder: Path) -> Path:
+    """A plan folder whose files were edited, made one thing again as if jethr1 had written them so: the
+    trajectory files' digests recorded in summary.json anew, and jethr1's record of the folder (which names
+    summary.json's digest) dropped, as a copy without its hidden files would be. What ``verify`` must still
+    catch: a consistent folder of wrong rows."""
+    import hashlib
+    import json
+
+    from jethr1_plan.io.atomic import RECORD
+
+    summary = json.loads((folder / "summary.json").read_text())
+    summary["files"] = {name: {"sha256": hashlib.sha256((folder / name).read_bytes()).hexdigest(),
+                               "bytes": (folder / name).stat().st_size}
+                        for name in ("trajectory.csv", "trajectory.mcap") if (folder / name).is_file()}
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2))
+    (folder / RECORD).unlink(missing_ok=True)
+    return folder

@@ -105,7 +105,10 @@ def test_without_rerun_without_a_display_or_on_a_wrong_path_one_line_exit_2(writ
     old = tmp_path / "old"  # a JSON MCAP, as jethr1 wrote before its files were ROS 2 bags
     old.mkdir()
     _json_mcap(old / "trajectory.mcap")
-    assert run(["view", str(old), "--save", str(tmp_path / "old.rrd")]) == 2
+    assert run(["view", str(old), "--save", str(tmp_path / "old.rrd")]) == 2  # not a whole plan folder
+    err = capsys.readouterr().err
+    assert "trajectory.csv: missing" in err and len(err.strip().splitlines()) == 1
+    assert run(["view", str(old / "trajectory.mcap"), "--save", str(tmp_path / "old.rrd")]) == 2
     err = capsys.readouterr().err
     assert "not 'ros2'" in err and len(err.strip().splitlines()) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old"]  # nothing written

@@ -76,12 +76,13 @@ def columns_table(names: list[str]) -> list[str]:
 def files_section() -> list[str]:
     from jethr1_plan.balance_space.sweep import SweepResult  # noqa: F401  (the balance space's files need it)
     from jethr1_plan.files.balance_space import BALANCE_SPACE_COLUMNS, BALANCE_SPACE_TOPICS
-    from jethr1_plan.files.plan_folder import PLAN_FILES
+    from jethr1_plan.files.plan_folder import DIGESTS_KEY, PLAN_FILES
     from jethr1_plan.files.plan_mcap import PLAN_TOPICS
     from jethr1_plan.files.plan_table import columns
     from jethr1_plan.files.route import ROUTE_FILES, ROUTE_TOPICS
     from jethr1_plan.files.simulation import SIMULATION_TOPICS
     from jethr1_plan.files.walk_folder import WALK_FILES, WALK_TOPICS, walk_columns
+    from jethr1_plan.io.atomic import RECORD
     from jethr1_plan.robot.model import load_robot
 
     jethr1, dyros = load_robot("jethr1"), load_robot("dyros_jet_like")
@@ -89,8 +90,16 @@ def files_section() -> list[str]:
            "Columns are shown for the robots shipped (`<joint>` columns follow the robot's URDF joint names in order, "
            "`<fan>` columns its fans' names). Quaternions are x, y, z, w. Times are seconds from the start; MCAP "
            "messages are logged at 2000-01-01T00:00:00Z plus that time.", "",
+           f"Every folder jethr1 writes into holds `{RECORD}`: each file jethr1 wrote there, its size and SHA-256. "
+           "A command replaces or removes only a file that record names and that is unchanged; any other file of an "
+           "output's name (a user's, an input, a link, a FIFO, a device, a folder) is refused in one line, exit 2, "
+           "nothing written (docs/safety.md).", "",
            "### Plan folder (`plan`, `batch`, `route`)", "",
            "Files: " + ", ".join(f"`{f}`" for f in sorted(PLAN_FILES)) + ".", "",
+           f"`summary.json` records `{DIGESTS_KEY}`: the size and SHA-256 of `trajectory.csv` and `trajectory.mcap`; "
+           "`simulate`, `verify`, `view` and `replan-steps` refuse a folder whose files are not those (and a "
+           f"`summary.json` other than the one `{RECORD}` names). `simulation.json` records the same digests of the "
+           "plan it rehearsed (`plan_files`).", "",
            "#### `trajectory.csv` (Jet-HR1)", "", *columns_table(columns(jethr1)),
            "#### `trajectory.mcap`", "", *topics_table(PLAN_TOPICS),
            "#### `simulation.mcap` (`simulate`)", "", *topics_table(SIMULATION_TOPICS),

@@ -32,11 +32,10 @@ def replan_steps_cmd(scenario_path: Path, outdir: Path, controller: str, as_json
     Exit 0 when every step's rehearsal survives, 6 when one falls or ends off the cartons (the steps
     after it are not planned), 3 when a step cannot be planned from where the soles stand, 2 on bad input.
     """
+    from jethr1_plan.files.plan_folder import PLAN_WRITES
     from jethr1_plan.io.atomic import check_writable, write_text_atomic
     from jethr1_plan.scenario import load_scenario
     from jethr1_plan.studies.step_by_step import replan_steps
-
-    from jethr1_plan.files.plan_folder import PLAN_WRITES
 
     scenario = load_scenario(scenario_path)
     folder = outdir / scenario.name  # (a name is one plain file name: the scenario's schema)

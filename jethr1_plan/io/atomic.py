@@ -57,7 +57,7 @@ import stat
 import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -218,7 +218,8 @@ def check_writable(folder: Path, need_bytes: int = 0, writes: Iterable[str] = ()
     _check_names(folder, writes)
     base = nearest_existing(folder)
     if not base.is_dir():
-        kind = "a file" if base.is_file() else describe_kind(os.stat(base).st_mode) if base.exists() else "a broken link"
+        kind = "a file" if base.is_file() else describe_kind(os.stat(base).st_mode) if base.exists() else \
+            "a broken link"
         what = f"exists and is not a folder ({kind})" if base == Path(os.path.abspath(folder)) else \
             f"{base} is not a folder"
         raise InputError(str(folder), "", what)

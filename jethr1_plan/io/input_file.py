@@ -22,7 +22,8 @@ from pathlib import Path
 
 from jethr1_plan.errors import InputError
 
-__all__ = ["check_input_file", "check_input_path", "describe_kind", "input_folder", "inputs", "is_input", "read_input", "read_input_text"]
+__all__ = ["check_input_file", "check_input_path", "describe_kind", "input_folder", "inputs", "is_input", "read_input",
+           "read_input_text"]
 
 _INPUTS: dict[tuple[int, int], Path] = {}  # (device, inode) of every file this process read → its path
 

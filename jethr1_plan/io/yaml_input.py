@@ -21,8 +21,8 @@ import yaml
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.input_file import read_input_text
 
-__all__ = ["MAX_INT_DIGITS", "YamlLoader", "check_finite", "check_schema", "count_values", "describe", "fill_dataclass", "keypath",
-           "load_yaml", "read_document", "read_text", "short"]
+__all__ = ["MAX_INT_DIGITS", "YamlLoader", "check_finite", "check_schema", "count_values", "describe", "fill_dataclass",
+           "keypath", "load_yaml", "read_document", "read_text", "short"]
 
 
 MAX_INT_DIGITS = 30  # an integer in any of jethr1's files: a seed (19 digits) at most

@@ -8,9 +8,9 @@ loaded model, never copied from the YAML. Frames and joint names follow docs/rob
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 

@@ -40,7 +40,8 @@ import numpy as np
 from jethr1_plan.errors import InputError, RobotModelError
 from jethr1_plan.io.input_file import check_input_file, read_input
 
-__all__ = ["MAX_LINK_MASS_KG", "MAX_MESH_BYTES", "MAX_URDF_BYTES", "MIN_LINK_MASS_KG", "MODEL_JOINT_TYPES", "UrdfJoint", "UrdfModel", "check_urdf", "geometry_boxes", "quiet_stderr", "urdf_joints"]
+__all__ = ["MAX_LINK_MASS_KG", "MAX_MESH_BYTES", "MAX_URDF_BYTES", "MIN_LINK_MASS_KG", "MODEL_JOINT_TYPES", "UrdfJoint",
+           "UrdfModel", "check_urdf", "geometry_boxes", "quiet_stderr", "urdf_joints"]
 
 MAX_URDF_BYTES = 20_000_000  # a URDF without meshes is tens of kilobytes
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")

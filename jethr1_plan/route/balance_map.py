@@ -266,9 +266,7 @@ def cached_map(robot: RobotModel, settings: MapSettings, cache: Path | str | Non
     Raises:
         InputError: the cache folder cannot be written (the map is computed but cannot be kept).
     """
-    from jethr1_plan.io.atomic import write_bytes_atomic
-
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.atomic import check_writable, write_bytes_atomic
 
     key = map_key(robot, settings)
     folder = cache_dir(cache) / "balance_space"

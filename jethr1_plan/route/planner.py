@@ -35,8 +35,18 @@ from jethr1_plan.route.search import Footholds, Frontier, RouteStep, SearchResul
 from jethr1_plan.route.terrain import Terrain, dump_yaml
 from jethr1_plan.scenario import Scenario, load_scenario_text
 
-__all__ = ["MAX_REPLANS", "ROUTE_OWN", "NoRoute", "check_map_cache", "RouteOutcome", "find_route", "route_maps", "route_scenario_text",
-           "steps_text", "write_route"]
+__all__ = [
+    "MAX_REPLANS",
+    "ROUTE_OWN",
+    "NoRoute",
+    "RouteOutcome",
+    "check_map_cache",
+    "find_route",
+    "route_maps",
+    "route_scenario_text",
+    "steps_text",
+    "write_route",
+]
 
 MAX_REPLANS = 25  # steps blacklisted before the route gives up
 ROUTE_OWN = PLAN_FILES | ROUTE_FILES
@@ -85,8 +95,9 @@ def check_map_cache(terrain: Terrain, cache: Path | str | None = None) -> None:
 def route_maps(terrain: Terrain, cache: Path | str | None = None, jobs: int = 1, say: Say | None = None,
                progress=None) -> dict[str, BalanceMap]:
     """The map of each support side for the terrain's robot, balance policy, tolerance and resolution."""
-    return {side: cached_map(terrain.robot, _map_settings(terrain, side), cache, jobs=jobs, say=say, progress=progress)
+    maps = {side: cached_map(terrain.robot, _map_settings(terrain, side), cache, jobs=jobs, say=say, progress=progress)
             for side in SIDES}
+    return {side: m for side, m in maps.items() if m is not None}  # (computed where not cached: each is there)
 
 
 def _flow(value) -> str:

@@ -33,9 +33,9 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
+from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
-from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
 from jethr1_plan.walking.analysis import ACCELERATION_TOL, EDGE_ROWS, SuccessCriteria

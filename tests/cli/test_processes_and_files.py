@@ -58,25 +58,33 @@ def test_sigterm_ends_the_workers(tmp_path):
 
 
 def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_path, capsys):
+    from jethr1_plan.files.plan_folder import SIMULATION_FILES
+    from jethr1_plan.io import atomic
+
     out = tmp_path / "out"
     scenario = ROOT / "configs" / "side_step.yaml"
     assert run(["plan", str(scenario), "-o", str(out), "--no-progress"]) == 0
     folder = out / "side_step"
     (folder / "notes.txt").write_text("tested on the robot, 2026-11-20")
-    (folder / "simulation.json").write_text("{}")  # the old plan's rehearsal: jethr1's, stale
-    stale = out / ".side_step.tmp-999999-abcd"  # a run that was killed (pid 999999 is not alive)
-    stale.mkdir()
+    with atomic.staged_directory(folder, SIMULATION_FILES) as staging:  # the old plan's rehearsal: jethr1's, stale
+        (staging.path / "simulation.json").write_text("{}")
+    dead = 2**22 + 999  # no such process
+    stale = atomic._make_staging(out)  # a run that was killed before its commit
+    marker = (stale / atomic.MARKER).read_text().replace(f'"pid": {os.getpid()}', f'"pid": {dead}')
+    stale = stale.rename(out / stale.name.replace(f"-{os.getpid()}-", f"-{dead}-"))
+    (stale / atomic.MARKER).write_text(marker)
     (stale / "trajectory.csv").write_text("half")
-    live = out / f".side_step.tmp-{os.getpid()}-efgh"  # this process is alive: not touched
-    live.mkdir()
+    users = out / ".side_step.tmp-999999-abcd"  # named like an earlier version's staging folder: the user's now
+    users.mkdir()
+    (users / "trajectory.csv").write_text("mine")
     capsys.readouterr()
     assert run(["plan", str(scenario), "-o", str(out), "--no-progress"]) == 0
-    assert not stale.exists() and live.exists()
+    assert not stale.exists() and (users / "trajectory.csv").read_text() == "mine"
     assert (folder / "notes.txt").read_text() == "tested on the robot, 2026-11-20"
     assert not (folder / "simulation.json").exists()
     assert "kept notes.txt" in capsys.readouterr().err
-    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "summary.json", "trajectory.csv",
-                                                       "trajectory.mcap"]
+    assert sorted(p.name for p in folder.iterdir()) == [atomic.RECORD, "notes.txt", "summary.json",
+                                                       "trajectory.csv", "trajectory.mcap"]
 
 
 @pytest.mark.parametrize("target", ["file", "under a file"])

@@ -19,6 +19,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import common, run
+from jethr1_plan.io.atomic import RECORD
 from tests.conftest import ROOT
 
 JETHR1 = [sys.executable, "-c", "from jethr1_plan.cli import entry; entry()"]
@@ -92,7 +93,7 @@ def test_a_users_file_in_a_mount_point_survives_two_runs(tmp_path, command):
     args, written = INTO_MOUNT[command]
     codes, err, left, kept = _in_mount(tmp_path, [*args(tmp_path), "-o", "{mnt}"])
     assert codes == [0, 0] and kept and "Traceback" not in err, err
-    assert left == sorted([*written, "notes.txt"])
+    assert left == sorted([*written, "notes.txt", RECORD])
 
 
 @needs_mounts
@@ -146,7 +147,8 @@ def test_j_1000_runs_on_the_cores(tmp_path, capsys):
 
 @pytest.mark.parametrize("args, option", [
     (["--z-range", "0", "100"], "--z-range: 0 100: 171 x 171 x 10001 = 292,439,241 cells at 0.01 m need about "),
-    (["--resolution", "0.001"], "--resolution: 0.001: 1701 x 1701 x 301 = 870,913,701 cells at 0.001 m need about "),
+    (["--resolution", "0.005", "--x-range", "-5", "5", "--y-range", "-5", "5"],
+     "--x-range: -5 5: 2001 x 2001 x 61 = 244,244,061 cells at 0.005 m need about "),
 ])
 def test_a_grid_larger_than_memory_is_refused_at_once(tmp_path, capsys, args, option):
     t0 = time.perf_counter()
@@ -222,9 +224,13 @@ def test_a_seed_beyond_the_yamls_bound_is_refused(tmp_path, capsys, command):
 def test_simulation_files_are_written_together_with_the_usual_modes(side_step_plan, tmp_path, capsys):
     import shutil
 
+    from jethr1_plan.files.plan_folder import SIMULATION_FILES
+    from jethr1_plan.io.atomic import staged_directory
+
     d = tmp_path / "side_step"
     shutil.copytree(side_step_plan, d)
-    (d / "simulation.mcap").write_text("an old rehearsal's")
+    with staged_directory(d, SIMULATION_FILES) as staging:  # an old rehearsal, jethr1's: replaced
+        (staging.path / "simulation.mcap").write_text("an old rehearsal's")
     old = os.umask(0o022)
     try:
         assert run(["simulate", str(d), "--no-progress"]) == 0
@@ -232,7 +238,7 @@ def test_simulation_files_are_written_together_with_the_usual_modes(side_step_pl
         os.umask(old)
     assert {p.name: stat.S_IMODE(p.stat().st_mode) for p in d.iterdir()} == {
         "trajectory.csv": 0o644, "trajectory.mcap": 0o644, "summary.json": 0o644, "simulation.json": 0o644,
-        "simulation.mcap": 0o644}
+        "simulation.mcap": 0o644, RECORD: 0o644}
     assert (d / "simulation.mcap").read_bytes()[:5] == b"\x89MCAP"
 
 

@@ -12,7 +12,8 @@ import pytest
 from jethr1_plan.cli import run
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import folder_kind, read_plan
-from tests.conftest import ROOT
+from jethr1_plan.io.atomic import RECORD
+from tests.conftest import ROOT, rewritten
 
 
 def _copy(plan, tmp_path):
@@ -22,17 +23,18 @@ def _copy(plan, tmp_path):
 
 
 def _summary(d, edit):
+    """summary.json edited, the folder made one thing again (``rewritten``: what the reader checks next)."""
     s = json.loads((d / "summary.json").read_text())
     edit(s)
     (d / "summary.json").write_text(json.dumps(s))
-    return d
+    return rewritten(d)
 
 
 def _csv(d, edit):
     lines = (d / "trajectory.csv").read_text().split("\n")
     rows = [ln for ln in lines[1:] if ln]
     (d / "trajectory.csv").write_text("\n".join([lines[0], *edit(lines[0].split(","), rows)]) + "\n")
-    return d
+    return rewritten(d)
 
 
 def _cell(header, rows, i, column, value):
@@ -63,8 +65,8 @@ FOLDERS = {  # edit -> (words of the one line, verify's exit code)
                            "summary.json: terrain.cartons: expected array, got 5"),
     "a rate of 0": (lambda d: _summary(d, lambda s: s["trajectory"].update(rate_hz=0)),
                     "summary.json: trajectory.rate_hz: 0: must be more than 0"),
-    "the columns of another robot": (lambda d: (d / "trajectory.csv").write_text(
-        (d / "trajectory.csv").read_text().replace("thrust_left_n", "thrust_trunk_n", 1)),
+    "the columns of another robot": (lambda d: rewritten((d / "trajectory.csv").write_text(
+        (d / "trajectory.csv").read_text().replace("thrust_left_n", "thrust_trunk_n", 1)) and d),
         "trajectory.csv: header: unknown column 'thrust_trunk_n': not the columns of robot 'jethr1'"),
 }
 
@@ -136,7 +138,7 @@ def test_an_infeasible_plans_folder_says_so(tmp_path, capsys):
 def test_a_device_is_not_a_plan(capsys, path):
     assert run(["verify", path]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"jethr1: {path}: not a file or a folder (a device, a pipe?): expected trajectory.csv, "
+    assert err == [f"jethr1: {path}: a character device, not a file or a folder: expected trajectory.csv, "
                    "trajectory.mcap or their folder"]
 
 
@@ -147,3 +149,37 @@ def test_verify_names_every_file_it_read(side_step_plan, capsys):
     assert checked == [str(side_step_plan / f) for f in ("trajectory.csv", "trajectory.mcap", "summary.json")] + [
         str(ROOT / "configs" / "side_step.yaml")]
     assert f"checked trajectory.csv, trajectory.mcap, summary.json in {side_step_plan}/; and " in err
+
+
+FOREIGN = {  # the folder's files do not belong together: refused before any is parsed
+    "a CSV edited": (lambda d: (d / "trajectory.csv").write_text((d / "trajectory.csv").read_text()[:-40]),
+                     "trajectory.csv: not the trajectory.csv that summary.json records"),
+    "an MCAP cut": (lambda d: (d / "trajectory.mcap").write_bytes((d / "trajectory.mcap").read_bytes()[:5000]),
+                    "trajectory.mcap: not the trajectory.mcap that summary.json records"),
+    "an empty MCAP": (lambda d: (d / "trajectory.mcap").write_bytes(b""),
+                      "trajectory.mcap: not the trajectory.mcap that summary.json records"),
+    "summary.json edited": (lambda d: (d / "summary.json").write_text((d / "summary.json").read_text() + " "),
+                            "summary.json: changed since jethr1 wrote it"),
+    "summary.json without digests": (lambda d: _earlier(d), "summary.json: files: no digest of trajectory.csv: a plan "
+                                     "folder written by an earlier jethr1"),
+}
+
+
+def _earlier(d):
+    """The folder as an earlier jethr1 wrote it: no digests, no record."""
+    s = json.loads((d / "summary.json").read_text())
+    s.pop("files")
+    (d / "summary.json").write_text(json.dumps(s))
+    (d / RECORD).unlink()
+
+
+@pytest.mark.parametrize("case", list(FOREIGN), ids=list(FOREIGN))
+def test_a_folder_whose_files_do_not_belong_together_is_refused(side_step_plan, tmp_path, capsys, case):
+    edit, words = FOREIGN[case]
+    d = _copy(side_step_plan, tmp_path)
+    edit(d)
+    for command in (["verify", str(d)], ["simulate", str(d), "--no-progress"]):
+        assert run(command) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], err
+    assert not (d / "simulation.json").exists()

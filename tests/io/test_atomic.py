@@ -77,7 +77,7 @@ def test_a_users_file_of_an_outputs_name_is_never_replaced_nor_removed(tmp_path,
     final.mkdir()
     (final / name).write_text("mine")  # not in jethr1's record: the user's
     if name == "a.csv":  # an output of this run: the commit is refused, nothing written
-        with pytest.raises(InputError, match="a file jethr1 did not write .*nothing written"):
+        with pytest.raises(InputError, match=r"a file jethr1 did not write .*nothing written"):
             _write(final, **{"a.csv": "new", "b.json": "new"})
         with pytest.raises(InputError, match="did not write"):  # and before any work
             check_writable(final, writes=("a.csv", "b.json"))
@@ -92,7 +92,7 @@ def test_a_file_jethr1_wrote_and_the_user_edited_is_kept(tmp_path):
     _write(final, **{"a.csv": "jethr1's", "c.json": "jethr1's"})
     (final / "a.csv").write_text("edited by hand")
     (final / "c.json").write_text("edited by hand")
-    with pytest.raises(InputError, match="a.csv: changed since jethr1 wrote it"):
+    with pytest.raises(InputError, match=r"a\.csv: changed since jethr1 wrote it"):
         _write(final, **{"a.csv": "new"})
     assert _write(final, **{"b.json": "new"}) == ["a.csv", "c.json"]  # owned, not written, edited: kept
     assert (final / "a.csv").read_text() == "edited by hand" == (final / "c.json").read_text()

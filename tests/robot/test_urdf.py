@@ -44,7 +44,8 @@ CASES = {
     "an entity": (lambda u: u.replace("<robot", '<!DOCTYPE robot [<!ENTITY m "0.35">]>\n<robot', 1),
                   r"a document type or entity declaration"),
     "a mesh by URI": (lambda u: u.replace("<visual>", '<visual><geometry><mesh filename="package://x/m.stl"/>'
-                                          "</geometry></visual><visual>", 1), r"mesh: filename='package://x/m.stl': a URI"),
+                                          "</geometry></visual><visual>", 1),
+                      r"mesh: filename='package://x/m.stl': a URI"),
     "a missing mesh": (lambda u: u.replace("<visual>", '<visual><geometry><mesh filename="m.stl"/></geometry></visual>'
                                            "<visual>", 1), r"visual 0 mesh: m\.stl: no such file"),
     "an inertia no body has": (lambda u: urdf_attribute(u, "link", "left_thigh", "inertia", "izz", "0.01"),

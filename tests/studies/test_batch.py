@@ -48,17 +48,22 @@ def test_unexpected_infeasible_is_exit_3(tmp_path):
     assert run(["batch", str(a), str(ok), "-o", str(tmp_path / "o"), "--no-progress"]) == 3
 
 
-def test_bad_input_is_exit_2_and_manifest(tmp_path):
-    good = _small(tmp_path, "good")
+def test_bad_input_is_one_line_before_any_plan_and_manifest(tmp_path, capsys):
+    """Every scenario is read before any is planned: a bad one is exit 2, one line naming it, nothing
+    written (the others are not planned either: bad input is refused, not recorded)."""
+    _small(tmp_path, "good")
     bad = tmp_path / "bad.yaml"
     bad.write_text("steps: 3\n")
     manifest = tmp_path / "m.yaml"
     manifest.write_text(yaml.safe_dump(["good.yaml", "bad.yaml"]))
     assert run(["batch", "--manifest", str(manifest), "-o", str(tmp_path / "o"), "--no-progress"]) == 2
-    s = json.loads((tmp_path / "o" / "summary.json").read_text())
-    assert [r["status"] for r in s["scenarios"]] == ["feasible", "bad input"]
-    assert "steps" in s["scenarios"][1]["error"]
-    assert good.exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(bad) in err[0] and "steps" in err[0]
+    assert not (tmp_path / "o").exists()
+    manifest.write_text(yaml.safe_dump(["good.yaml"]))
+    assert run(["batch", "--manifest", str(manifest), "-o", str(tmp_path / "o"), "--no-progress"]) == 0
+    assert [r["status"] for r in json.loads((tmp_path / "o" / "summary.json").read_text())["scenarios"]] == [
+        "feasible"]
 
 
 def test_dask_executor_gives_the_same_files(tmp_path):
@@ -74,14 +79,13 @@ def test_dask_executor_gives_the_same_files(tmp_path):
             assert (tmp_path / "loky" / name / f).read_bytes() == (tmp_path / "dask" / name / f).read_bytes()
 
 
-def test_a_scenario_that_is_not_text_keeps_the_others(tmp_path, capsys):
+def test_a_scenario_that_is_not_text_is_one_line(tmp_path, capsys):
     good = _small(tmp_path, "good", expect={"feasible": True})
     bad = tmp_path / "binary.yaml"
     bad.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
     out = tmp_path / "out"
     assert run(["batch", str(bad), str(good), "-o", str(out), "--no-progress", "--json"]) == 2
-    doc = json.loads(capsys.readouterr().out)
-    status = {r["name"]: r["status"] for r in doc["scenarios"]}
-    assert status == {"binary": "bad input", "good": "feasible"}
-    assert "not UTF-8" in next(r["error"] for r in doc["scenarios"] if r["name"] == "binary")
-    assert (out / "good" / "trajectory.csv").exists() and not (out / "binary").exists()
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and "binary.yaml" in err[0] and "not UTF-8" in err[0] and captured.out == ""
+    assert not out.exists()

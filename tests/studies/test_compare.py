@@ -8,6 +8,7 @@ import numpy as np
 import yaml
 
 from jethr1_plan.cli import run
+from jethr1_plan.io.atomic import RECORD
 from tests.conftest import ROOT
 
 
@@ -104,7 +105,7 @@ def test_pareto_fronts_and_verdict(tmp_path, capsys, monkeypatch):
     path.write_text(yaml.safe_dump(doc))
     assert run(["compare", str(path), "--pareto", "-o", str(tmp_path / "p"), "--json", "--no-progress"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert sorted(p.name for p in (tmp_path / "p").iterdir()) == ["pareto.json", "pareto.png"]
+    assert sorted(p.name for p in (tmp_path / "p").iterdir() if p.name != RECORD) == ["pareto.json", "pareto.png"]
     assert (tmp_path / "p" / "pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     sqp, gas = d["fronts"]["sqp"], d["fronts"]["gas"]
     assert [p["weight"] for p in sqp] == [10.0, 7e4, 1e6] and [p["default"] for p in sqp] == [False, True, False]

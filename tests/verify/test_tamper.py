@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from tests.conftest import ROOT
+from tests.conftest import ROOT, rewritten
 
 
 @pytest.fixture
@@ -31,6 +31,7 @@ def _edit_csv(d, edit):
     header, rows = lines[0].split(","), [ln for ln in lines[1:] if ln]
     rows = edit(header, rows)
     (d / "trajectory.csv").write_text("\n".join([lines[0], *rows]) + "\n")
+    rewritten(d)  # the folder one thing again: its rows are what verify checks
 
 
 def _set(header, rows, i, column, value):
@@ -101,7 +102,10 @@ def test_a_malformed_csv_is_exit_2(planned, tmp_path, capsys, case, edit, words)
     d = _copy(planned, tmp_path)
     text = (d / "trajectory.csv").read_text()
     (d / "trajectory.csv").write_bytes(edit(text).encode("utf-8", "surrogateescape"))
-    code, err = _verify(d / "trajectory.csv", capsys)
+    code, err = _verify(d / "trajectory.csv", capsys)  # not the file summary.json records
+    assert code == 2 and "not the trajectory.csv that summary.json records" in err
+    assert len(err.strip().splitlines()) == 1
+    code, err = _verify(rewritten(d) / "trajectory.csv", capsys)  # recorded: what is wrong with it
     assert code == 2 and words in err and len(err.strip().splitlines()) == 1
 
 
@@ -109,6 +113,8 @@ def test_a_corrupt_mcap_is_exit_2(planned, tmp_path, capsys):
     d = _copy(planned, tmp_path)
     (d / "trajectory.mcap").write_bytes(np.random.default_rng(0).bytes(1000))
     code, err = _verify(d, capsys)
+    assert code == 2 and "not the trajectory.mcap that summary.json records" in err
+    code, err = _verify(rewritten(d), capsys)
     assert code == 2 and "not a valid MCAP" in err
     data = (planned / "trajectory.mcap").read_bytes()
     (d / "trajectory.mcap").write_bytes(data[: len(data) * 2 // 3])  # cut
@@ -155,10 +161,14 @@ def test_the_scenario_is_found_and_checked(planned, tmp_path, capsys, monkeypatc
     s = json.loads((d / "summary.json").read_text())
     s["scenario_file"] = "configs/side_step.yaml"  # relative: as a user might have typed it
     (d / "summary.json").write_text(json.dumps(s))
+    code, err = _verify(d, capsys)  # an edited summary.json: not the one jethr1 wrote with these files
+    assert code == 2 and "summary.json: changed since jethr1 wrote it" in err
+    rewritten(d)
     monkeypatch.chdir(tmp_path)
     assert not (tmp_path / "configs" / "side_step.yaml").exists()
     code, err = _verify(d, capsys)
     assert code == 0
+    s = json.loads((d / "summary.json").read_text())
     s["scenario_yaml"] = s["scenario_yaml"].replace("[0.0, 0.35, 0.0]", "[0.02, 0.35, 0.0]")
     (d / "summary.json").write_text(json.dumps(s))
     code, err = _verify(d, capsys)
@@ -179,5 +189,5 @@ def test_verify_reads_only_what_was_written(planned, tmp_path, capsys):
     s = json.loads((d / "summary.json").read_text())
     s["robot_yaml"] = "/nowhere/jethr1.yaml"
     (d / "summary.json").write_text(json.dumps(s))
-    assert _verify(d, capsys)[0] == 0
+    assert _verify(rewritten(d), capsys)[0] == 0
     assert os.path.exists(d / "trajectory.mcap")
