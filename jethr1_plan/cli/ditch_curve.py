@@ -43,7 +43,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
 
     from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.scenario import load_scenario
-    from jethr1_plan.studies.ditch_curve import curve, curve_png, default_base, ditch_scenario
+    from jethr1_plan.studies.ditch_curve import curve, curve_png, default_base, ditch_scenario, landing_x
 
     gap_values = np.array(range_spec(gaps, "--gaps"))
     try:
@@ -59,6 +59,12 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     from jethr1_plan.scenario import check_plan_time
 
     base = load_scenario(base_path) if base_path else default_base()
+    span = 2 * (base.robot.leg_length_m + base.robot.hip_offset_m)  # both legs straight, hips side by side
+    far = [float(g) for g in gap_values if landing_x(float(g), base.robot.sole_length_m) > span]
+    if far:
+        raise InputError("--gaps", gaps, f"{far[0]:g} m: out of reach: the landing sole would be "
+                         f"{landing_x(far[0], base.robot.sole_length_m):.3f} m ahead of the support sole; "
+                         f"{base.robot.name}'s legs span at most {span:.3f} m")
     method = optimiser or base.optimiser.method
     check_plan_time(ditch_scenario(base, float(gap_values[0]), base.balance.robust, base.robot.sole_length_m),
                     (method,), plans=len(gap_values) * (ROBUST_PLANS_PER_GAP + len(scale_values)),

@@ -489,8 +489,14 @@ def build_with_robot(text: str, src: str, schema: dict, max_values: int, what: s
         InputError: the document's first problem, or its robot's, under the key ``robot``.
     """
     doc = read_document(text, src, schema, max_values, what)
+    ref = doc.get("robot", "jethr1")
+    if os.path.isdir(ref) and os.path.isfile(src):
+        yamls = sorted(Path(ref).glob("*.yaml"))
+        if len(yamls) == 1 and os.path.samefile(yamls[0], src):
+            raise InputError(src, "robot", f"{ref!r}: the folder of this very file, whose only YAML is this "
+                             f"{what[2:] if what.startswith('a ') else what}: expected a robot's name, folder or YAML")
     try:
-        robot = load_robot(doc.get("robot", "jethr1"))
+        robot = load_robot(ref)
     except InputError as exc:
         raise InputError(src, "robot", str(exc)) from None
     return build(doc, src, robot)
