@@ -25,6 +25,7 @@ from jethr1_plan.io.json_text import json_text
 
 MIN_RESOLUTION_M = 0.005  # a finer grid resolves nothing a plan holds to (its sole margin, its 10 mm of CoM error)
 CELL_CPU_S = 57e-6  # CPU time a cell takes (at 1 cm: 51.5 s for 906,471 cells; wider grids take longer a cell) [s]
+EXHAUSTIVE_CELL_S = 0.1  # the least CPU time the exhaustive search takes a cell at a 1 cm P_body grid (~0.3 s) [s]
 CELL_BYTES = 400  # memory a grid cell takes at the peak of a sweep and its files (measured: ~500 MB at 0.9 M cells)
 CELL_FILE_BYTES = 60  # bytes a cell takes in balance_space.csv and .mcap, at least
 BALANCE_SPACE_FILES = ("balance_space.csv", "balance_space.mcap", "balance_space.png", "summary.json")
@@ -112,8 +113,10 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
         raise InputError("--sole-margin", f"{sole_margin:g}", "leaves no support polygon (sole "
                          f"{robot.sole_length_m} x {robot.sole_width_m} m)")
     cells = _check_grid(spec, (x_range, y_range, z_range))
-    check_time(_grid_option(spec, (x_range, y_range, z_range)), cells * CELL_CPU_S / min(jobs, cores()),
-               f"{cells:,} cells")
+    cell_s = CELL_CPU_S if method == "continuation" else EXHAUSTIVE_CELL_S * (0.01 / pbody_resolution) ** 3
+    check_time(_grid_option(spec, (x_range, y_range, z_range)) if method == "continuation" or pbody_resolution >= 0.01
+               else ("--pbody-resolution", f"{pbody_resolution:g}"), cells * cell_s / min(jobs, cores()),
+               f"{cells:,} cells ({method})")
     check_writable(outdir, need_bytes=cells * CELL_FILE_BYTES, writes=BALANCE_SPACE_FILES)
     jobs = cap_jobs(jobs)
     settings = SearchSettings()
