@@ -1,10 +1,16 @@
-"""Issue 25's cases, run as a new user would: every command with files it must not lose, resources it
+"""Issues 25 and 37's cases, run as a new user would: every command with files it must not lose, resources it
 must not run away with, robot folders and plan folders tampered with. Each case runs ``jethr1`` in
 its own process group and reports its exit code, the lines it printed on stderr, whether a traceback
 appeared, its wall time, the peak memory of its process tree and what it left on disk.
 
+Issue 37's 240 cases (``37.<class>.…``, one of the classes of docs/safety.md, "The third probe") are also
+judged: the exit the case allows; exit 2 one line and nothing in the case's folder changed (hashed before and
+after); any other exit changing only the outputs the case names, never a file of the user's; no traceback; no
+process of the command alive a second after it ended; under 5 s where there is no real work; under 500 MB.
+
     .venv/bin/python bench/safety_cases.py [--jethr1 PATH] [--only ID,ID] [--json OUT.json]
     .venv/bin/python bench/safety_cases.py --table BEFORE.json AFTER.json    # the table of docs/safety.md
+    .venv/bin/python bench/safety_cases.py --summary RESULTS.json             # issue 37's counts per class
 
 ``--jethr1`` picks the program under test (default: this checkout's), so the same cases measure an
 older commit (``git worktree add ../before <commit>`` with its own venv). Mount points are real
