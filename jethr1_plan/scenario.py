@@ -34,6 +34,7 @@ __all__ = [
     "MIN_PHASE_ROWS",
     "MIN_RATE_HZ",
     "POLICIES",
+    "REFERENCE_SAMPLE_S",
     "ROBUST_DEFAULT",
     "SCHEMA",
     "YAW_MODES",
@@ -63,6 +64,7 @@ MIN_PHASE_ROWS = 5  # rows in every swing and every transfer: a phase of fewer i
 MAX_ESTIMATED_S = 3600.0  # a request estimated to take longer on this machine is refused before it starts [s]
 GA_EVALUATION_S = 50e-6  # the least time one GA candidate takes (a posture and its balance; measured 0.1-0.2 ms) [s]
 SQP_SAMPLE_S = 0.01  # the least time sqp takes for one swing sample (measured 0.02-0.05 s) [s]
+REFERENCE_SAMPLE_S = 0.3  # the least time the exhaustive reference takes a sample (compare --reference: ~1 s) [s]
 _num = {"type": "number", "minimum": -1e9, "maximum": 1e9}
 _pos = {"type": "number", "exclusiveMinimum": 0, "maximum": 1e9}
 _prob = {"type": "number", "minimum": 0, "maximum": 1}
@@ -372,14 +374,15 @@ def plan_seconds(scenario: Scenario, method: str) -> float:
 
 
 def check_plan_time(scenario: Scenario, methods: tuple[str, ...], plans: int = 1, workers: int = 1,
-                    key: str = "optimiser", what: str = "") -> None:
+                    key: str = "optimiser", what: str = "", extra_s: float = 0.0) -> None:
     """Refuse, before it starts, a request of ``plans`` plans of ``scenario`` with each of ``methods`` on
-    ``workers`` cores estimated (:func:`plan_seconds`) to take longer than :data:`MAX_ESTIMATED_S`.
+    ``workers`` cores estimated (:func:`plan_seconds`, plus ``extra_s`` of other work) to take longer than
+    :data:`MAX_ESTIMATED_S`.
 
     Raises:
         InputError: naming the scenario, ``key`` and the estimate.
     """
-    seconds = plans * sum(plan_seconds(scenario, m) for m in methods) / max(1, workers)
+    seconds = (plans * sum(plan_seconds(scenario, m) for m in methods) + extra_s) / max(1, workers)
     if seconds > MAX_ESTIMATED_S:
         raise InputError(scenario.source, key, f"{what or 'the plan'} would take at least {_time_text(seconds)} on "
                          f"this machine ({'; '.join(methods)}); at most {_time_text(MAX_ESTIMATED_S)} is started: "

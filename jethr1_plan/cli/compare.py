@@ -39,7 +39,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
                 no_progress) -> None:
     """Paper A's comparison of the optimisers (thrust, smoothness, evaluations, time; Figs. 7, 9, 10)."""
     from jethr1_plan.io.atomic import staged_directory
-    from jethr1_plan.scenario import check_plan_time, load_scenario
+    from jethr1_plan.scenario import REFERENCE_SAMPLE_S, check_plan_time, load_scenario
     from jethr1_plan.studies.compare import compare, comparison_pngs
 
     methods = ("gas,sqp" if pareto else "gas,ga,gaex,sqp") if methods is None else methods
@@ -57,9 +57,12 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     scenario = load_scenario(scenario_path)
     from jethr1_plan.studies.compare import PARETO_WEIGHTS
 
-    runs = max(len(PARETO_WEIGHTS.get(m, ())) for m in names) if pareto else len(modes) * (2 if reference else 1)
-    check_plan_time(scenario, names, plans=runs, workers=min(jobs, cores()) if pareto else 1, key="--methods",
-                    what=f"the comparison ({runs} plans per method)")
+    runs = max(len(PARETO_WEIGHTS.get(m, ())) for m in names) if pareto else len(modes)
+    samples = sum(len(st.path_m) for st in scenario.steps)
+    check_plan_time(scenario, names, plans=runs, workers=min(jobs, cores()) if pareto else 1,
+                    key="--reference" if reference else "--methods", what=f"the comparison ({runs} plans per method"
+                    f"{', and the exhaustive reference' if reference else ''})",
+                    extra_s=len(modes) * samples * REFERENCE_SAMPLE_S if reference and not pareto else 0.0)
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
     from jethr1_plan.io.atomic import check_writable
 
