@@ -1159,6 +1159,16 @@ probe37("data.staging-like.balance-space", "balance-space: a user's folder named
               keep=(f"o/.jethr1-tmp-99999-{HOST}-abc/notes.txt", f"o/.jethr1-tmp-99999-{HOST}-abc/summary.json"),
               limit_s=60, timeout=90))
 
+probe37("data.user-file.record-name", "plan: a user's file named like jethr1's record in the folder",
+        Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], setup=_text("o/side_step/.jethr1-files.json", USER),
+              keep=("o/side_step/.jethr1-files.json",), timeout=60))
+for _name, (_setup, _keep) in {"dangling-link": (_symlink("o", "{W}/nowhere/o"), ("o",)), "fifo": (_fifo("o"), ("o",)),
+                               "file": (_text("o", USER), ("o",))}.items():
+    probe37(f"data.output-folder.{_name}", f"plan -o a {_name}",
+            Probe("data loss", ["plan", SIDE, NP, "-o", "{W}/o"], setup=_setup, keep=_keep, timeout=60))
+probe37("data.batch.two-stems", "batch: two scenarios of one file name (their folders would collide)",
+        Probe("data loss", ["batch", SIDE, "{W}/x/side_step.yaml", NP, "-o", "{W}/o"],
+              setup=_copy("x/side_step.yaml", SIDE), timeout=60))
 probe37("data.terrain.symlink", "terrain -o a symbolic link to a user's file",
         Probe("data loss", ["terrain", "random", "--seed", "1", "-o", "{W}/link.yaml"],
               setup=_all(_text("victim.txt", USER), _symlink("link.yaml", "{W}/victim.txt")), keep=("victim.txt",

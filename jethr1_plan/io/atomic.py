@@ -130,12 +130,13 @@ def _check_names(path: Path, names: Iterable[str] = ()) -> None:
         raise InputError(str(path), "", "a path longer than the file system allows; nothing written")
 
 
-def read_record(folder: Path) -> dict[str, dict[str, Any]]:
+def read_record(folder: Path, strict: bool = False) -> dict[str, dict[str, Any]]:
     """The files jethr1 wrote in ``folder`` (its :data:`RECORD`): name → {"sha256", "bytes"}; empty where it has
-    none, or one that is not jethr1's (not a regular file, not its format).
+    none, or (unless ``strict``) one that is not jethr1's.
 
     Raises:
-        InputError: the record's name holds something other than a file (a link, a folder, a FIFO).
+        InputError: the record's name holds something other than a file (a link, a folder, a FIFO); with
+            ``strict``, a file of that name that is not jethr1's record (a commit never replaces it).
     """
     p = Path(folder) / RECORD
     try:
@@ -147,16 +148,19 @@ def read_record(folder: Path) -> dict[str, dict[str, Any]]:
     if not stat.S_ISREG(st.st_mode):
         raise InputError(str(p), "", f"{describe_kind(st.st_mode)} where jethr1 keeps its record of the files it "
                          "wrote here; nothing written")
-    if st.st_size > MAX_RECORD_BYTES:
-        return {}
-    try:
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
-        with os.fdopen(fd, "rb") as f:
-            doc = json.loads(f.read(MAX_RECORD_BYTES + 1).decode("utf-8"))
-    except (OSError, ValueError, UnicodeDecodeError, RecursionError):
-        return {}
+    doc: Any = None
+    if st.st_size <= MAX_RECORD_BYTES:
+        try:
+            fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
+            with os.fdopen(fd, "rb") as f:
+                doc = json.loads(f.read(MAX_RECORD_BYTES + 1).decode("utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+            doc = None
     files = doc.get("files") if isinstance(doc, dict) and doc.get("written_by") == "jethr1" else None
     if not isinstance(files, dict):
+        if strict:
+            raise InputError(str(p), "", "a file of the name jethr1 keeps its record of the files it wrote under, "
+                             "which is not that record: move it away or choose another output; nothing written")
         return {}
     return {k: v for k, v in files.items() if isinstance(k, str) and isinstance(v, dict)
             and isinstance(v.get("sha256"), str) and isinstance(v.get("bytes"), int)}
@@ -179,7 +183,7 @@ def check_targets(folder: Path, names: Iterable[str], record: dict[str, dict[str
     """
     folder = Path(folder)
     if record is None:
-        record = read_record(folder) if folder.is_dir() else {}
+        record = read_record(folder, strict=True) if folder.is_dir() else {}
     for name in names:
         p = folder / name
         try:
@@ -230,8 +234,8 @@ def check_writable(folder: Path, need_bytes: int = 0, writes: Iterable[str] = ()
     except OSError as exc:
         where = "here" if base == Path(os.path.abspath(folder)) else f"in {base}"
         raise InputError(str(folder), "", f"cannot write {where}: {_os_problem(exc)}") from None
-    if base == Path(os.path.abspath(folder)) and writes:
-        check_targets(folder, writes)
+    if base == Path(os.path.abspath(folder)):
+        check_targets(folder, writes)  # (and the folder's record, if any, is jethr1's)
     if need_bytes > 0:
         try:
             free = shutil.disk_usage(base).free
@@ -462,7 +466,7 @@ def _commit(tmp: Path, base: Path, final: Path, own: frozenset[str], staging: St
         raise InputError(str(final), "", f"exists and is {describe_kind(st.st_mode)}, not a folder")
     (inner / RECORD).unlink(missing_ok=True)
     with _locked(final):
-        record = read_record(final)
+        record = read_record(final, strict=True)
         check_targets(final, written, record)
         if precondition is not None:
             precondition()

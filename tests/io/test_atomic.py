@@ -284,3 +284,15 @@ def test_an_interrupt_during_the_commit_waits_until_the_set_is_whole(tmp_path, m
     assert len([c for c in calls if os.path.basename(c) in OWN]) == 3 and all((final / n).read_text() == "new"
                                                                             for n in OWN)
     assert final in atomic.committed()  # the interrupt message names it as complete
+
+
+def test_a_users_file_of_the_records_name_is_never_replaced(tmp_path):
+    final = tmp_path / "plan"
+    final.mkdir()
+    (final / RECORD).write_text("my own notes, by chance of that name")
+    with pytest.raises(InputError, match="not that record"):
+        check_writable(final, writes=("a.csv",))
+    with pytest.raises(InputError, match="not that record"):
+        _write(final, **{"a.csv": "new"})
+    assert (final / RECORD).read_text() == "my own notes, by chance of that name"
+    assert _tree(tmp_path) == ["plan"]
