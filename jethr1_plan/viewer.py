@@ -26,7 +26,7 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.mcap import EPOCH_NS, read_mcap
-from jethr1_plan.files.plan_folder import check_belongs
+from jethr1_plan.files.plan_folder import check_belongs, rehearsal_of
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.io.input_file import check_input_path, read_input
 
@@ -98,10 +98,9 @@ def view_files(path: Path) -> ViewFiles:
     if not trajectory.is_file():
         raise InputError(str(path), "", "no trajectory.mcap or balance_space.mcap in this folder")
     kind = _kind(trajectory)
-    if kind == "plan":
-        check_belongs(path)  # a plan folder is one thing: its MCAP is the one its summary.json records
-    out = ViewFiles(kind, [(trajectory, kind)])
-    if kind == "plan" and (path / "simulation.mcap").is_file():
+    summary = check_belongs(path) if kind == "plan" else {}  # a plan folder is one thing: its MCAP is the one
+    out = ViewFiles(kind, [(trajectory, kind)])                 # its summary.json records
+    if kind == "plan" and (path / "simulation.mcap").is_file() and rehearsal_of(path, summary):
         out.files.append((path / "simulation.mcap", "rehearsal"))
     return out
 

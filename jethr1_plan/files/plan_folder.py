@@ -32,8 +32,8 @@ from jethr1_plan.scenario import MAX_FILE_BYTES, MAX_ROWS, POLICIES, Scenario, l
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["PLAN_FILES", "PLAN_WRITES", "SIMULATION_FILES", "SUMMARY_SCHEMA", "PlanFolder", "check_belongs",
-           "file_digests", "folder_kind", "plan_folder", "read_json", "read_plan", "trajectory_files", "write_plan",
-           "write_summary_only"]
+           "file_digests", "folder_kind", "plan_folder", "read_json", "read_plan", "rehearsal_of", "trajectory_files",
+           "write_plan", "write_summary_only"]
 
 #: the files ``jethr1 simulate`` writes into a plan folder (both, or neither)
 SIMULATION_FILES = frozenset({"simulation.json", "simulation.mcap"})
@@ -411,6 +411,18 @@ def check_belongs(folder: Path) -> dict:
         if st.st_size != rec["bytes"] or file_sha256(p) != rec["sha256"]:
             _check_digest(p, read_input(p, rec["bytes"] + 1, f"a {name}"), rec)
     return summary
+
+
+def rehearsal_of(folder: Path, summary: dict) -> bool:
+    """Whether the folder's ``simulation.json`` is a rehearsal of the plan ``summary`` (its summary.json) describes:
+    it records the digests of the very trajectory files summary.json records (a rehearsal left by an earlier
+    jethr1, or of an earlier plan, is not shown beside this one)."""
+    try:
+        doc = read_json_document(Path(folder) / "simulation.json")
+    except InputError:
+        return False
+    files = summary.get(DIGESTS_KEY)
+    return isinstance(files, dict) and bool(files) and doc.get("plan_files") == files
 
 
 def read_plan(path: Path, scenario: Path | None = None, suffixes: tuple[str, ...] = (".csv", ".mcap"),
