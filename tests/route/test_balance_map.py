@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.balance_space.sweep import SweepSpec, sweep
+from jethr1_plan.errors import InputError
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.reasons import Reason
 from jethr1_plan.robot.model import load_robot
@@ -94,7 +95,11 @@ def test_a_map_is_computed_once_and_then_read_from_the_cache(tmp_path, monkeypat
     for a, b in ((first.thrust, second.thrust), (first.reason, second.reason)):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_allclose(first.p_body, second.p_body, atol=1e-6)  # kept in float32
-    first.path.write_bytes(b"not a map")  # a damaged file is computed again, not trusted
+    first.path.write_bytes(b"not a map")  # a damaged file is not trusted, nor replaced: named, in one line
+    with pytest.raises(InputError, match="not a balance-space map jethr1 wrote .*remove it"):
+        cached_map(robot, _tiny(), None, say=said.append)
+    assert first.path.read_bytes() == b"not a map"
+    first.path.unlink()  # removed: computed again
     said.clear()
     cached_map(robot, _tiny(), None, say=said.append)
     assert "computing" in said[0]
