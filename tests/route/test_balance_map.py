@@ -96,7 +96,7 @@ def test_a_map_is_computed_once_and_then_read_from_the_cache(tmp_path, monkeypat
         np.testing.assert_array_equal(a, b)
     np.testing.assert_allclose(first.p_body, second.p_body, atol=1e-6)  # kept in float32
     first.path.write_bytes(b"not a map")  # a damaged file is not trusted, nor replaced: named, in one line
-    with pytest.raises(InputError, match="not a balance-space map jethr1 wrote .*remove it"):
+    with pytest.raises(InputError, match=r"not a balance-space map jethr1 wrote .*remove it"):
         cached_map(robot, _tiny(), None, say=said.append)
     assert first.path.read_bytes() == b"not a map"
     first.path.unlink()  # removed: computed again
