@@ -20,6 +20,7 @@ lint: install
 
 test: install lint
 	$(BIN)/python -m pytest -q
+	rm -rf out/ci-batch  # (a scratch folder: jethr1 itself never replaces files it has no record of writing)
 	$(BIN)/jethr1 batch configs/*.yaml -o out/ci-batch --no-progress
 
 demo: install

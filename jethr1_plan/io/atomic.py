@@ -201,8 +201,10 @@ def check_targets(folder: Path, names: Iterable[str], record: dict[str, dict[str
                              "written")
         rec = record.get(name)
         if rec is None:
-            raise InputError(str(p), "", f"a file jethr1 did not write (its record here, {RECORD}, does not name "
-                             "it): move it away or choose another output; nothing written")
+            why = f"its record here, {RECORD}, does not name it" if record else \
+                f"or one an earlier jethr1 wrote: there is no {RECORD} here"
+            raise InputError(str(p), "", f"a file jethr1 did not write ({why}): move it away or choose another "
+                             "output; nothing written")
         if rec["bytes"] != st.st_size or ((digests or {}).get(name) or file_sha256(p)) != rec["sha256"]:
             raise InputError(str(p), "", "changed since jethr1 wrote it: move it away (or remove it) to write here "
                              "again; nothing written")
