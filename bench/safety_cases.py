@@ -6,7 +6,7 @@ appeared, its wall time, the peak memory of its process tree and what it left on
 Issue 37's 240 cases (``37.<class>.…``, one of the classes of docs/safety.md, "The third probe") are also
 judged: the exit the case allows; exit 2 one line and nothing in the case's folder changed (hashed before and
 after); any other exit changing only the outputs the case names, never a file of the user's; no traceback; no
-process of the command alive a second after it ended; under 5 s where there is no real work; under 500 MB.
+process of the command alive 2 s after it ended; under 5 s where there is no real work; under 500 MB.
 
     .venv/bin/python bench/safety_cases.py [--jethr1 PATH] [--only ID,ID] [--json OUT.json]
     .venv/bin/python bench/safety_cases.py --table BEFORE.json AFTER.json    # the table of docs/safety.md
@@ -79,7 +79,7 @@ class Outcome:
     peak_procs: int
     first_output_s: float | None  # first byte on stderr
     stopped: str = ""  # "timeout" or "memory" when the harness ended it
-    left_procs: int = 0  # processes of its session still alive a second after it ended
+    left_procs: int = 0  # processes of its session still alive LEFT_AFTER_S after it ended
 
     @property
     def lines(self) -> list[str]:
@@ -95,13 +95,16 @@ def _default_signals() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+LEFT_AFTER_S = 2.0  # a process of the command still alive this long after it ended is left behind [s]
+
+
 def run_cmd(argv: list[str], timeout: float = 120.0, max_mb: float = 3000.0, cwd: Path | None = None,
             stdout=None, signal_after: tuple[float | Callable[[], bool], int] | None = None,
             env: dict | None = None, main_only: bool = False, stdin=None) -> Outcome:
     """Run ``argv`` in a new session, watch its memory, stop it at ``timeout`` or ``max_mb``;
     ``signal_after`` = (seconds or a condition, signal) sends a signal to the process group after that
     long or once the condition holds (with ``main_only``, to the command's own process alone, as
-    ``kill -9 PID`` does). ``left_procs``: the processes of its session alive a second after it ended."""
+    ``kill -9 PID`` does). ``left_procs``: the processes of its session alive ``LEFT_AFTER_S`` after it ended."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(argv, stdout=stdout if stdout is not None else subprocess.PIPE, stderr=subprocess.PIPE,
                             start_new_session=True, cwd=cwd, env=env, preexec_fn=_default_signals,
@@ -145,7 +148,7 @@ def run_cmd(argv: list[str], timeout: float = 120.0, max_mb: float = 3000.0, cwd
             break
         time.sleep(0.05)
     seconds = time.perf_counter() - t0
-    time.sleep(1.0)
+    time.sleep(LEFT_AFTER_S)
     left = _session_rss_mb(proc.pid)[1]
     with contextlib.suppress(ProcessLookupError, PermissionError):  # workers the run left behind
         os.killpg(proc.pid, signal.SIGKILL)
@@ -719,7 +722,7 @@ def _(ctx):
 # Each case runs in a folder of its own (the command's working folder), holding the user's files it
 # needs. A case passes when the command exits with a code the case allows; exit 2 is one line on stderr
 # and nothing in the folder changed; any other exit changed only the outputs the case names, never a
-# file of the user's; no traceback; no process of the command alive a second after it ended; under
+# file of the user's; no traceback; no process of the command alive 2 s after it ended; under
 # LIMIT_S seconds (where the command does no real work) and MAX_MB of memory for its processes together.
 
 LIMIT_S = 5.0
@@ -1537,7 +1540,7 @@ for _name, (_argv, _n, _after) in {
     "ditch-curve": (["ditch-curve", "--gaps", "0.30:0.33:0.01", "--scales", "0", "-j", "2", NP, "-o", "{W}/o"], 3,
                     4.0),
     "compare-pareto": (["compare", SIDE, "--pareto", "--methods", "sqp", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
-    "balance-space": (["balance-space", "--resolution", "0.05", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
+    "balance-space": (["balance-space", "--resolution", "0.02", "-j", "2", NP, "-o", "{W}/o"], 3, 4.0),
 }.items():
     probe37(f"exit.kill9.{_name}", f"kill -9 {_name} once its workers run: none left",
             Probe("exit/leftover/message", _argv, timeout=120, kill9=_procs_at_least(_n), kill9_after=_after,
