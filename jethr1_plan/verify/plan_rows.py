@@ -249,10 +249,24 @@ class RowData:
         return self.scenario.timing.rate_hz if self.scenario is not None else None
 
 
-def expected_sequence(sc, rate_hz: float) -> list[tuple[str, int, int, str]]:
-    """(phase, step, sample, support) of every row the scenario's plan has, in order (``sequence``)."""
+def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[tuple[str, int, int, str]] | None:
+    """(phase, step, sample, support) of every row the scenario's plan has, in order (``sequence``). A plan
+    timed fastest: its phases' row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
     from jethr1_plan.control.time_laws import swing_row_positions
 
+    if getattr(sc.timing, "fastest", False):
+        phases = ((summary or {}).get("timing") or {}).get("phases")
+        if not isinstance(phases, list) or len(phases) != 2 * len(sc.steps) + 1:
+            return None
+        try:
+            counts = [int(p["rows"]) for p in phases]
+        except (KeyError, TypeError, ValueError):
+            return None
+        out = []
+        for k, st in enumerate(sc.steps):
+            out += [("transfer", k, i, "both") for i in range(counts[2 * k])]
+            out += [("swing", k, i, st.support) for i in range(counts[2 * k + 1])]
+        return out + [("transfer", len(sc.steps), i, "both") for i in range(counts[-1])]
     n_tr = max(1, round(sc.timing.transfer_s * rate_hz))
     out = []
     for k, st in enumerate(sc.steps):
