@@ -194,8 +194,15 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     grid = (np.linspace(0.0, span, GRID_PER_SAMPLE * int(round(span)) + 1) if swing
             else np.linspace(0.0, 1.0, TRANSFER_GRID))
     start = snap[0]
-    seq.restore(snap)
-    build(grid, True)
+    seq.linear_segments = set()
+    for _ in range(4):  # the smooth trunk kept off the segments where its postures fail (reach, limits)
+        seq.restore(snap)
+        build(grid, True)
+        failed = np.flatnonzero(~np.asarray(seq.rows.columns["feasible"][start:], dtype=bool))
+        if not (swing and seq.smooth_trunk and len(failed)):
+            break
+        seg = np.floor(grid[failed]).astype(int)
+        seq.linear_segments |= {int(k) for k in np.concatenate([seg - 1, seg, seg + 1])}
     tab = _grid_table(seq, start)
     seq.restore(snap)
     dq, ddq, dF = _path_derivatives(tab["base"], tab["q"], tab["thrust"], grid,
@@ -229,14 +236,18 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
         if law is None:
             break
         duration = max(law.duration_s, floor)
+        if duration > cap:  # no faster within its limits than its cap allows: refused below
+            break
         n = max(1, math.ceil(duration / seq.dt - 1e-9))
         stretch = law.duration_s / (n * seq.dt)
         positions = law.positions(np.arange(n + 1 if include_end else n) * seq.dt * stretch)
         seq.restore(snap)
         build(positions, include_end)
+        if seq.first_infeasible is not snap[3]:  # a row that does not hold at rest: no timing helps it
+            break
         worst, xb, rest = _row_values(seq, start, len(seq.rows), supports, polygon, fast, tolerance)
         bad = np.flatnonzero((worst > 0.0) | (xb < 1.0))
-        if not len(bad) or rounds == ROUNDS:
+        if not len(bad) or rounds == ROUNDS or np.all((rest[bad] >= 0.0) & (worst[bad] > 0.0)):
             break
         # slow down around each such row by what it needs: its motion's part scales with ṡ² (ṡ at a corner)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -251,6 +262,9 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
         x_max = np.where(factor < 1.0, np.minimum(x_max, law.sd**2) * factor, x_max)
     phase = {"step": int(seq.rows.columns["step"][start]) if len(seq.rows) > start else None, "phase": kind,
              "rows": len(seq.rows) - start, "fixed_duration_s": fixed_s, "rounds": rounds}
+    if swing:
+        phase["trunk"] = ("linear between samples" if not seq.smooth_trunk else "monotone cubic through the samples"
+                          + (f", linear on segments {sorted(seq.linear_segments)}" if seq.linear_segments else ""))
     if law is None:
         seq.restore(snap)
         build(np.linspace(0.0, span if swing else 1.0, max(1, round(fixed_s / seq.dt)) + int(include_end)),
@@ -259,6 +273,14 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
         _mark_all(seq, start, reason)
         return {**phase, "rows": len(seq.rows) - start, "duration_s": None, "binding": []}
     duration = (len(seq.rows) - start - int(include_end)) * seq.dt
+    if law.duration_s > cap:
+        seq.restore(snap)
+        build(np.linspace(0.0, span if swing else 1.0, max(1, round(fixed_s / seq.dt)) + int(include_end)),
+              include_end)
+        _mark_all(seq, start, f"the fastest {kind} its limits allow takes {law.duration_s:.2f} s, above "
+                  f"timing.max_{kind}_s {cap:g} s")
+        return {**phase, "rows": len(seq.rows) - start, "duration_s": None, "fastest_s": law.duration_s,
+                "binding": []}
     names = binding_constraints(law, a, b, c, x_max, con.names, con.x_name)
     dt = np.diff(law.times)
     shares: dict[str, float] = {}
@@ -271,8 +293,8 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     if len(broken):
         _mark_rows(seq, start, broken, worst, kind)
     if duration > cap + 1e-9:
-        _mark_all(seq, start, f"the fastest {kind} its limits allow takes {duration:.2f} s, above timing.max_{kind}_s "
-                  f"{cap:g} s")
+        _mark_all(seq, start, f"the fastest {kind} its limits allow takes {duration:.2f} s (whole rows), above "
+                  f"timing.max_{kind}_s {cap:g} s")
     return {**phase, "duration_s": duration, "fastest_s": law.duration_s,
             "speed_up": fixed_s / duration if duration > 0 else None,
             "floor_applied": bool(law.duration_s < floor), "binding": binding,

@@ -408,7 +408,6 @@ class Sequence:
                 record = time_phase(seq, snap, lambda pos, end: build(pos), "swing", feet, (st.support,),
                                     float(len(st.path_m) - 1), self.fast, tm.swing_s)
                 seq.smooth_trunk = True
-                record["trunk"] = "linear between samples"
             seq.rows.timed.append(record)
         if self.paced:
             pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict)

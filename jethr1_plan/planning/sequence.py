@@ -103,6 +103,7 @@ class SequenceBuilder:
         #: P_body through the swing samples by a monotone cubic (PCHIP: C¹, no overshoot between samples)
         #: instead of linearly (a fastest timing: the trunk's path has no corner at a sample for the rows to feel)
         self.smooth_trunk = False
+        self.linear_segments: set[int] = set()  # segments (i → i + 1) kept linear where the smooth trunk fails
         self.names = [f.name for f in robot.fans]
         self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
@@ -284,6 +285,9 @@ class SequenceBuilder:
             from scipy.interpolate import PchipInterpolator
 
             p_rows = PchipInterpolator(idx, p_samples, axis=0)(np.clip(positions, 0.0, idx[-1]))
+            straight = np.isin(np.floor(positions).astype(int), sorted(self.linear_segments))
+            p_rows[straight] = np.column_stack([np.interp(positions[straight], idx, p_samples[:, j])
+                                                for j in range(3)])
         else:
             p_rows = np.column_stack([np.interp(positions, idx, p_samples[:, j]) for j in range(3)])
         swings = np.column_stack([np.interp(positions, idx, path[:, j]) for j in range(3)])
