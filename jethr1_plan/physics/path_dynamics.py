@@ -19,7 +19,8 @@ vertical thrust F_i(s) at p_i(s) (fixed along the path: the plan's thrust), the 
   linear in (s̈, ṡ²); at rest it is the robust window of docs/robust_planning.md.
 * **Friction** of the ground's share f_g = (1 + m)·f − Σ F_i(1 + e)·e_z, as a pyramid inside the cone:
   (1 + Y)(±f_x ± f_y) − μ·((1 − Y)·f_z − (1 + X)·Σ F_i) ≤ 0, and a ground that pushes,
-  (1 + X)·Σ F_i − (1 − Y)·f_z ≤ 0.
+  (1 + X)·Σ F_i − (1 − Y)·f_z ≤ 0; on one sole also its **torsion**: the yaw moment about the sole's
+  centre c, n_z − c_x·f_y + c_y·f_x (the fans add none), within μ·r_t·f_g,z (r_t :data:`TORSION_RADIUS_M`).
 * **Joint torques**: the joint rows of the inverse dynamics less the fans' and the support's share
   (one sole: exact; both: the least-norm split, as ``statics``), linear in the same way: ±τ_j ≤ τ_max,j.
 * **Velocity bounds** (on ṡ, so on ṡ² = x): joints |q'_j|·ṡ ≤ q̇_max,j; a fan of lag τ follows a thrust
@@ -45,7 +46,11 @@ from jethr1_plan.physics.statics import FORCE_DIRECTION
 if TYPE_CHECKING:
     from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["Limits", "PathConstraints", "joint_velocity_limits", "path_constraints", "wrench_terms"]
+__all__ = ["TORSION_RADIUS_M", "Limits", "PathConstraints", "joint_velocity_limits", "path_constraints", "wrench_terms"]
+
+
+TORSION_RADIUS_M = 0.02  # a sole's friction resists a yaw moment of μ·f_z times this [m] (a 0.16 x 0.09 m sole
+# under uniform pressure: 0.037 m; under the pressure of a ZMP near an edge, less)
 
 
 @dataclass(frozen=True)
@@ -143,7 +148,7 @@ def path_constraints(robot: RobotModel, base: np.ndarray, q: np.ndarray, dq: np.
     lag = np.array([f.lag_s for f in robot.fans]) / limits.safety
     fmax = np.array([f.max_thrust_n for f in robot.fans])
     names = ([f"ZMP edge {k} mass {sgn}" for k in range(len(offsets)) for sgn in "+-"]
-             + [f"friction {sx}x {sy}y" for sx in "+-" for sy in "+-"] + ["ground pulls"]
+             + [f"friction {sx}x {sy}y" for sx in "+-" for sy in "+-"] + ["torsion +", "torsion -", "ground pulls"]
              + [f"torque {j} {sgn}" for j in robot.joint_names for sgn in "+-"])
     G, m = len(q), len(names)
     a_out, b_out, c_out = np.zeros((G, m)), np.zeros((G, m)), np.zeros((G, m))
@@ -153,6 +158,7 @@ def path_constraints(robot: RobotModel, base: np.ndarray, q: np.ndarray, dq: np.
         share = float(limits.share[i])
         x, y, e = X * share, Y * share, eps * share
         fans_xy = np.array([w.get_T_world_frame(f.frame)[:2, 3] for f in robot.fans]).reshape(-1, 2)
+        centre = w.get_T_world_frame(robot.legs[supports[0]].sole)[:2, 3]
         lever = fans_xy @ normals.T - offsets  # (F, K) a_ik
         held = thrust[i] @ (lever - x * np.abs(lever))  # (K,) Σ F_i (a_ik − X|a_ik|)
         cols = []
@@ -165,6 +171,10 @@ def path_constraints(robot: RobotModel, base: np.ndarray, q: np.ndarray, dq: np.
             fx, fy = W[0], W[1]
             ground_z = (1 - y) * fz - (1 + x) * total
             fric = [(1 + y) * (sx * fx + sy * fy) - mu * ground_z for sx in (1, -1) for sy in (1, -1)]
+            # the yaw moment about the (single) support sole's centre, within what its friction resists
+            twist = W[5] - centre[0] * W[1] + centre[1] * W[0]
+            fric += ([(1 + y) * twist - mu * TORSION_RADIUS_M * ground_z, -(1 + y) * twist - mu * TORSION_RADIUS_M
+                      * ground_z] if len(supports) == 1 else [-ground_z, -ground_z])
             t = tau[k_term]
             cols.append(np.concatenate([zmp, fric, [-ground_z], np.stack([t, -t], axis=1).reshape(-1)]))
         fan_tau = _fan_torques(robot, w, supports, thrust[i])

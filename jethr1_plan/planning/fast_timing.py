@@ -116,6 +116,8 @@ def _short(name: str) -> str:
         return "dynamic ZMP, support edge " + name.split()[2]
     if name.startswith("friction"):
         return "friction"
+    if name.startswith("torsion"):
+        return "support sole's torsion (yaw friction)"
     if name.startswith("torque"):
         return "torque " + name.split()[1]
     return name

@@ -13,7 +13,8 @@ bug in one is caught by the other:
   levers a_ik = n_k·p_i − b_k: (1 ± Y)·(D_k + ε·f_z) ≤ Σ_i F_i·(a_ik − X·|a_ik|), X, Y, ε the plan's
   tolerance × ``dynamic_share`` × the row's written tolerance share;
 * the ground pushes and grips: (1 − Y)·f_z − (1 + X)·Σ F_i > 0 and (1 + Y)·(|f_x| + |f_y|) ≤
-  μ·safety·((1 − Y)·f_z − (1 + X)·Σ F_i), μ the robot's sole friction;
+  μ·safety·((1 − Y)·f_z − (1 + X)·Σ F_i), μ the robot's sole friction; on one sole the yaw moment about
+  its centre (1 + Y)·|n_z − c_x·f_y + c_y·f_x| within the same times 0.02 m;
 * each joint's speed |q̇_j| ≤ safety × its URDF velocity limit; its torque (the joint rows of the inverse
   dynamics less the fans' thrust and the support's least-norm share) within safety × its servo limit;
 * each fan's lead command F + (τ/safety)·Ḟ within [−ΔF, F_max] (Ḟ by central differences over the
@@ -32,6 +33,7 @@ from jethr1_plan.verify.plan_rows import RowData
 
 __all__ = ["DYNAMIC_TOL", "fastest_settings"]
 
+TORSION_RADIUS_M = 0.02  # the yaw moment a sole's friction resists: μ·f_z times this [m] (docs/physics.md)
 DYNAMIC_TOL = 1e-4  # [N·m, N]: the written rows' rounding and the forward kinematics' 1e-9 m
 RATE_TOL = 1e-6  # [rad/s, N]
 
@@ -188,6 +190,10 @@ def _dynamic_findings(x: RowData) -> dict[str, list[tuple[int, str]]]:
         zmp = (1 + Y) * np.maximum(D + E * f[2], (1 - Y) / (1 + Y) * (D + E * f[2])) - held
         ground = (1 - Y) * f[2] - (1 + X) * float(F[i].sum())
         grip = (1 + Y) * (abs(f[0]) + abs(f[1])) - mu * ground
+        if x.support[i] != "both":  # the yaw moment about the support sole's centre
+            sole = w.get_T_world_frame(r.legs[str(x.support[i])].sole)[:2, 3]
+            twist = n_world[2] - sole[0] * f[1] + sole[1] * f[0]
+            grip = max(grip, (1 + Y) * abs(twist) - mu * TORSION_RADIUS_M * ground)
         down = SIDES if x.support[i] == "both" else (str(x.support[i]),)
         rhs = rows.copy()
         for fan, thrust in zip(r.fans, F[i], strict=True):

@@ -4,9 +4,10 @@
 Nothing of ``jethr1_plan`` is imported: the robot comes from its URDF and YAML (pyyaml), the plan from the
 CSV (the ``csv`` module). What differs from the project's twin on purpose:
 
-* servos are torques computed here, τ = k·(q_cmd − q) − d·q̇ clipped to the URDF's effort (``motor``
-  actuators, 0.5 ms steps), k and d the YAML's servo table × a stiffness scale (×0.8, ×1, ×1.25: what a
-  real robot does not know to better than ±25 %);
+* servos are torques computed here, τ = k·(q_cmd − q) − d·q̇ within the URDF's effort (``motor``
+  actuators, 0.5 ms steps; the damping d·q̇ as the joint's own damping, which Euler integrates implicitly),
+  k and d the YAML's servo table × a stiffness scale (×0.8, ×1, ×1.25: what a real robot does not know to
+  better than ±25 %);
 * contact: the soles are boxes of the YAML's size with a pyramidal friction cone and MuJoCo's default
   contact softness; Euler integration;
 * fans: a first-order lag of the YAML's ``lag_s`` on the CSV's ``thrust_cmd_*`` columns;
@@ -116,6 +117,7 @@ def _model(robot: dict, scenario: dict, stiffness_scale: float):
         kp.append(k)
         kd.append(k * servo["derivative_time_s"])
         spec.joint(name).armature = servo.get("armature_kgm2", 0.0)
+        spec.joint(name).damping = [k * servo["derivative_time_s"], 0.0, 0.0]  # Euler: joint damping implicit
         a = spec.add_actuator()
         a.name, a.target, a.trntype = name, name, mujoco.mjtTrn.mjTRN_JOINT
     return spec.compile(), joints, np.array(kp), np.array(kd)
@@ -202,7 +204,7 @@ def replay(folder: Path, scenario_path: Path, robot_yaml: Path, stiffness_scale:
         cmd = np.clip(cmd, 0.0, fmax)
         thrust += (cmd - thrust) * (STEP_S / lag)
         q, qd = d.qpos[qadr], d.qvel[vadr]
-        d.ctrl[:] = np.clip(kp * (target - q) - kd * qd, -tau_max, tau_max)
+        d.ctrl[:] = np.clip(kp * (target - q), -tau_max - kd * np.abs(qd), tau_max + kd * np.abs(qd))
         d.xfrc_applied[:] = 0.0
         for j, b in enumerate(fan_body):
             r = d.xpos[b] - d.xipos[b]
