@@ -30,7 +30,6 @@ import numpy as np
 from jethr1_plan.files.plan_folder import PlanFolder
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.common import Failure
-from jethr1_plan.verify import timing as _timing  # noqa: F401  (registers the checks of a plan timed fastest)
 from jethr1_plan.verify.plan_checks import CHECKS, RowData
 
 __all__ = ["verify_plan", "verify_rows"]

@@ -254,8 +254,9 @@ def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[t
     timed fastest: its phases' row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
     from jethr1_plan.control.time_laws import swing_row_positions
 
-    if getattr(sc.timing, "fastest", False):
-        phases = ((summary or {}).get("timing") or {}).get("phases")
+    timed = (summary or {}).get("timing") if isinstance((summary or {}).get("timing"), dict) else {}
+    if getattr(sc.timing, "fastest", False) or timed.get("mode") == "fastest":
+        phases = timed.get("phases")
         if not isinstance(phases, list) or len(phases) != 2 * len(sc.steps) + 1:
             return None
         try:
