@@ -19,7 +19,8 @@ import numpy as np
 
 __all__ = ["X_CAP", "TimeLaw", "binding_constraints", "fastest_law"]
 
-X_CAP = 1e6  # the largest ṡ² handed to the solver where nothing bounds it [1/s² in path units]
+X_CAP = 1e4  # the largest ṡ² handed to the solver where nothing bounds it [1/s² in path units]: ṡ ≤ 100 (larger
+# bounds leave TOPP-RA's controllable sets badly conditioned: measured, 1e6 failed on a swing 1e4 solves)
 
 
 @dataclass(frozen=True)
@@ -55,12 +56,20 @@ def _law(grid: np.ndarray, sd: np.ndarray) -> TimeLaw:
 def fastest_law(grid: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, x_max: np.ndarray) -> TimeLaw | None:
     """The time-optimal law on ``grid`` (G,) under a·s̈ + b·ṡ² + c ≤ 0 ((G, m) each) and ṡ² ≤ ``x_max``
     (G,), at rest at both ends; None where no law exists (a point infeasible at rest, or the solver fails)."""
+    grid = np.asarray(grid, dtype=float)
+    for cap in (X_CAP, X_CAP / 100):  # the second: where the first is still badly conditioned
+        law = _solve(grid, a, b, c, np.minimum(np.asarray(x_max, dtype=float), cap))
+        if law is not None:
+            return law
+    return None
+
+
+def _solve(grid: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, x_max: np.ndarray) -> TimeLaw | None:
     import toppra
     from toppra.constraint import DiscretizationType, LinearConstraint
 
-    grid = np.asarray(grid, dtype=float)
     m = a.shape[1]
-    xb = np.column_stack([np.zeros(len(grid)), np.minimum(np.asarray(x_max, dtype=float), X_CAP)])
+    xb = np.column_stack([np.zeros(len(grid)), x_max])
 
     class Rows(LinearConstraint):
         def __init__(self):

@@ -222,13 +222,14 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     law: TimeLaw | None = None
     rounds = 0
     worst = xb = np.zeros(0)
-    for rounds in range(ROUNDS + 1):  # noqa: B007  (the rounds taken are reported)
+    for rounds in range(ROUNDS + 1):
         law = fastest_law(grid, a, b, c, x_max)
         for _ in range(CORNER_PASSES if corner is not None else 0):
             if law is None:
                 break
             # the corners' one-row spike α·ṡ, bounded above by its tangent at the last law's ṡ (√x is concave)
             # (at most where it leaves half the row's slack at rest, so that rest stays feasible)
+            assert corner is not None
             spread = _spread(corner, grid, law.sd * seq.dt)
             with np.errstate(divide="ignore", invalid="ignore"):
                 room = np.where(spread > 0, -c / spread, np.inf)
@@ -289,8 +290,8 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     for name, t in zip(names, dt, strict=True):
         shares[_short(name)] = shares.get(_short(name), 0.0) + float(t)
     total = float(dt.sum()) or 1.0
-    binding = sorted(({"constraint": k, "time_fraction": v / total} for k, v in shares.items()),
-                     key=lambda d: -d["time_fraction"])
+    binding = [{"constraint": k, "time_fraction": v / total}
+               for k, v in sorted(shares.items(), key=lambda kv: -kv[1])]
     broken = np.flatnonzero((worst > 0.0) | (xb < 1.0))
     if len(broken):
         _mark_rows(seq, start, broken, worst, kind)

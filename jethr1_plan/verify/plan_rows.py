@@ -254,7 +254,8 @@ def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[t
     timed fastest: its phases' row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
     from jethr1_plan.control.time_laws import swing_row_positions
 
-    timed = (summary or {}).get("timing") if isinstance((summary or {}).get("timing"), dict) else {}
+    raw = (summary or {}).get("timing")
+    timed: dict = raw if isinstance(raw, dict) else {}
     if getattr(sc.timing, "fastest", False) or timed.get("mode") == "fastest":
         phases = timed.get("phases")
         if not isinstance(phases, list) or len(phases) != 2 * len(sc.steps) + 1:

@@ -247,5 +247,6 @@ if __name__ == "__main__":
         for k in (0.8, 1.0, 1.25):
             r = replay(args.folder, args.scenario, args.robot, k, pid)
             print(f"{'PID' if pid else 'feed-forward'} stiffness x{k}: {'pass' if r.passed else 'FAIL'}; "
-                  f"fell {r.fell}; landings {[round(1000 * e, 1) for e in r.landings_m]} mm; on cartons {r.on_cartons}; "
+                  f"fell {r.fell}; landings {[round(1000 * e, 1) for e in r.landings_m]} mm; "
+                  f"on cartons {r.on_cartons}; "
                   f"max tilt {r.max_tilt_deg:.2f} deg", flush=True)
