@@ -48,8 +48,8 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
         timing = replace(terrain.base.timing, mode=timing_mode)
         if timing.fastest:
             check_fastest(timing, terrain.base.yaw_mode, terrain.base.balance, str(terrain_path))
-        terrain = replace(terrain, doc={**terrain.doc, "timing": {**terrain.doc.get("timing", {}), "mode": timing_mode}},
-                          base=replace(terrain.base, timing=timing))
+        doc_timing = {**terrain.doc.get("timing", {}), "mode": timing_mode}
+        terrain = replace(terrain, doc={**terrain.doc, "timing": doc_timing}, base=replace(terrain.base, timing=timing))
     folder = Path(outdir) / Path(terrain_path).stem
     check_writable(folder, need_bytes=2_000_000)
     jobs = cap_jobs(jobs)

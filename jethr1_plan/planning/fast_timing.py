@@ -193,7 +193,7 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     tol = seq.tolerance
     tolerance = (tol.thrust, tol.mass, tol.com_m)
     swing = kind == "swing"
-    grid = (np.linspace(0.0, span, GRID_PER_SAMPLE * int(round(span)) + 1) if swing
+    grid = (np.linspace(0.0, span, GRID_PER_SAMPLE * round(span) + 1) if swing
             else np.linspace(0.0, 1.0, TRANSFER_GRID))
     start = snap[0]
     seq.linear_segments = set()
