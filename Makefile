@@ -41,6 +41,7 @@ bench: install
 	$(BIN)/python bench/bench_route.py
 	$(BIN)/python bench/bench_replan_steps.py
 	$(BIN)/python bench/bench_commands.py
+	$(BIN)/python bench/bench_fast_timing.py --trials 40 -j 2
 
 clean:
 	rm -rf $(VENV) out .pytest_cache
