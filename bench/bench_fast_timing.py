@@ -37,7 +37,10 @@ def certify(folder: Path, trials: int, jobs: int) -> dict:
     ps = draws(0, trials, "within_tolerance", track.tolerance)
     runs = simulate(folder, "feedback", ps, jobs=jobs)
     cert = certificate(runs, ps, track.tolerance, "within_tolerance")
-    return {k: cert[k] for k in ("survived", "trials", "rate", "lower_bound", "upper_bound")}
+    out = {k: cert[k] for k in ("survived", "trials", "rate", "lower_bound", "upper_bound")}
+    out["failures"] = [{"trial": f.get("trial"), "why": f.get("why"), "perturbation": f.get("perturbation")}
+                       for f in cert.get("failures", [])]
+    return out
 
 
 def point(name: str, share: float | None, work: Path, trials: int, jobs: int) -> dict:
