@@ -1,11 +1,14 @@
-"""``jethr1 view``: a plan folder (with its rehearsal, if simulated), a walk folder or a balance space
-in Rerun, from the MCAP files written there (what the files say, not what a planner remembers).
+"""``jethr1 view``: a plan folder (with its rehearsal, if simulated), a route folder (its plan and
+``route.mcap``), a walk folder or a balance space in Rerun, from the MCAP files written there (what the
+files say, not what a planner remembers).
 
 The robot is built from the URDF each file carries and moved by its ``/tf`` (the rehearsal's frames
 prefixed ``sim/``, so both robots play in one scene); the markers (cartons, swing paths,
-footsteps, the support sole, the balance-space cells) become boxes and lines; CoM, ZMP and the
-other poses become moving points; the thrust of each fan (planned and applied), its window, the
-ZMP margin and a walk's figures become plots. One timeline, ``time``: seconds from the start.
+footsteps, the support sole, the balance-space cells, the route's footholds) become boxes, lines and
+labelled points; point clouds (the balance space's, the slices a route judged each step on) become
+points coloured by their first value (the least thrust); CoM, ZMP and the other poses become moving
+points; the thrust of each fan (planned and applied), its window, the ZMP margin and a walk's figures
+become plots. One timeline, ``time``: seconds from the start.
 
 Rerun is an optional extra (``pip install 'jethr1-plan[view]'``); nothing here imports it until a
 view is asked for.
@@ -27,7 +30,7 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.mcap import EPOCH_NS, read_mcap
 
-__all__ = ["VIEW_EXTRA", "ViewFiles", "ViewerMissing", "has_display", "record", "view", "view_files"]
+__all__ = ["VIEW_EXTRA", "ViewFiles", "ViewerMissing", "cloud_fields", "has_display", "record", "view", "view_files"]
 
 VIEW_EXTRA = "jethr1 view needs the optional extra: pip install 'jethr1-plan[view]'"
 TIMELINE = "time"  # seconds from the start of the scenario
@@ -47,8 +50,8 @@ class _Scene:
 
 @dataclass
 class ViewFiles:
-    """What a path holds: its kind (``plan``, ``walk``, ``balance space``, ``rehearsal``) and the MCAP
-    files to show, each with the entity path its content goes under."""
+    """What a path holds: its kind (``plan``, ``route``, ``walk``, ``balance space``, ``rehearsal``) and the
+    MCAP files to show, each with the entity path its content goes under."""
 
     kind: str
     files: list[tuple[Path, str]] = field(default_factory=list)
@@ -68,16 +71,16 @@ def _topics(path: Path) -> set[str]:
 def _kind(path: Path) -> str:
     topics = _topics(path)
     for topic, kind in (("/thrust", "plan"), ("/walk_analysis", "walk"), ("/sim/thrust", "rehearsal"),
-                        ("/balance_space/cells", "balance space")):
+                        ("/balance_space/cells", "balance space"), ("/route/footsteps", "route")):
         if topic in topics:
             return kind
-    raise InputError(str(path), "", "not an MCAP file jethr1 writes (no /thrust, /walk_analysis, /sim/thrust or "
-                     "/balance_space/cells)")
+    raise InputError(str(path), "", "not an MCAP file jethr1 writes (no /thrust, /walk_analysis, /sim/thrust, "
+                     "/balance_space/cells or /route/footsteps)")
 
 
 def view_files(path: Path) -> ViewFiles:
-    """The MCAP files of a plan folder (``trajectory.mcap`` and ``simulation.mcap`` if present), a walk
-    folder, a balance-space folder, or one of those files.
+    """The MCAP files of a plan folder (``trajectory.mcap`` and ``simulation.mcap`` if present), a route
+    folder (its plan's and ``route.mcap``), a walk folder, a balance-space folder, or one of those files.
 
     Raises:
         InputError: no such path, or nothing jethr1 writes there.
@@ -90,13 +93,20 @@ def view_files(path: Path) -> ViewFiles:
         raise InputError(str(path), "", "no such file or folder")
     if (path / "balance_space.mcap").is_file():
         return ViewFiles("balance space", [(path / "balance_space.mcap", "balance_space")])
-    trajectory = path / "trajectory.mcap"
+    trajectory, route = path / "trajectory.mcap", path / "route.mcap"
     if not trajectory.is_file():
-        raise InputError(str(path), "", "no trajectory.mcap or balance_space.mcap in this folder")
+        if route.is_file():
+            return ViewFiles(_kind(route), [(route, "route")])
+        raise InputError(str(path), "", "no trajectory.mcap, route.mcap or balance_space.mcap in this folder")
     kind = _kind(trajectory)
     out = ViewFiles(kind, [(trajectory, kind)])
     if kind == "plan" and (path / "simulation.mcap").is_file():
         out.files.append((path / "simulation.mcap", "rehearsal"))
+    if kind == "plan" and route.is_file():
+        if _kind(route) != "route":
+            raise InputError(str(route), "", "not a route.mcap jethr1 writes (no /route/footsteps)")
+        out.kind = "route"
+        out.files.append((route, "route"))
     return out
 
 
@@ -272,9 +282,10 @@ def _color(c: Any) -> tuple[int, int, int, int]:
 
 def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, scene: _Scene) -> None:
     """``visualization_msgs/MarkerArray`` (the last message): CUBEs and CUBE_LISTs as boxes,
-    LINE_STRIPs as lines."""
+    LINE_STRIPs as lines, TEXT_VIEW_FACINGs as labelled points."""
     rr = _rerun()
     boxes: dict[str, list] = defaultdict(list)
+    texts: dict[str, list] = defaultdict(list)
     for m in msgs[-1].markers:
         entity = f"{path}/{m.ns or 'marker'}_{m.id}"
         scale = np.array([m.scale.x, m.scale.y, m.scale.z])
@@ -293,10 +304,56 @@ def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, sce
             pts = np.array([(p.x, p.y, p.z) for p in m.points], dtype=float)
             rec.log(entity, _world(rr), rr.LineStrips3D([pts], radii=m.scale.x / 2, colors=[_color(m.color)]),
                     static=True)
+        elif m.type == 9:  # TEXT_VIEW_FACING
+            p = m.pose.position
+            texts[f"{path}/{m.ns or 'marker'}"].append(((p.x, p.y, p.z), m.text, _color(m.color)))
+    for entity, labels in texts.items():
+        rec.log(entity, _world(rr), rr.Points3D([x[0] for x in labels], labels=[x[1] for x in labels],
+                                                colors=[x[2] for x in labels], radii=0.004, show_labels=True),
+                static=True)
     for entity, cubes in boxes.items():
         rec.log(entity, _world(rr), rr.Boxes3D(centers=[c[0] for c in cubes], half_sizes=[c[1] for c in cubes],
                                                quaternions=[c[2] for c in cubes], colors=[c[3] for c in cubes],
                                                fill_mode="solid"), static=True)
+
+
+_PCL_TYPES = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 8: "f8"}  # PointField datatypes
+
+
+def cloud_fields(msg: Any) -> dict[str, np.ndarray]:
+    """The fields of a ``sensor_msgs/PointCloud2`` (one value each) as arrays (points,), decoded from its bytes
+    by the offsets, datatypes and byte order it declares."""
+    order = ">" if msg.is_bigendian else "<"
+    n = int(msg.width) * int(msg.height)
+    dtype = np.dtype({"names": [f.name for f in msg.fields],
+                      "formats": [order + _PCL_TYPES[int(f.datatype)] for f in msg.fields],
+                      "offsets": [int(f.offset) for f in msg.fields], "itemsize": int(msg.point_step)})
+    data = np.frombuffer(bytes(msg.data), dtype=dtype, count=n)
+    return {f.name: data[f.name].astype(float) for f in msg.fields}
+
+
+def _cloud(rec: Any, path: str, times: list[int], msgs: list, prefix: str, scene: _Scene) -> None:
+    """``sensor_msgs/PointCloud2``: its points at each message's time (one message at the start: for good),
+    coloured by the first field after x, y, z (viridis from 0 to its largest value)."""
+    rr = _rerun()
+    from matplotlib import colormaps
+
+    clouds = [cloud_fields(m) for m in msgs]
+    extra = [k for k in clouds[0] if k not in ("x", "y", "z")] if clouds else []
+    top = max((float(np.nanmax(c[extra[0]])) for c in clouds if extra and len(c[extra[0]])), default=0.0)
+    once = len(msgs) == 1 and times[0] == EPOCH_NS
+    for t, c in zip(times, clouds, strict=True):
+        xyz = np.column_stack([c["x"], c["y"], c["z"]])
+        scene.points.append(xyz)
+        colors = None
+        if extra:
+            shade = np.nan_to_num(c[extra[0]] / top, nan=0.0) if top > 0 else np.zeros(len(xyz))
+            colors = (255 * colormaps["viridis"](np.clip(shade, 0.0, 1.0))).astype(np.uint8)
+        if not once:
+            rec.set_time(TIMELINE, duration=_since_start([t])[0])
+        rec.log(path, _world(rr), rr.Points3D(xyz, colors=colors, radii=0.004), static=once)
+    if not once:
+        rec.reset_time()
 
 
 def _plot(rec: Any, entity: str, times: list[int], values: np.ndarray, name: str, color: tuple[int, int, int],
@@ -358,6 +415,7 @@ _HANDLERS: dict[str, Callable[..., None]] = {
     "jethr1_msgs/msg/Thrust": _thrust,
     "jethr1_msgs/msg/FanThrust": _fan_thrust,
     "jethr1_msgs/msg/WalkAnalysis": _walk_analysis,
+    "sensor_msgs/msg/PointCloud2": _cloud,
 }
 
 

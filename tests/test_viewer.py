@@ -88,6 +88,35 @@ def test_a_walk_and_a_balance_space_in_rerun(saved):
     cells = [e for e in components if e.startswith("/balance_space/balance_space/cells/")]
     assert len(cells) == 2 and all("Boxes3D:centers" in components[e] for e in cells)
     assert "Boxes3D:half_sizes" in components["/balance_space/support_sole/support_sole"]
+    # the two PointCloud2 topics: a point per cell of each space, where its cube is
+    for k, space in enumerate(("with_thrust", "without_thrust")):
+        points = [p for r in rows[f"/balance_space/balance_space/{space}"] for p in r["Points3D:positions"]]
+        cubes = [c for r in rows[f"/balance_space/balance_space/cells/{space}_{k}"] for c in r["Boxes3D:centers"]]
+        assert len(points) == len(cubes) > 0
+        np.testing.assert_allclose(sorted(map(tuple, points)), sorted(map(tuple, cubes)), atol=1e-6)
+
+
+def test_a_route_folder_and_its_route_mcap_in_rerun(small_route, tmp_path):
+    """A route folder shows its plan (the robot moving, the thrust) and its route.mcap: the footholds, the
+    footsteps with their numbers, the swing paths and the balance-space slice of each step at its time;
+    route.mcap alone shows the route."""
+    import json
+
+    summary = json.loads((small_route / "summary.json").read_text())
+    steps = len(summary["steps"])
+    for target, plan in ((small_route, True), (small_route / "route.mcap", False)):
+        rrd = tmp_path / f"{'folder' if plan else 'file'}.rrd"
+        assert run(["view", str(target), "--save", str(rrd)]) == 0
+        components, rows = _read(rrd)
+        assert "Boxes3D:centers" in components["/route/route/footholds/footholds_0"]
+        assert "Boxes3D:centers" in components["/route/route/footsteps/landings"]
+        labels = [x for r in rows["/route/route/footsteps/step_numbers"] for x in r["Points3D:labels"]]
+        assert labels == [str(k + 1) for k in range(steps)]
+        assert sum(e.startswith("/route/route/swing_paths/") for e in components) == steps
+        clouds = [r["Points3D:positions"] for r in rows["/route/route/balance_space"]]
+        assert len(clouds) == steps and all(len(c) > 10 for c in clouds)
+        assert (len(_moving_frames(rows, "plan")) > 10) == plan
+        assert ("/plots/thrust/plan_left" in components) == plan
 
 
 def test_without_rerun_without_a_display_or_on_a_wrong_path_one_line_exit_2(written, tmp_path, capsys, monkeypatch):

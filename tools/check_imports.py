@@ -1,5 +1,5 @@
 """The import graph of ``jethr1_plan``, checked (``make lint``): no circle between modules or between
-packages, and no layer importing a higher one.
+packages, no layer importing a higher one, and no unit of :data:`ONLY` importing beyond its list.
 
 The layers, lowest first, are written down here once; the README and docs/architecture.md show them.
 A unit is a subpackage or a top-level module of ``jethr1_plan``. A unit may import units of its own
@@ -33,6 +33,14 @@ LAYERS: list[tuple[str, ...]] = [
     ("viewer",),  # written folders shown in Rerun (jethr1 view)
     ("cli",),  # the command line
 ]
+
+#: units that may import only these units, whatever their layer allows. ``verify`` re-checks what the planner
+#: wrote: it reads the files, the robot and the scenario, and restates the physics it holds them to
+#: (verify/balance.py, motion.py, commands.py); a mistake in the planner's physics, kinematics, optimisers,
+#: commands, plans, walks or balance space must not be repeated in its verdict, so it imports none of them.
+ONLY: dict[str, tuple[str, ...]] = {
+    "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "scenario", "swing_path", "files", "verify"),
+}
 
 
 def modules(root: Path) -> dict[str, Path]:
@@ -138,6 +146,11 @@ def main(root: Path) -> int:
             a, b = layer_of.get(unit(m)), layer_of.get(unit(t))
             if a is not None and b is not None and b > a:
                 problems.append(f"{m} (layer {a}: {unit(m)}) imports {t} (layer {b}: {unit(t)}), a higher layer")
+    for m, targets in sorted(graph.items()):
+        allowed = ONLY.get(unit(m))
+        for t in sorted(targets):
+            if allowed is not None and unit(t) not in allowed:
+                problems.append(f"{m} imports {t}: {unit(m)} may import only {', '.join(allowed)}")
     for p in problems:
         print(p)
     edges = sum(len(v) for v in graph.values())

@@ -10,12 +10,13 @@ from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_
 from jethr1_plan.errors import InfeasiblePlan
 from jethr1_plan.optimisers import METHODS
 
-__all__ = ["BALANCE_SPACE_LAYOUT", "LAYOUT", "WALK_LAYOUT", "plan"]
+__all__ = ["BALANCE_SPACE_LAYOUT", "LAYOUT", "ROUTE_LAYOUT", "WALK_LAYOUT", "plan"]
 
 
 LAYOUT = Path(__file__).resolve().parents[1] / "foxglove_layout.json"  # Foxglove: the plan, its rehearsal, thrust
 WALK_LAYOUT = LAYOUT.with_name("foxglove_walk_layout.json")  # a walk: robot, footsteps, yaw, momentum, ZMP margin
 BALANCE_SPACE_LAYOUT = LAYOUT.with_name("foxglove_balance_space_layout.json")  # cells coloured by least thrust
+ROUTE_LAYOUT = LAYOUT.with_name("foxglove_route_layout.json")  # a route: its plan, footholds, footsteps, map slices
 
 
 

@@ -92,3 +92,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     say(f"wrote {folder}/route.yaml, route.mcap, route.png, trajectory.csv, trajectory.mcap, summary.json")
     say(f"verify: jethr1 verify {folder}; simulate: jethr1 simulate {folder}; re-plan: jethr1 plan "
         f"{folder}/route.yaml")
+    from jethr1_plan.cli.plan import ROUTE_LAYOUT
+
+    say(f"Foxglove/Lichtblick: open trajectory.mcap and route.mcap together and import the layout {ROUTE_LAYOUT}; "
+        f"Rerun: jethr1 view {folder}")

@@ -85,11 +85,13 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
            "certificate": (certificate(runs, perturbations, track.tolerance, randomisation)
                            if trials is not None else None),
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
+    written = ["simulation.json"]
     with staged_directory(plan_dir, SIMULATION_FILES) as staging:  # both files or neither
         (staging.path / "simulation.json").write_text(json_text(doc))
         if runs[0].record is not None:
             (staging.path / "simulation.mcap").write_bytes(simulation_mcap(track.robot, runs[0].record,
                                                                            track.cartons))
+            written.append("simulation.mcap")
     if as_json:
         print_json(doc)
     shown = list(enumerate(runs)) if len(runs) <= 20 else [(k, r) for k, r in enumerate(runs) if not r.survived]
@@ -116,7 +118,8 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
             err_console.print(text, highlight=False)
     rtf = doc["timing"]["realtime_factor"]
     line = (f"simulate: {ok}/{len(runs)} runs survived ({controller}); "
-            f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); wrote {plan_dir}/simulation.json")
+            f"{simulated:.1f} s simulated in {wall:.1f} s ({rtf:.0f}x real time); "
+            f"wrote {plan_dir}/{', '.join(written)}")
     err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
     if ok < len(runs):
         raise click.exceptions.Exit(EXIT_REHEARSAL_FELL)

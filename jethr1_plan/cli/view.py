@@ -1,4 +1,4 @@
-"""``jethr1 view``: a plan, a walk or a balance space in Rerun (the optional extra ``view``)."""
+"""``jethr1 view``: a plan, a route, a walk or a balance space in Rerun (the optional extra ``view``)."""
 
 from __future__ import annotations
 
@@ -15,8 +15,9 @@ __all__ = ["view_cmd"]
 @click.option("--save", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the recording to this .rrd file instead of opening a viewer (no display needed).")
 def view_cmd(path: Path, save: Path | None) -> None:
-    """Show a plan folder (with its rehearsal, if simulated), a walk folder or a balance-space folder in Rerun:
-    the robot moving, the terrain, the swing paths and footsteps, thrust, window and ZMP margin as plots.
+    """Show a plan folder (with its rehearsal, if simulated), a route folder (its plan and route.mcap), a walk
+    folder or a balance-space folder, or one of their MCAP files, in Rerun: the robot moving, the terrain, the
+    swing paths, footholds and footsteps, point clouds, thrust, window and ZMP margin as plots.
 
     Needs the optional extra: pip install 'jethr1-plan[view]'. Exit 2 on bad input, without it, or without a
     display and --save.

@@ -30,16 +30,31 @@ if TYPE_CHECKING:
 __all__ = ["RowDynamics", "ground_wrench", "row_derivatives", "row_dynamics"]
 
 
-def row_derivatives(base: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def row_derivatives(base: np.ndarray, q: np.ndarray, dt: float, ends: str = "hold") -> tuple[np.ndarray, np.ndarray]:
     """(v, a) (N, 6 + J): the generalised velocity and acceleration at each row by second central
     differences of the rows (``base`` (N, 4, 4) the trunk's poses, ``q`` (N, J) [rad], ``dt`` [s]), the
-    trunk's part in its own frame (pinocchio's free flyer); beyond each end the robot holds its posture."""
+    trunk's part in its own frame (pinocchio's free flyer).
+
+    ``ends`` says what the first and last rows see: ``"hold"``, the robot holding its posture beyond
+    them (a plan starts and ends at rest); ``"rows"``, the rows alone (N ≥ 3): with d₁ and d₂ the
+    differences from the end row to the next two rows inwards, v = ±(4·d₁ − d₂)/2Δt (+ at the first
+    row, − at the last) and a = (d₂ − 2·d₁)/Δt², the one-sided stencils of the same order (a walk stops
+    where its rows stop, not at rest)."""
     n = len(q)
     nxt = np.concatenate([np.arange(1, n), [n - 1]])
     prv = np.concatenate([[0], np.arange(n - 1)])
     d_plus = np.concatenate([pose_difference(base, base[nxt]), q[nxt] - q], axis=1)
     d_minus = np.concatenate([pose_difference(base, base[prv]), q[prv] - q], axis=1)
-    return (d_plus - d_minus) / (2.0 * dt), (d_plus + d_minus) / dt**2
+    v, a = (d_plus - d_minus) / (2.0 * dt), (d_plus + d_minus) / dt**2
+    if ends == "rows" and n >= 3:
+        for row, inward, sign in ((0, (1, 2), 1.0), (n - 1, (n - 2, n - 3), -1.0)):
+            d1, d2 = (np.concatenate([pose_difference(base[row:row + 1], base[k:k + 1])[0], q[k] - q[row]])
+                      for k in inward)
+            v[row] = sign * (4.0 * d1 - d2) / (2.0 * dt)
+            a[row] = (d2 - 2.0 * d1) / dt**2
+    elif ends not in ("hold", "rows"):
+        raise ValueError(f"ends: {ends!r}")
+    return v, a
 
 
 def ground_wrench(T_base: np.ndarray, base_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

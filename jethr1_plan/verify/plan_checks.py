@@ -14,7 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.geometry import SIDES, convex_hull, inside_polygon, other_side, polygon_margin, sole_polygon
+from jethr1_plan.geometry import SIDES, other_side
+from jethr1_plan.verify.balance import Tolerance, balance_slack, largest_share, support_margin
+from jethr1_plan.verify.commands import PLAN_SAG_FILTER_S, fan_commands, servo_commands
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T
 from jethr1_plan.verify.plan_rows import (
     RowData,
@@ -271,32 +273,22 @@ def _support_fan(x: RowData) -> list[Finding]:
 @check("ZMP outside support", "the ZMP of the written thrust (A-1, A-2) in the support sole (double support: the "
        "hull of both)")
 def _zmp_inside(x: RowData) -> list[Finding]:
-    r, zmp, pos = x.robot, x.zmp, x.pos
     # the minimal thrust puts the ZMP on the sole's edge; the fan's FK position may differ from the
     # planned one by the IK tolerance, so the edge is given that much
-    half = np.array([r.sole_length_m, r.sole_width_m]) / 2
-    sup_xy = np.where((x.support == "left")[:, None], pos["left"][:, :2], pos["right"][:, :2])
-    outside = x.single & ~np.all(np.abs(zmp - sup_xy) <= half + TOL_M, axis=1)
-    hulls: dict[bytes, np.ndarray] = {}
-    for i in np.flatnonzero(~x.single):
-        key = np.round(np.concatenate([pos["left"][i, :2], pos["right"][i, :2]]), 7).tobytes()
-        if key not in hulls:
-            hulls[key] = convex_hull(np.vstack([sole_polygon(pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m)
-                                                for s in SIDES]))
-        outside[i] = not inside_polygon(zmp[i], hulls[key], tol_m=TOL_M)
-    where = np.where(x.single, "the support sole", "the hull of both soles")
+    margin = support_margin(x.zmp, *x.support_edges)
+    outside = ~(margin >= -TOL_M)
+    where = np.where(x.on_one_sole, "the support sole", "the hull of both soles")
     total = x.thrust.sum(axis=1)
-    return rows(outside, lambda i: f"ZMP {np.round(zmp[i], 4).tolist()} m with the written thrust ({total[i]:.3f} N) "
+    return rows(outside, lambda i: f"ZMP {np.round(x.zmp[i], 4).tolist()} m with the written thrust ({total[i]:.3f} N) "
                 f"is outside {where[i]}")
 
 
 @check("ground would have to pull", "the rows' own motion (second central differences of the written poses, "
        "the fans' written thrust) needs the ground to push, not pull, on every inner row")
 def _ground_pushes(x: RowData) -> list[Finding]:
-    dyn = x.dynamics
-    if dyn is None:
+    fz = x.vertical_force
+    if fz is None:
         return []
-    fz = dyn.vertical_force_n
     pull = np.zeros(x.n, dtype=bool)
     pull[1:-1] = fz[1:-1] <= 0.0
     return rows(pull, lambda i: f"the motion needs {fz[i]:.2f} N of vertical ground force: the trunk falls faster "
@@ -322,11 +314,7 @@ def _zmp_column(x: RowData) -> list[Finding]:
        needs=("thrust_window_lo_n", "zmp_margin_m"))
 def _margin_column(x: RowData) -> list[Finding]:
     margin_w = x.c["zmp_margin_m"].astype(float)
-    margin = np.full(x.n, np.nan)
-    one = x.on_one_sole  # about the sole's centre, all at once
-    margin[one] = polygon_margin(x.zmp[one] - x.sole_centre[one], x.centred_sole())
-    for i, poly in x.polygons.items():
-        margin[i] = polygon_margin(x.zmp[i], poly)
+    margin = support_margin(x.zmp, *x.support_edges)
     check = np.isfinite(x.zmp).all(axis=1)
     return rows(check & ~(np.abs(margin - margin_w) <= TOL_M), lambda i: f"written {margin_w[i]:.6f} m, recomputed "
                 f"{margin[i]:.6f} m")
@@ -355,10 +343,8 @@ def _in_window(x: RowData) -> list[Finding]:
     return rows(bad, detail)
 
 
-def _plan_tolerance(x: RowData):
+def _plan_tolerance(x: RowData) -> Tolerance:
     """The plan's tolerance, from its ``balance`` block."""
-    from jethr1_plan.physics.balance import Tolerance
-
     tol_doc = (x.balance or {}).get("tolerance", {})
     return Tolerance(*(float(tol_doc.get(key, 0.0)) for key in ("thrust_error", "mass_error", "com_error_m")))
 
@@ -366,47 +352,45 @@ def _plan_tolerance(x: RowData):
 @check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within the "
        "row's share of it (the whole of it where the plan has no shares)", needs=("thrust_window_lo_n",))
 def _tolerance(x: RowData) -> list[Finding]:
-    from jethr1_plan.physics.balance import NOMINAL, balance_slack
-
     if x.balance is None:
         return []
-    com = x.fk["com"][:, :2]
-    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
-    out = []
     tol = _plan_tolerance(x)
-    for i, region in x.tolerance_regions:
-        share = float(shares[i]) if np.isfinite(shares[i]) and tol != NOMINAL else 1.0
-        held = tol.scaled(share)
-        slack = float(balance_slack(com[i], x.fk["fans"][i], x.thrust[i], region, x.robot.mass_kg, held))
-        if slack < -SLACK_TOL_NM:
-            out.append((i, f"the written thrust keeps the ZMP in the support only without ±{100 * held.thrust:g} % "
-                        f"thrust, ±{100 * held.mass:g} % mass and {1000 * held.com_m:g} mm CoM error "
-                        f"({-slack:.4f} N·m short)"
-                        + (f" ({share:.4f} of the plan's tolerance)" if share < 1.0 else "")))
-    return out
+    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
+    share = np.where(np.isfinite(shares) & (not tol.nominal), shares, 1.0)
+    at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
+    normals, offsets = x.tolerance_edges
+    slack = np.full(x.n, np.inf)
+    slack[at] = balance_slack(x.fk["com"][at, :2], x.fk["fans"][at], x.thrust[at], normals[at], offsets[at],
+                              x.robot.mass_kg, tol, share[at])
+
+    def detail(i: int) -> str:
+        held = tol.times(float(share[i]))
+        return (f"the written thrust keeps the ZMP in the support only without ±{100 * held.thrust:g} % thrust, "
+                f"±{100 * held.mass:g} % mass and {1000 * held.com_m:g} mm CoM error ({-slack[i]:.4f} N·m short)"
+                + (f" ({share[i]:.4f} of the plan's tolerance)" if share[i] < 1.0 else ""))
+    return rows(slack < -SLACK_TOL_NM, detail)
 
 
 @check("tolerance share column wrong", "under a tolerance, the written share is the largest share of it the row's "
-       "thrust holds (recomputed, ``physics.share.row_shares``)", needs=("tolerance_share",))
+       "thrust holds (recomputed, ``verify.balance.largest_share``)", needs=("tolerance_share",))
 def _share_column(x: RowData) -> list[Finding]:
-    from jethr1_plan.physics.balance import NOMINAL
-    from jethr1_plan.physics.share import row_shares
-
     if x.balance is None:
         return []
-    com = x.fk["com"][:, :2]
-    written = x.c["tolerance_share"].astype(float)
     tol = _plan_tolerance(x)
-    if tol == NOMINAL:
+    if tol.nominal:
         return []
+    written = x.c["tolerance_share"].astype(float)
+    at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
+    normals, offsets = x.tolerance_edges
+    again = np.full(x.n, np.nan)
+    again[at] = largest_share(x.fk["com"][at, :2], x.fk["fans"][at], x.thrust[at], normals[at], offsets[at],
+                              x.robot.mass_kg, tol)
     out = []
-    for i, region in x.tolerance_regions:
+    for i in at.tolist():
         if not np.isfinite(written[i]):
             out.append((i, "empty under a tolerance"))
-            continue
-        again = float(row_shares(com[i], x.fk["fans"][i], x.thrust[i], region, x.robot.mass_kg, tol))
-        if abs(again - written[i]) > SHARE_TOL:
-            out.append((i, f"written {written[i]:.6f}, recomputed {again:.6f}"))
+        elif abs(again[i] - written[i]) > SHARE_TOL:
+            out.append((i, f"written {written[i]:.6f}, recomputed {again[i]:.6f}"))
     return out
 
 
@@ -476,16 +460,14 @@ def _command_rate(x: RowData) -> float | None:
 
 
 @check("servo command column wrong", "the servo commands are the rows plus the sag under their torques "
-       "(``commands``)", needs=("kappa_left",))
+       "(``verify.commands``)", needs=("kappa_left",))
 def _servo_commands(x: RowData) -> list[Finding]:
-    from jethr1_plan.control.commands import servo_commands
-
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:
         return []
     r = x.robot
     tau = np.stack([x.c[f"{j}_tau_nm"] for j in r.joint_names], axis=1).astype(float)
-    q_cmd = servo_commands(x.q, tau, r.servo_stiffness_nm_per_rad, rate)
+    q_cmd = servo_commands(x.q, tau, r.servo_stiffness_nm_per_rad, rate, PLAN_SAG_FILTER_S)
     written = np.stack([x.c[f"{j}_cmd_rad"] for j in r.joint_names], axis=1).astype(float)
     out = []
     for i in np.flatnonzero(~np.all(np.abs(written - q_cmd) <= 1e-9, axis=1)):
@@ -494,11 +476,9 @@ def _servo_commands(x: RowData) -> list[Finding]:
     return out
 
 
-@check("fan command column wrong", "the fan commands are the thrust led by the fans' lag (``commands``)",
+@check("fan command column wrong", "the fan commands are the thrust led by the fans' lag (``verify.commands``)",
        needs=("kappa_left",))
 def _fan_commands(x: RowData) -> list[Finding]:
-    from jethr1_plan.control.commands import fan_commands
-
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:
         return []

@@ -1,7 +1,9 @@
 """A plan's rows as the checks of :mod:`.plan_checks` read them: the written columns and what is
 recomputed from them, each once: forward kinematics of each row's pelvis pose and joints in a fresh
 PlaCo robot (soles, CoM, fans, static torques, κ), the ZMP of the written thrust (A-1, A-2), the
-support polygons and thrust windows, and where the scenario puts the soles."""
+support polygons and thrust windows (:mod:`.balance`), the ground's force the rows' motion needs
+(:mod:`.motion`), and where the scenario puts the soles. Nothing here calls the planner's physics,
+planning, control or optimisers (``tools/check_imports.py``)."""
 
 from __future__ import annotations
 
@@ -11,9 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, other_side, pose_from_quaternion, sole_polygon
-from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
+from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.verify.balance import hull_edges, pad_edges, sole_edges, thrust_window, zmp_of_thrust
+from jethr1_plan.verify.motion import vertical_ground_force
 
 __all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
            "ground_references", "scenario_feet"]
@@ -137,10 +140,7 @@ class RowData:
     @cached_property
     def zmp(self) -> np.ndarray:
         """(n, 2) the ZMP of the written thrust (A-1, A-2) [m]."""
-        w = self.robot.mass_kg * GRAVITY
-        with np.errstate(invalid="ignore", divide="ignore"):
-            moment = sum(self.thrust[:, k, None] * self.fk["fans"][:, k] for k in range(len(self.fans)))
-            return (w * self.fk["com"][:, :2] - moment) / (w - self.thrust.sum(axis=1))[:, None]
+        return zmp_of_thrust(self.fk["com"][:, :2], self.fk["fans"], self.thrust, self.robot.mass_kg)
 
     @cached_property
     def on_one_sole(self) -> np.ndarray:
@@ -152,45 +152,38 @@ class RowData:
         """(n, 2) the support sole's centre [m] in the rows on one sole (the right sole's elsewhere)."""
         return np.where((self.support == "left")[:, None], self.pos["left"][:, :2], self.pos["right"][:, :2])
 
-    def centred_sole(self, margin_m: float = 0.0) -> np.ndarray:
-        """(4, 2) a sole's rectangle about the origin, shrunk by ``margin_m`` [m]: a row on one sole has this
-        polygon moved by :attr:`sole_centre` (its checks move the points instead, the polygon staying here)."""
-        return sole_polygon((0.0, 0.0), 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
-
-    @cached_property
-    def tolerance_regions(self) -> list[tuple[int, np.ndarray]]:
-        """Per row with a finite ZMP: its index and the support region (one sole, or the hull of both) shrunk by
-        the plan's ``sole_margin_m`` [m], built once for the checks under the plan's tolerance."""
-        shrink = float((self.balance or {}).get("sole_margin_m", 0.0))
+    def edges(self, shrink_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Per row, the edges of its support polygon (:mod:`.balance`: normals (n, K, 2), offsets (n, K)),
+        each sole shrunk by ``shrink_m`` [m]: the support sole's rectangle on one sole, else the hull of both."""
         r = self.robot
-        out = []
-        for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1)):
-            soles = [self.support[i]] if self.single[i] and self.support[i] in SIDES else list(SIDES)
-            shrunk = [sole_polygon(self.pos[s][i, :2], 0.0, r.sole_length_m, r.sole_width_m, shrink) for s in soles]
-            out.append((int(i), shrunk[0] if len(shrunk) == 1 else convex_hull(np.vstack(shrunk))))
-        return out
+        one = self.on_one_sole
+        normals, offsets = sole_edges(self.sole_centre, r.sole_length_m, r.sole_width_m, shrink_m)
+        rows = [(normals[i], offsets[i]) for i in range(self.n)]
+        for i in np.flatnonzero(~one):
+            rows[i] = hull_edges([self.pos[s][i, :2] for s in SIDES], r.sole_length_m, r.sole_width_m, shrink_m)
+        return pad_edges(rows) if rows else (np.zeros((0, 4, 2)), np.zeros((0, 4)))
 
     @cached_property
-    def polygons(self) -> dict[int, np.ndarray]:
-        """Per row not on one sole (double support), the real support polygon: the hull of both soles."""
-        return {int(i): convex_hull(np.vstack([sole_polygon(self.pos[s][i, :2], 0.0, self.robot.sole_length_m,
-                                                            self.robot.sole_width_m) for s in SIDES]))
-                for i in np.flatnonzero(~self.on_one_sole)}
+    def support_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """The real support polygon of every row (:meth:`edges`)."""
+        return self.edges()
+
+    @cached_property
+    def tolerance_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every row's support polygon shrunk by the plan's ``sole_margin_m`` [m], where the checks under the
+        plan's tolerance hold the ZMP."""
+        return self.edges(float((self.balance or {}).get("sole_margin_m", 0.0)))
 
     @cached_property
     def windows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per row, the thrust window [N] of the fans that carry thrust, in their shares (in a swing row
-        without thrust: the first fan the swing may use, its sole's), and where it was computed (a row
-        with a written window, a ZMP and a fan to share). Rows on one sole are computed together, per set
-        of carrying fans, about the sole's centre."""
-        from jethr1_plan.physics.balance import shared_window, thrust_window
-
+        without thrust: the first fan the swing may use, its sole's), within every carrying fan's maximum,
+        and where it was computed (a row with a written window, a ZMP and a fan to share)."""
         robot = self.robot
         nf = len(robot.fans)
         fmax = np.array([f.max_thrust_n for f in robot.fans])
         lo, hi, computed = np.full(self.n, np.nan), np.full(self.n, np.nan), np.zeros(self.n, dtype=bool)
         written = self.c["thrust_window_lo_n"].astype(float)
-        com, fans = self.fk["com"][:, :2], self.fk["fans"]
         total = self.thrust.sum(axis=1)
         shares = np.zeros((self.n, nf))
         for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1) & np.isfinite(written)):
@@ -203,31 +196,19 @@ class RowData:
                     share = np.isin(np.arange(nf), usable[:1]).astype(float)
             if share is not None:
                 computed[i], shares[i] = True, share
-
-        def window(rows: np.ndarray, poly: np.ndarray, origin: np.ndarray) -> None:
-            """The window of ``rows`` (one set of carrying fans) in ``poly`` with the points moved by -``origin``."""
-            carry = np.flatnonzero(shares[rows[0]] > 0)
-            c, f = com[rows] - origin, fans[rows][:, carry] - origin[:, None]
-            if len(carry) == 1:
-                w_lo, w_hi = thrust_window(c, f[:, 0], poly, robot.mass_kg)
-                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, fmax[carry[0]])
-            else:
-                sh = shares[rows][:, carry]
-                w_lo, w_hi = shared_window(c, f, sh, poly, robot.mass_kg)
-                lo[rows], hi[rows] = w_lo, np.minimum(w_hi, np.min(fmax[carry] / sh, axis=1))
-
-        one = computed & self.on_one_sole
-        carrying = shares > 0
-        for pattern in np.unique(carrying[one], axis=0):
-            at = np.flatnonzero(one & np.all(carrying == pattern, axis=1))
-            window(at, self.centred_sole(), self.sole_centre[at])
-        for i in np.flatnonzero(computed & ~self.on_one_sole):
-            window(np.array([i]), self.polygons[int(i)], np.zeros((1, 2)))
+        at = np.flatnonzero(computed)
+        if len(at):
+            normals, offsets = self.support_edges
+            w_lo, w_hi = thrust_window(self.fk["com"][at, :2], self.fk["fans"][at], shares[at], normals[at],
+                                       offsets[at], robot.mass_kg)
+            with np.errstate(divide="ignore"):
+                cap = np.min(np.where(shares[at] > 0, fmax / shares[at], np.inf), axis=1)
+            lo[at], hi[at] = w_lo, np.minimum(w_hi, cap)
         return lo, hi, computed
 
     @cached_property
-    def dynamics(self) -> RowDynamics | None:
-        """The ground's share of the wrench the written rows' motion needs (``physics.row_dynamics``):
+    def vertical_force(self) -> np.ndarray | None:
+        """(n,) the vertical force [N] the ground must give for the written rows' motion (:mod:`.motion`):
         None where the rate is unknown or a row's pose is not finite (those rows fail elsewhere)."""
         rate = self.rate_hz
         c = self.c
@@ -236,9 +217,7 @@ class RowData:
         if (rate is None or self.n < 3 or not np.isfinite(pelvis).all() or not np.isfinite(self.q_written).all()
                 or not np.isfinite(self.thrust).all() or not (np.isfinite(norms) & (norms >= 1e-9)).all()):
             return None
-        base = np.array([pose_from_quaternion(p.tolist(), (qt / nq).tolist())
-                         for p, qt, nq in zip(pelvis, self.quat, norms, strict=True)])
-        return row_dynamics(self.robot, base, self.q, self.thrust, self.support, 1.0 / rate)
+        return vertical_ground_force(self.robot, pelvis, self.quat / norms[:, None], self.q, self.thrust, 1.0 / rate)
 
     @cached_property
     def rate_hz(self) -> float | None:
@@ -250,10 +229,11 @@ class RowData:
 
 
 def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[tuple[str, int, int, str]] | None:
-    """(phase, step, sample, support) of every row the scenario's plan has, in order (``sequence``). A plan
-    timed fastest: its phases' row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
-    from jethr1_plan.control.time_laws import swing_row_positions
-
+    """(phase, step, sample, support) of every row the scenario's plan has, in order (docs/physics.md,
+    "Sequence"): per step a transfer of round(transfer_s·rate) rows (at least one) on both soles, then a
+    swing of round(swing_s·rate) rows (at least one) on the support sole; a last transfer one row longer
+    (it ends on the final stance). A plan timed fastest (its scenario or ``summary.json`` says so): its phases'
+    row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
     raw = (summary or {}).get("timing")
     timed: dict = raw if isinstance(raw, dict) else {}
     if getattr(sc.timing, "fastest", False) or timed.get("mode") == "fastest":
@@ -270,32 +250,30 @@ def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[t
             out += [("swing", k, i, st.support) for i in range(counts[2 * k + 1])]
         return out + [("transfer", len(sc.steps), i, "both") for i in range(counts[-1])]
     n_tr = max(1, round(sc.timing.transfer_s * rate_hz))
+    n_sw = max(1, round(sc.timing.swing_s * rate_hz))
     out = []
     for k, st in enumerate(sc.steps):
         out += [("transfer", k, i, "both") for i in range(n_tr)]
-        out += [("swing", k, i, st.support) for i in range(len(swing_row_positions(len(st.path_m), sc.timing.swing_s,
-                                                                                   rate_hz)))]
+        out += [("swing", k, i, st.support) for i in range(n_sw)]
     out += [("transfer", len(sc.steps), i, "both") for i in range(n_tr + 1)]
     return out
 
 
 def scenario_feet(sc, row_step: np.ndarray, phase: np.ndarray) -> dict[str, np.ndarray]:
-    """Per row, where the scenario puts each sole on the ground: before step k (transfers leading into
-    step k, and the support sole of swing k); NaN for the swing sole of a swing row."""
-    from jethr1_plan.planning.problems import feet_before_each_step
-
-    before = feet_before_each_step(sc)
-    final = {k: v.copy() for k, v in before[-1].items()}
-    final[sc.steps[-1].swing] = sc.steps[-1].landing_m.copy()
-    before.append(final)
+    """Per row, where the scenario puts each sole on the ground: the start soles moved by every landing
+    before step k (transfers leading into step k, and the support sole of swing k); NaN for the swing
+    sole of a swing row."""
+    stances = [{s: np.asarray(sc.start[s], dtype=float) for s in SIDES}]
+    for st in sc.steps:
+        stances.append({**stances[-1], st.swing: np.asarray(st.landing_m, dtype=float)})
     out = {s: np.full((len(phase), 3), np.nan) for s in SIDES}
     for i, (ph, k) in enumerate(zip(phase, row_step, strict=True)):
         k = int(k)
-        if not 0 <= k < len(before):
+        if not 0 <= k < len(stances):
             continue
         for s in SIDES:
             if ph == "transfer" or (ph == "swing" and k < len(sc.steps) and sc.steps[k].support == s):
-                out[s][i] = before[k][s]
+                out[s][i] = stances[k][s]
     return out
 
 

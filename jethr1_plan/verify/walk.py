@@ -18,30 +18,42 @@ rate, start soles, footholds, IK limits and success criteria) every row must hol
   written and inside the support polygon with the walk's margin, the friction ratio within the
   soles' μ (the first and last rows excepted: their stencil reaches beyond the walk);
 * **torques and commands**: the written joint torques those of the inverse dynamics and within the
-  servo limits; the servo commands the rows plus the sag those torques cause (``control.commands``);
+  servo limits; the servo commands the rows plus the sag those torques cause (``verify.commands``);
 * **the walk's own verdict**: ``summary.json`` says ok;
 * **CSV and MCAP together**: the MCAP's ``/joint_states`` are the CSV's rows.
+
+The footsteps in time, the support polygons, the motion and the commands are restated here and in
+:mod:`.motion`, :mod:`.balance` and :mod:`.commands` from docs/walking.md, never imported from the walk's
+generator (``walking/``) or the planner's physics (``tools/check_imports.py``).
 """
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.geometry import SIDES, polygon_margin, pose_from_quaternion
+from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.robot.model import RobotModel, load_robot
+from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
+from jethr1_plan.verify.commands import WALK_SAG_FILTER_S, servo_commands
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
-from jethr1_plan.walking.analysis import ACCELERATION_TOL, EDGE_ROWS, SuccessCriteria
-from jethr1_plan.walking.ik import IKSettings
-from jethr1_plan.walking.timeline import Timeline, polygon_of
+from jethr1_plan.verify.motion import base_wrench, row_motion
 
-__all__ = ["is_walk", "verify_walk"]
+__all__ = ["CRITERIA", "EDGE_ROWS", "is_walk", "verify_walk"]
 
 TOL_ZMP_M = 1e-5  # the recomputed ZMP differentiates written numbers twice [m]
 TOL_TAU_NM = 1e-6  # and so do the recomputed torques [N·m]
+EDGE_ROWS = 1  # rows at each end whose stencil reaches beyond the walk: not judged (docs/walking.md)
+ACCELERATION_TOL = 1e-3  # a joint's row acceleration may exceed its limit by this (the IK's round-off) [rad/s²]
+#: a walk's success criteria (``spec.success`` in summary.json) where its summary leaves one out, as
+#: docs/walking.md states them [m, rad]
+CRITERIA = {"foot_tolerance_m": 1e-3, "foot_tolerance_rad": 0.01, "knee_margin_rad": 0.1, "com_tolerance_m": 1e-4,
+            "zmp_margin_m": 0.0, "landing_tolerance_m": 0.02}
+#: every joint's acceleration limit where ``spec.ik`` leaves it out [rad/s²]
+MAX_JOINT_ACCELERATION = 100.0
 
 
 def _number(summary: dict, key: str, src: str) -> float:
@@ -51,24 +63,60 @@ def _number(summary: dict, key: str, src: str) -> float:
     return float(v)
 
 
-def _timeline(summary: dict, robot: RobotModel, src: str) -> Timeline:
-    """The walk's footsteps in time, rebuilt from ``summary.json``'s start soles, footholds and timing;
-    its lift and landing times must be the ones the summary states."""
+@dataclass(frozen=True)
+class Footsteps:
+    """A walk's footsteps in time as its ``summary.json`` states them (docs/walking.md): both soles at
+    ``start`` (sole centres (3,) [m]), then each step's ``sides[k]`` sole lifts at ``lift_s[k]`` and lands
+    on ``landings[k]`` at ``land_s[k]``; between those instants that sole is in the air."""
+
+    start: dict[str, np.ndarray]
+    sides: list[str]
+    landings: np.ndarray  # (S, 3) [m]
+    lift_s: np.ndarray  # (S,) [s]
+    land_s: np.ndarray  # (S,) [s]
+
+    def support(self, t: np.ndarray) -> np.ndarray:
+        """(N,) 'left', 'right' or 'both' at times ``t`` [s]."""
+        out = np.full(len(t), "both", dtype=object)
+        for side, lift, land in zip(self.sides, self.lift_s, self.land_s, strict=True):
+            out[(t > lift) & (t < land)] = other_side(side)
+        return out
+
+    def feet(self, t: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Per side, the foothold [m] (N, 3) it stands on at times ``t`` (the last one it landed on by then,
+        else its start) and where it is in the air (N,)."""
+        pos = {s: np.broadcast_to(self.start[s], (len(t), 3)).copy() for s in SIDES}
+        air = {s: np.zeros(len(t), dtype=bool) for s in SIDES}
+        for side, p, lift, land in zip(self.sides, self.landings, self.lift_s, self.land_s, strict=True):
+            pos[side][t >= land] = p
+            air[side] |= (t > lift) & (t < land)
+        return pos, air
+
+
+def _footsteps(summary: dict, src: str) -> Footsteps:
+    """The footsteps from ``summary.json``'s start soles and steps; each step's lift and landing must be
+    where its timing puts them: the first lift at ``start_s``, each landing ``single_support_s`` after its
+    lift, each next lift ``double_support_s`` after that landing."""
     try:
         timing = summary["spec"]["timing"]
-        start = {s: np.asarray(summary["start_m"][s], dtype=float) for s in SIDES}
-        footholds = [(st["side"], np.asarray(st["position_m"], dtype=float)) for st in summary["steps"]]
-        tl = Timeline.build(start, footholds, float(timing["start_s"]), float(timing["single_support_s"]),
-                            float(timing["double_support_s"]), float(timing["end_s"]),
-                            float(timing["swing_height_m"]), robot.sole_length_m, robot.sole_width_m)
-        stated = [(float(st["lift_s"]), float(st["land_s"])) for st in summary["steps"]]
+        start = {s: np.asarray(summary["start_m"][s], dtype=float).reshape(3) for s in SIDES}
+        steps = summary["steps"]
+        sides = [str(st["side"]) for st in steps]
+        landings = np.array([np.asarray(st["position_m"], dtype=float).reshape(3) for st in steps]).reshape(-1, 3)
+        lift = np.array([float(st["lift_s"]) for st in steps])
+        land = np.array([float(st["land_s"]) for st in steps])
+        t0, single, double, _, _ = (float(timing[k]) for k in ("start_s", "single_support_s", "double_support_s",
+                                                                "end_s", "swing_height_m"))
     except (KeyError, TypeError, ValueError, IndexError):
         raise InputError(src, "steps", "missing or malformed start_m, steps or spec.timing") from None
-    for k, (st, (lift, land)) in enumerate(zip(tl.steps, stated, strict=True)):
-        if abs(st.t_lift - lift) > TOL_T or abs(st.t_land - land) > TOL_T:
-            raise InputError(src, f"steps[{k}]", f"lifts at {lift:g} s and lands at {land:g} s; its timing says "
-                             f"{st.t_lift:g} s and {st.t_land:g} s")
-    return tl
+    if any(s not in SIDES for s in sides):
+        raise InputError(src, "steps", "a step's side is neither left nor right")
+    for k in range(len(sides)):
+        due = t0 + k * (single + double)
+        if abs(due - lift[k]) > TOL_T or abs(due + single - land[k]) > TOL_T:
+            raise InputError(src, f"steps[{k}]", f"lifts at {lift[k]:g} s and lands at {land[k]:g} s; its timing says "
+                             f"{due:g} s and {due + single:g} s")
+    return Footsteps(start, sides, landings, lift, land)
 
 
 def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: int = 50):
@@ -124,9 +172,6 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     over = np.flatnonzero(np.any((q < robot.lower_rad - 1e-6) | (q > robot.upper_rad + 1e-6), axis=1))
     fail(over, "joints", "a joint beyond its URDF limits")
     tau = np.column_stack([c[f"{j}_tau_nm"] for j in robot.joint_names])
-    from jethr1_plan.control.commands import servo_commands
-    from jethr1_plan.walking.result import WALK_SAG_FILTER_S
-
     q_cmd = np.column_stack([c[f"{j}_cmd_rad"] for j in robot.joint_names])
     expected = servo_commands(q, tau, robot.servo_stiffness_nm_per_rad, rate, WALK_SAG_FILTER_S)
     fail(np.flatnonzero(np.any(np.abs(q_cmd - expected) > 1e-9, axis=1)), "commands",
@@ -135,52 +180,18 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
         fail([int(np.flatnonzero(np.isnan(np.column_stack([quat, q])).any(axis=1))[0])], "file", "an empty pose cell")
         return n, found[:max_failures], str(folder)
     given = summary.get("spec", {}).get("success", {})
-    for f in fields(SuccessCriteria):
-        if f.name in given and f.name != "rehearse":
-            _number(given, f.name, src + " spec.success")
-    criteria = SuccessCriteria(**{f.name: given[f.name] for f in fields(SuccessCriteria) if f.name in given})
+    if not isinstance(given, dict):
+        raise InputError(src, "spec.success", "not a mapping")
+    criteria = {k: (_number(given, k, src + " spec.success") if k in given else v) for k, v in CRITERIA.items()}
     ik_doc = summary.get("spec", {}).get("ik", {})
     acc_limit = (_number(ik_doc, "max_joint_acceleration_rad_s2", src + " spec.ik") if isinstance(ik_doc, dict)
-                 and "max_joint_acceleration_rad_s2" in ik_doc else IKSettings().max_joint_acceleration_rad_s2)
-    _check_rows(c, robot, q, quat, _timeline(summary, robot, src), rate, criteria, acc_limit, fail)
+                 and "max_joint_acceleration_rad_s2" in ik_doc else MAX_JOINT_ACCELERATION)
+    _check_rows(c, robot, q, quat, _footsteps(summary, src), rate, criteria, acc_limit, fail)
     mcap_path = folder / "trajectory.mcap"
     if mcap_path in files and mcap_path.is_file():
         _check_mcap(mcap_path, robot, q, t, fail)
     found.sort(key=lambda f: f.row)
     return n, found[:max_failures], str(folder)
-
-
-def _twist(quat0: np.ndarray, p0: np.ndarray, quat1: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """(6,) the twist (linear, angular; in the first pose's frame) from pose (p0, quat0) to (p1, quat1)
-    in unit time: the logarithm on SE(3), from the relative quaternion (x, y, z, w)."""
-    x0, y0, z0, w0 = quat0
-    x1, y1, z1, w1 = quat1
-    # q0* ⊗ q1
-    rel = np.array([w0 * x1 - x0 * w1 - y0 * z1 + z0 * y1, w0 * y1 + x0 * z1 - y0 * w1 - z0 * x1,
-                    w0 * z1 - x0 * y1 + y0 * x1 - z0 * w1, w0 * w1 + x0 * x1 + y0 * y1 + z0 * z1])
-    if rel[3] < 0:
-        rel = -rel
-    s = float(np.linalg.norm(rel[:3]))
-    theta = 2.0 * np.arctan2(s, rel[3])
-    omega = rel[:3] * (theta / s if s > 1e-12 else 2.0)
-    local = pose_from_quaternion(np.zeros(3), quat0)[:3, :3].T @ (np.asarray(p1) - p0)
-    half = theta / 2.0
-    c = 1.0 / 12.0 if theta < 1e-4 else (1.0 - half / np.tan(half)) / theta**2
-    lin = local - 0.5 * np.cross(omega, local) + c * np.cross(omega, np.cross(omega, local))
-    return np.concatenate([lin, omega])
-
-
-def _row_motion(pos: np.ndarray, quat: np.ndarray, q: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """(v, a) (N, 6 + J) at each row from its neighbours alone: with D_k the twist from row k − 1 to row
-    k (the trunk's in its own frame at row k − 1, the joints' differences), the step back from row i is
-    −D_i, so v_i = (D_i+1 + D_i)/2Δt and a_i = (D_i+1 − D_i)/Δt²; the robot holds its posture beyond
-    both ends."""
-    n, nj = q.shape
-    D = np.zeros((n + 1, 6 + nj))  # D[k]: from row k − 1 to row k (zero beyond the ends)
-    for k in range(1, n):
-        D[k, :6] = _twist(quat[k - 1], pos[k - 1], quat[k], pos[k])
-        D[k, 6:] = q[k] - q[k - 1]
-    return (D[1:] + D[:-1]) / (2.0 * dt), (D[1:] - D[:-1]) / dt**2
 
 
 def _knee_bend(w, robot: RobotModel, side: str) -> float:
@@ -190,7 +201,7 @@ def _knee_bend(w, robot: RobotModel, side: str) -> float:
     return float(np.arccos(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0)))
 
 
-def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criteria: SuccessCriteria,
+def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, criteria: dict[str, float],
                 acc_limit: float, fail) -> None:
     """The pose, motion and balance checks, from one inverse-dynamics pass over the written rows."""
     n = len(q)
@@ -200,12 +211,12 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
     T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
                   for i in range(n)])
     pos = np.column_stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]])
-    v, acc = _row_motion(pos, unit, q, dt)
+    v, acc = row_motion(pos, unit, q, dt)
     w = robot.wrapper()
     com, zmp, friction = np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n)
     tau, bend = np.zeros_like(q), np.zeros((n, 2))
     sole = {s: np.zeros((n, 4, 4)) for s in SIDES}
-    support, _ = tl.phase(t)
+    support = tl.support(t)
     for i in range(n):
         w.state.q[:3] = T[i][:3, 3]
         w.state.q[3:7] = unit[i]
@@ -218,9 +229,7 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
             sole[s][i] = w.get_T_world_frame(robot.legs[s].sole)
             bend[i, k] = _knee_bend(w, robot, s)
         gen = w.mass_matrix() @ acc[i] + w.non_linear_effects()  # the generalised forces the motion needs
-        R, p = T[i][:3, :3], T[i][:3, 3]
-        force = R @ gen[:3]  # what the ground supplies, in the world
-        moment = R @ gen[3:6] + np.cross(p, force)  # about the world's origin
+        force, moment = base_wrench(T[i], gen)  # what the ground supplies, in the world, about its origin
         zmp[i] = (-moment[1] / force[2], moment[0] / force[2])
         friction[i] = float(np.linalg.norm(force[:2]) / force[2])
         written_support = str(c["support"][i])  # as the footsteps say (checked below), either one at a boundary
@@ -233,20 +242,20 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
                    f"{np.round(com[i], 6).tolist()} m")
     lipm = np.column_stack([c["com_ref_x_m"], c["com_ref_y_m"]])
-    fail(np.flatnonzero(np.linalg.norm(com[:, :2] - lipm, axis=1) > criteria.com_tolerance_m + TOL_M), "CoM",
+    fail(np.flatnonzero(np.linalg.norm(com[:, :2] - lipm, axis=1) > criteria["com_tolerance_m"] + TOL_M), "CoM",
          lambda i: f"{1000 * np.linalg.norm(com[i, :2] - lipm[i]):.3f} mm from the LIPM's (tolerance "
-                   f"{1000 * criteria.com_tolerance_m:g} mm)")
-    fail(np.flatnonzero(np.min(bend, axis=1) < criteria.knee_margin_rad - 1e-9), "knee",
+                   f"{1000 * criteria['com_tolerance_m']:g} mm)")
+    fail(np.flatnonzero(np.min(bend, axis=1) < criteria["knee_margin_rad"] - 1e-9), "knee",
          lambda i: f"a knee bent {np.min(bend[i]):.4f} rad from straight, less than the margin "
-                   f"{criteria.knee_margin_rad:g} rad")
+                   f"{criteria['knee_margin_rad']:g} rad")
     written_bend = np.column_stack([c[f"knee_bend_{s}_rad"] for s in SIDES])
     fail(np.flatnonzero(np.max(np.abs(bend - written_bend), axis=1) > 1e-6), "knee",
          lambda i: f"knee bends written {np.round(written_bend[i], 6).tolist()} rad, forward kinematics "
                    f"{np.round(bend[i], 6).tolist()} rad")
     feet, air = tl.feet(t)
     edge = np.zeros(n, dtype=bool)  # rows on a phase boundary (times written to 1e-9 s): either phase holds
-    for st in tl.steps:
-        edge |= (np.abs(t - st.t_lift) < 1e-6) | (np.abs(t - st.t_land) < 1e-6)
+    for lift, land in zip(tl.lift_s, tl.land_s, strict=True):
+        edge |= (np.abs(t - lift) < 1e-6) | (np.abs(t - land) < 1e-6)
     for i in range(n):
         written_support = str(c["support"][i])
         if written_support != support[i] and not (edge[i] and written_support in (*SIDES, "both")):
@@ -260,12 +269,12 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
             if not air[s][i]:  # bearing weight: on its foothold and flat
                 err = float(np.linalg.norm(p - feet[s][i]))
                 tilt = float(np.linalg.norm(sole[s][i][:3, :3] - np.eye(3)) / np.sqrt(2))
-                if err > criteria.foot_tolerance_m + 1e-12:
+                if err > criteria["foot_tolerance_m"] + 1e-12:
                     fail([i], "feet", f"the {s} sole bears weight {1000 * err:.2f} mm from its foothold "
                          f"{np.round(feet[s][i], 4).tolist()} m")
-                if tilt > criteria.foot_tolerance_rad:
+                if tilt > criteria["foot_tolerance_rad"]:
                     fail([i], "feet", f"the {s} sole bears weight {tilt:.3f} rad off flat")
-            elif p[2] < -TOL_M - criteria.foot_tolerance_m:
+            elif p[2] < -TOL_M - criteria["foot_tolerance_m"]:
                 fail([i], "feet", f"the swinging {s} sole is {1000 * -p[2]:.1f} mm below the ground")
     inner = np.arange(EDGE_ROWS, n - EDGE_ROWS)
     written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
@@ -284,12 +293,17 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Timeline, rate: float, criter
     mu = robot.sole_friction
     fail(inner[friction[inner] > mu], "friction",
          lambda i: f"the ground's force is {friction[i]:.2f} of its normal force sideways (soles' μ {mu:g})")
-    keys = tl.support_keys(t)
     for row in inner.tolist():
-        inside = polygon_margin(zmp[row], polygon_of(keys[row], robot.sole_length_m, robot.sole_width_m, 0.0))
-        if inside < criteria.zmp_margin_m - 1e-9:
+        down = [s for s in SIDES if not air[s][row]]
+        if len(down) == 1:
+            normals, offsets = (e[0] for e in sole_edges(feet[down[0]][row, :2], robot.sole_length_m,
+                                                         robot.sole_width_m))
+        else:
+            normals, offsets = hull_edges([feet[s][row, :2] for s in down], robot.sole_length_m, robot.sole_width_m)
+        inside = float(support_margin(zmp[row:row + 1], normals[None], offsets[None])[0])
+        if inside < criteria["zmp_margin_m"] - 1e-9:
             fail([row], "ZMP", f"the recomputed ZMP is {1000 * inside:.1f} mm inside the support, less than "
-                 f"the walk's margin {1000 * criteria.zmp_margin_m:g} mm")
+                 f"the walk's margin {1000 * criteria['zmp_margin_m']:g} mm")
 
 
 def _worst(robot: RobotModel, tau: np.ndarray) -> str:

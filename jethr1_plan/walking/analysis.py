@@ -5,7 +5,10 @@ replay, or a robot's servos, would see.
   second central differences of the rows, no wider stencil (a one-row spike stays a one-row spike); the
   floating base's rows of M(q)·a + h(q, v) are the wrench the floor must supply, giving the multibody
   ZMP and the friction ratio |f_xy|/f_z against the soles' μ (the robot YAML's ``twin.sole_friction``).
-  The first and last rows (``EDGE_ROWS``) see beyond the walk (the robot at rest there) and are not judged.
+  The first and last rows (``EDGE_ROWS``) have no row beyond them: their motion is the one-sided
+  stencil's of the rows (a walk ends still moving: its CoM has not settled over the final stance, and
+  a stop within one row beyond the last row would write a deceleration no row asks for into its
+  torques, ZMP and servo commands); they are written and not judged.
 * **Torques**: τ = M(q)·a + h(q, v) − J_cᵀ·w, the support wrench w from the base's six rows (one sole:
   exact; both: the least-norm split); E_con = Σ_i ∫ max(τ_i·q̇_i, 0) dt over two steps (B-44).
 * **Singularity**: κ(J_low) = σ_max/σ_min of the lower body's Jacobian (B-9, B-45): each sole's
@@ -105,7 +108,7 @@ def analyse(walk: Walk) -> WalkAnalysis:
     w = robot.wrapper()
     n, nj = walk.q.shape
     dt = float(walk.t[1] - walk.t[0]) if n > 1 else 1.0
-    v, a = row_derivatives(walk.base, walk.q, dt)
+    v, a = row_derivatives(walk.base, walk.q, dt, ends="rows")
     waist = robot.walking.waist_yaw
     kappa, kappa_leg = np.zeros(n), np.zeros((n, 2))
     points = np.zeros((4, n, 2, 3))  # hip yaw, hip pitch, knee, ankle pitch joints' origins

@@ -37,7 +37,8 @@ TRANSIENT_LOCAL, VOLATILE = 1, 2  # rmw's durability values
 def files(written, small_route) -> dict[str, Path]:
     return {"trajectory": written["plan"] / "trajectory.mcap", "simulation": written["plan"] / "simulation.mcap",
             "walk": written["walk"] / "trajectory.mcap",
-            "balance_space": written["balance_space"] / "balance_space.mcap", "route": small_route / "route.mcap"}
+            "balance_space": written["balance_space"] / "balance_space.mcap", "route": small_route / "route.mcap",
+            "route_plan": small_route / "trajectory.mcap"}
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -124,13 +125,15 @@ def test_the_docs_print_the_declared_topics():
 @pytest.mark.parametrize("layout, kinds, urdf_topics", [
     ("LAYOUT", ("trajectory", "simulation"), {"/robot_description", "/sim/robot_description"}),
     ("WALK_LAYOUT", ("walk",), {"/robot_description"}),
-    ("BALANCE_SPACE_LAYOUT", ("balance_space",), set())])
+    ("BALANCE_SPACE_LAYOUT", ("balance_space",), set()),
+    ("ROUTE_LAYOUT", ("route_plan", "route"), {"/robot_description"})])
 def test_the_shipped_layouts_read_what_the_files_have(files, layout, kinds, urdf_topics):
     """Every plot path of a layout (``/topic.field[index]``) resolves to a number on a message of its
     files; its URDF layers and 3D topics are topics the files carry."""
-    from jethr1_plan.cli.plan import BALANCE_SPACE_LAYOUT, LAYOUT, WALK_LAYOUT
+    from jethr1_plan.cli.plan import BALANCE_SPACE_LAYOUT, LAYOUT, ROUTE_LAYOUT, WALK_LAYOUT
 
-    shipped = {"LAYOUT": LAYOUT, "WALK_LAYOUT": WALK_LAYOUT, "BALANCE_SPACE_LAYOUT": BALANCE_SPACE_LAYOUT}
+    shipped = {"LAYOUT": LAYOUT, "WALK_LAYOUT": WALK_LAYOUT, "BALANCE_SPACE_LAYOUT": BALANCE_SPACE_LAYOUT,
+               "ROUTE_LAYOUT": ROUTE_LAYOUT}
     first = {}
     for kind in kinds:
         for topic, _, msg, _ in read_mcap(files[kind].read_bytes()):

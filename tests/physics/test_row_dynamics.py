@@ -93,3 +93,25 @@ def test_the_summary_states_the_dynamic_zmp_pinocchio_finds_in_the_files(side_st
     assert dyn["least_zmp_margin_m"] == pytest.approx(float(inner.min()), abs=1e-7)
     assert dyn["rows_outside_support"] == int(np.sum(inner < 0)) == 0  # the robust side step: never off the sole
     assert dyn["rows_needing_pull"] == 0
+
+
+def test_the_rows_own_ends_are_exact_on_a_uniformly_accelerated_motion():
+    """``ends="rows"``: the first and last rows' velocity and acceleration from the rows alone (one-sided
+    stencils) are exact where the rows accelerate uniformly (joints and a trunk sliding without turning);
+    ``ends="hold"`` sees the robot stop beyond them."""
+    from jethr1_plan.geometry import pose_matrix
+    from jethr1_plan.physics.row_dynamics import row_derivatives
+
+    dt, n = 0.01, 12
+    t = np.arange(n) * dt
+    acc, v0 = np.array([0.7, -2.0, 0.3]), np.array([0.05, 0.4, -0.2])
+    q = v0 * t[:, None] + 0.5 * acc * t[:, None] ** 2
+    base = np.array([pose_matrix((0.1 + 0.2 * ti + 0.5 * 1.5 * ti**2, 0.0, 0.3), 0.0) for ti in t])
+    v, a = row_derivatives(base, q, dt, ends="rows")
+    for row in (0, n - 1):
+        np.testing.assert_allclose(a[row, 6:], acc, atol=1e-9)
+        np.testing.assert_allclose(v[row, 6:], v0 + acc * t[row], atol=1e-9)
+        np.testing.assert_allclose(a[row, :3], [1.5, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(v[row, :3], [0.2 + 1.5 * t[row], 0.0, 0.0], atol=1e-9)
+    _, held = row_derivatives(base, q, dt)
+    assert abs(held[n - 1, 6] - acc[0]) > 1.0  # the stop within one row the old ends wrote

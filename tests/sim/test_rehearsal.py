@@ -95,7 +95,11 @@ def test_the_soles_push_where_the_plan_puts_the_zmp(plans, robot):
 
 def test_a_robust_plan_survives_and_a_minimal_one_falls(plans, capsys):
     assert run(["simulate", str(plans / "side_step"), "--json", "--no-progress"]) == 0
-    doc = json.loads(capsys.readouterr().out)
+    out = capsys.readouterr()
+    doc = json.loads(out.out)
+    # it names every file it writes (both, written together)
+    assert f"wrote {plans / 'side_step'}/simulation.json, simulation.mcap" in " ".join(out.err.split())
+    assert (plans / "side_step" / "simulation.mcap").is_file()
     r = doc["runs"][0]
     assert r["survived"] and r["fell"] is None and all(r["soles_on_cartons_at_end"].values())
     assert r["max_trunk_tilt_deg"] < 5 and r["least_cop_margin_m"] > 0 and r["landing_errors_m"][0]["xy_m"] < 0.01

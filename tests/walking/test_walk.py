@@ -146,6 +146,34 @@ def test_walk_writes_its_files_and_paper_b_measures(dyros_folder):
     assert 0 < s["peak_yaw_rad"] < math.radians(45)
 
 
+def test_the_rows_say_what_the_summary_says_up_to_the_last_row(dyros_folder):
+    """summary.json's least ZMP margin and peak friction are the judged rows' own (the CSV's columns), and
+    the end rows, which are written but not judged, are no outliers: the walk ends with its CoM still
+    moving, and its last row's torques, ZMP and servo commands are those of the rows' motion, not of a
+    stop within one row beyond it (which wrote a −0.378 m margin, 128 N·m at an ankle and a last servo
+    command 7 mrad off, the posture the robot then holds)."""
+    import csv
+
+    s = json.loads((dyros_folder / "summary.json").read_text())
+    with (dyros_folder / "trajectory.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    col = {k: np.array([float(r[k]) for r in rows]) for k in rows[0] if k not in ("support",)}
+    margin, friction = col["zmp_margin_m"], col["friction_ratio"]
+    assert s["least_zmp_margin_m"] == margin[1:-1].min()
+    assert s["peak_friction_ratio"] == friction[1:-1].max()
+    speed = np.hypot(*(np.diff(np.column_stack([col["com_x_m"], col["com_y_m"]])[-2:], axis=0)[0])) * 100
+    assert speed > 0.03  # the walk ends moving [m/s]: the ends see only the rows
+    for end, inner in ((0, 1), (-1, -2)):
+        assert abs(margin[end] - margin[inner]) < 2e-3
+        assert margin[end] >= s["least_zmp_margin_m"]
+        assert abs(friction[end] - friction[inner]) < 0.01
+        tau = [k for k in col if k.endswith("_tau_nm")]
+        assert max(abs(col[k][end] - col[k][inner]) for k in tau) < 0.5
+        cmd = [k for k in col if k.endswith("_cmd_rad")]
+        sag = {k: col[k] - col[k.replace("_cmd_rad", "_rad")] for k in cmd}
+        assert max(abs(sag[k][end] - sag[k][inner]) for k in cmd) < 1e-3
+
+
 def test_walk_csv_rows_hold_by_forward_kinematics_and_the_mcap_plays_it(dyros_folder):
     """Each sole that bears weight sits on its foothold (forward kinematics from the written rows, in
     a fresh PlaCo robot, independent of the generator); the MCAP carries the robot, the footsteps,
