@@ -7,6 +7,7 @@ BIN := $(VENV)/bin
 LOCK := constraints.txt
 LATEST := .venv-latest
 LOCK_CHECK ?=
+BATCH_OUT ?= out/ci-batch
 
 .PHONY: install test demo bench lint clean check-latest lock
 
@@ -27,7 +28,7 @@ lint: install
 test: install lint
 	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)
 	$(BIN)/python -m pytest -q
-	$(BIN)/jethr1 batch configs/*.yaml -o out/ci-batch --no-progress
+	$(BIN)/jethr1 batch configs/*.yaml -o $(BATCH_OUT) --no-progress
 
 demo: install
 	$(BIN)/jethr1 robot show
@@ -57,7 +58,7 @@ check-latest:
 	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
 	$(LATEST)/bin/python -m pip install --quiet -e ".[dev]"
 	touch $(LATEST)/.installed
-	$(MAKE) --no-print-directory test VENV=$(LATEST) LOCK_CHECK=--report
+	$(MAKE) --no-print-directory test VENV=$(LATEST) LOCK_CHECK=--report BATCH_OUT=out/ci-batch-latest
 	touch $(LATEST)/.passed
 	@echo "check-latest: the suite passed on the newest releases; against the lock:"
 	@$(LATEST)/bin/python tools/check_lock.py --report $(LOCK)
