@@ -1,14 +1,21 @@
-# One-command set-up: every target creates .venv and installs the project from its own files.
+# One-command set-up: every target creates .venv and installs the project from its own files, at the versions
+# of the lock (constraints.txt: the tested set, docs/install.md). PYTHON and VENV choose another Python, e.g.
+# make test PYTHON=python3.13 VENV=.venv-3.13
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
+LOCK := constraints.txt
+LATEST := .venv-latest
+LOCK_CHECK ?=
+BATCH_OUT ?= out/ci-batch
 
-.PHONY: install test demo bench lint clean
+.PHONY: install test demo bench lint clean check-latest lock
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml $(LOCK)
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	$(BIN)/python -m pip install --quiet --upgrade pip -c $(LOCK)
+	$(BIN)/python -m pip install --quiet -c $(LOCK) --build-constraint $(LOCK) -e ".[dev]"
+	$(BIN)/python tools/check_lock.py $(LOCK)
 	touch $@
 
 install: $(VENV)/.installed
@@ -19,9 +26,10 @@ lint: install
 	$(BIN)/python tools/check_imports.py
 
 test: install lint
+	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)
 	$(BIN)/python -m pytest -q
-	rm -rf out/ci-batch  # (a scratch folder: jethr1 itself never replaces files it has no record of writing)
-	$(BIN)/jethr1 batch configs/*.yaml -o out/ci-batch --no-progress
+	rm -rf $(BATCH_OUT)  # (a scratch folder: jethr1 itself never replaces files it has no record of writing)
+	$(BIN)/jethr1 batch configs/*.yaml -o $(BATCH_OUT) --no-progress
 
 demo: install
 	$(BIN)/jethr1 robot show
@@ -42,6 +50,27 @@ bench: install
 	$(BIN)/python bench/bench_route.py
 	$(BIN)/python bench/bench_replan_steps.py
 	$(BIN)/python bench/bench_commands.py
+	$(BIN)/python bench/bench_fast_timing.py --trials 40 -j 2
+
+# The newest releases: the project installed unpinned into a fresh $(LATEST), the whole of `make test` run there,
+# and how the newest versions differ from the lock. `make lock` then moves the lock to them (docs/install.md).
+check-latest:
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	$(LATEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST)/bin/python -m pip install --quiet -e ".[dev]"
+	touch $(LATEST)/.installed
+	$(MAKE) --no-print-directory test VENV=$(LATEST) LOCK_CHECK=--report BATCH_OUT=out/ci-batch-latest
+	touch $(LATEST)/.passed
+	@echo "check-latest: the suite passed on the newest releases; against the lock:"
+	@$(LATEST)/bin/python tools/check_lock.py --report $(LOCK)
+
+lock: $(LATEST)/.passed
+	$(LATEST)/bin/python tools/check_lock.py --write $(LOCK)
+
+$(LATEST)/.passed: pyproject.toml
+	@echo "make lock writes the lock from the environment of a passed \`make check-latest\` (after the last change to pyproject.toml): run it first" >&2
+	@exit 1
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

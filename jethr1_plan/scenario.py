@@ -37,6 +37,7 @@ __all__ = [
     "REFERENCE_SAMPLE_S",
     "ROBUST_DEFAULT",
     "SCHEMA",
+    "TIMING_MODES",
     "YAW_MODES",
     "BalanceConfig",
     "Scenario",
@@ -52,6 +53,7 @@ DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
 F3_UNITS = {"mm": 0.001, "m": 1.0}
 YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
 POLICIES = ("robust", "minimal")
+TIMING_MODES = ("fixed", "fastest")
 
 # Bounds say what the machine can hold and what a scenario means: every number is bounded, so that a
 # typo (samples: 1e8, rate_hz: 1e9) is a one-line error, not an hour of work or a full memory.
@@ -134,7 +136,14 @@ SCHEMA = _obj({
                       "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
                       "beta": {"type": "number", "minimum": 0, "maximum": 1e9}}),
     "timing": _obj({"swing_s": _duration, "transfer_s": _duration,
-                    "rate_hz": {"type": "number", "minimum": MIN_RATE_HZ, "maximum": 1000}}),
+                    "rate_hz": {"type": "number", "minimum": MIN_RATE_HZ, "maximum": 1000},
+                    "mode": {"enum": list(TIMING_MODES)},
+                    "dynamic_share": {"type": "number", "minimum": 0, "maximum": 0.99},
+                    "safety_factor": {"type": "number", "minimum": 0.1, "maximum": 1},
+                    "spin_down_n": {"type": "number", "minimum": 0.01, "maximum": 100},
+                    "min_swing_s": {"type": "number", "minimum": 0, "maximum": 300},
+                    "min_transfer_s": {"type": "number", "minimum": 0, "maximum": 300},
+                    "max_swing_s": _duration, "max_transfer_s": _duration}),
     "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
 }, ("steps",))
 
@@ -157,11 +166,28 @@ class Step:
 
 @dataclass(frozen=True)
 class Timing:
-    """``timing:`` of a scenario."""
+    """``timing:`` of a scenario. ``mode`` ``fixed``: every swing lasts ``swing_s`` and every transfer
+    ``transfer_s``; ``fastest``: each as fast as the rows' own dynamics allow (``planning.fast_timing``),
+    with ``dynamic_share`` of each row's tolerance share held under the motion, ``safety_factor`` on the
+    joint velocity, torque and friction limits (the fans' lag ÷ it), ``spin_down_n`` [N] how far a fan
+    may stay above a falling plan, and floors and caps on each phase [s] (a phase slower than its cap
+    is infeasible); ``swing_s`` and ``transfer_s`` are then the fixed timing it is compared with."""
 
     swing_s: float = 8.0  # each swing [s]
     transfer_s: float = 3.0  # each double-support transfer [s]
     rate_hz: float = 50.0  # output rows per second [Hz]
+    mode: str = "fixed"
+    dynamic_share: float = 0.8
+    safety_factor: float = 0.8
+    spin_down_n: float = 0.5
+    min_swing_s: float = 0.0
+    min_transfer_s: float = 0.0
+    max_swing_s: float = 300.0
+    max_transfer_s: float = 300.0
+
+    @property
+    def fastest(self) -> bool:
+        return self.mode == "fastest"
 
 
 @dataclass(frozen=True)
@@ -346,6 +372,8 @@ def _build(doc: dict, src: str, robot) -> Scenario:
             raise InputError(src, f"timing.{key}", f"{seconds:g} s at rate_hz {timing.rate_hz:g} is "
                              f"{seconds * timing.rate_hz:.3g} rows: every phase needs at least {MIN_PHASE_ROWS} rows "
                              "(raise rate_hz or the duration)")
+    if timing.fastest:
+        check_fastest(timing, doc.get("body_yaw", {}).get("mode", "eq4"), balance, src)
     rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
     if rows > MAX_ROWS:
         raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
@@ -395,6 +423,22 @@ def _time_text(seconds: float) -> str:
     if seconds >= 3600:
         return f"{seconds / 3600:.3g} h"
     return f"{seconds / 60:.3g} min" if seconds >= 60 else f"{seconds:.3g} s"
+
+
+def check_fastest(timing: Timing, yaw_mode: str, balance: BalanceConfig, src: str) -> None:
+    """Refuse a fastest timing the planner cannot give: a yaw MPC (its schedule lays the rows out by the fixed
+    law), a plan with no margin to spend (the minimal policy without ``balance.sole_margin_m``), floors above
+    caps."""
+    if yaw_mode == "mpc":
+        raise InputError(src, "timing.mode", "fastest cannot be combined with body_yaw.mode mpc (its schedule is laid "
+                         "out on the fixed timing's rows)")
+    if balance.tolerance == NOMINAL and balance.sole_margin_m == 0:
+        raise InputError(src, "timing.mode", "fastest needs a margin for the rows' motion to spend: the robust policy "
+                         "or balance.sole_margin_m > 0 (a minimal plan's ZMP lies on the sole's edge)")
+    for kind in ("swing", "transfer"):
+        lo, hi = getattr(timing, f"min_{kind}_s"), getattr(timing, f"max_{kind}_s")
+        if lo > hi:
+            raise InputError(src, f"timing.min_{kind}_s", f"{lo:g} s is above timing.max_{kind}_s {hi:g} s")
 
 
 def _check_overlaps(cartons: tuple[Carton, ...], src: str) -> None:

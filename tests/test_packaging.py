@@ -1,5 +1,5 @@
-"""A wheel holds the robot models: installed without the checkout, `jethr1` finds them by name from any
-directory and plans a copied config."""
+"""A wheel builds without a setuptools warning and holds the robot models: installed without the checkout,
+`jethr1` finds them by name from any directory and plans a copied config."""
 
 from __future__ import annotations
 
@@ -15,10 +15,13 @@ from tests.conftest import ROOT
 def test_a_wheel_plans_from_another_directory(tmp_path):
     wheels = tmp_path / "wheels"
     source = tmp_path / "source"  # a copy: setuptools builds in the source tree (build/), never in the checkout
-    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".venv", ".git", "out", "build", "__pycache__",
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".venv*", ".git", "out", "build", "__pycache__",
                                                                 "*.egg-info"))
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w",
-                    str(wheels), str(source)], check=True, capture_output=True, cwd=tmp_path)
+    built = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w",
+                            str(wheels), str(source)], check=True, capture_output=True, text=True, cwd=tmp_path)
+    # a clean configuration: no deprecated license table, no robot folder left out of `packages`
+    assert "BuildBackendWarning" not in built.stderr and "SetuptoolsDeprecationWarning" not in built.stderr, \
+        built.stderr[-2000:]
     wheel = next(wheels.glob("jethr1_plan-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
     assert {"jethr1_plan/robots/jethr1/jethr1.urdf", "jethr1_plan/robots/jethr1/jethr1.yaml",

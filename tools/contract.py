@@ -7,6 +7,7 @@ columns and topics. ``tests/test_contract.py`` fails when the page and the code 
 
 from __future__ import annotations
 
+import inspect
 import sys
 from pathlib import Path
 
@@ -14,6 +15,8 @@ import click
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "contract.md"
+#: an option without a default (click 8.3 and later; None before): the page reads the same on every click
+NO_DEFAULT = getattr(click.core, "UNSET", None)
 
 UNITS = {"_m": "m", "_rad": "rad", "_n": "N", "_nm": "N·m", "_nms": "N·m·s", "_s": "s", "_rad_s": "rad/s",
          "_rad_s2": "rad/s²", "_kg": "kg", "_j": "J", "_hz": "Hz"}
@@ -46,14 +49,16 @@ def commands_section() -> list[str]:
         out.append("")
         out.append(f"`{ctx.command_path} {' '.join(cmd.collect_usage_pieces(ctx))}`")
         out.append("")
-        out.append((cmd.help or "").strip().split("\n\n")[0].replace("\n", " "))
+        # the first paragraph of the help, its lines joined: the same on every Python (3.13 dedents docstrings)
+        out.append(" ".join(inspect.cleandoc(cmd.help or "").split("\n\n")[0].split()))
         out.append("")
         rows = []
         for p in cmd.get_params(ctx):
             if not isinstance(p, click.Option) or p.hidden or "--help" in p.opts:
                 continue
             names = ", ".join(f"`{o}`" for o in [*p.opts, *p.secondary_opts])
-            default = "" if p.default in (None, False, ()) or p.is_flag else f" (default {p.default})"
+            no_default = p.default is NO_DEFAULT or p.default in (None, False, ()) or p.is_flag
+            default = "" if no_default else f" (default {p.default})"
             rows.append(f"| {names} | {(p.help or '').replace('|', '/')}{default} |")
         if rows:
             out.extend(["| option | meaning |", "|---|---|", *rows, ""])

@@ -37,9 +37,12 @@ ROUTE_LAYOUT = LAYOUT.with_name("foxglove_route_layout.json")  # a route: its pl
 @click.option("--strict-torque", is_flag=True, help="Rows whose static torque exceeds a servo limit are infeasible.")
 @click.option("--policy", type=click.Choice(["robust", "minimal"]),
               help="Override balance.policy: robust (thrust that survives model errors) or minimal (Paper A).")
+@click.option("--timing", "timing_mode", type=click.Choice(["fixed", "fastest"]),
+              help="Override timing.mode: fixed (timing.swing_s and transfer_s) or fastest (each swing and transfer "
+                   "as fast as the rows' own dynamics allow).")
 def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | None, as_json: bool,
          no_progress: bool, write_infeasible: bool, jobs: int, kinematics: str, strict_torque: bool,
-         policy: str | None) -> None:
+         policy: str | None, timing_mode: str | None) -> None:
     """Plan SCENARIO.yaml: optimise P_body along each swing, write CSV, MCAP and summary.json."""
     from dataclasses import replace
 
@@ -53,6 +56,12 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         check_plan_time(scenario, (optimiser,), key="--optimiser")
     if policy is not None:
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
+    if timing_mode is not None:
+        scenario = replace(scenario, timing=replace(scenario.timing, mode=timing_mode))
+    if scenario.timing.fastest:
+        from jethr1_plan.scenario import check_fastest
+
+        check_fastest(scenario.timing, scenario.yaw_mode, scenario.balance, str(scenario_path))
     check_writable(plan_folder(outdir, scenario), need_bytes=plan_bytes(scenario), writes=PLAN_WRITES)
     jobs = cap_jobs(jobs)
     try:

@@ -24,8 +24,11 @@ __all__ = ["route_cmd"]
               help="Where the balance-space maps are kept (default: $JETHR1_CACHE, else $XDG_CACHE_HOME/jethr1, "
                    "else ~/.cache/jethr1).")
 @click.option("--no-progress", is_flag=True)
+@click.option("--timing", "timing_mode", type=click.Choice(["fixed", "fastest"]),
+              help="Override the terrain's timing.mode: fastest plans every step as fast as its rows' own dynamics "
+                   "allow (route.yaml says so).")
 def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache: Path | None,
-              no_progress: bool) -> None:
+              no_progress: bool, timing_mode: str | None) -> None:
     """Choose which foot swings and where each lands over TERRAIN.yaml's cartons, then plan every step.
 
     Writes OUTDIR/<stem>/: route.yaml (an ordinary scenario), the plan (trajectory.csv, trajectory.mcap,
@@ -46,6 +49,16 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
 
     t0 = time.perf_counter()
     terrain = load_terrain(terrain_path)
+    if timing_mode is not None:
+        from dataclasses import replace
+
+        from jethr1_plan.scenario import check_fastest
+
+        timing = replace(terrain.base.timing, mode=timing_mode)
+        if timing.fastest:
+            check_fastest(timing, terrain.base.yaw_mode, terrain.base.balance, str(terrain_path))
+        doc_timing = {**terrain.doc.get("timing", {}), "mode": timing_mode}
+        terrain = replace(terrain, doc={**terrain.doc, "timing": doc_timing}, base=replace(terrain.base, timing=timing))
     folder = Path(outdir) / Path(terrain_path).stem
     check_writable(folder, need_bytes=2_000_000, writes=sorted(ROUTE_OWN - SIMULATION_FILES))
     check_map_cache(terrain, cache)

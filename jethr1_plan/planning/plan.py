@@ -23,6 +23,7 @@ from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import analyse_rows
+from jethr1_plan.planning.fast_timing import FastTiming, time_phase
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
@@ -359,9 +360,12 @@ class Sequence:
         tm, b = scenario.timing, scenario.balance
         self.scenario, self.robot, self.stop, self.strict = scenario, robot, stop_at_infeasible, strict_dynamics
         self.seq = SequenceBuilder(robot, solver, tm.rate_hz, b.thrust_max_n, b.rho_rad, b.sole_margin_m, b.tolerance)
-        self.paced = b.policy == "robust" and schedule is None  # a yaw schedule laid its rows out by the default law
+        self.fast = FastTiming.of(tm) if tm.fastest else None
+        # a yaw schedule laid its rows out by the default law; a fastest timing replaces pacing
+        self.paced = b.policy == "robust" and schedule is None and self.fast is None
         if schedule is not None:
             self.seq.yaw_of_row = schedule.at_row
+        self.seq.smooth_trunk = self.fast is not None
         self.feet = {k: v.copy() for k, v in scenario.start.items()}
         self.p_prev, self.yaw_prev = standing_pose(robot, self.feet, 0.0), 0.0
         self.thrust_out: FanThrust | None = None
@@ -375,8 +379,19 @@ class Sequence:
         yaw_of = yaw_function(self.scenario, self.robot, st.support, feet[st.support])
         p_first, yaw_first = st.p_body[0], yaw_of(st.path_m[0])
         shares = st.shares
-        seq.transfer(st.index, feet, self.p_prev, self.yaw_prev, p_first, yaw_first, tm.transfer_s, self.thrust_out,
-                     FanThrust(st.fan_thrust(0, nf), st.fan_index), share=min(self.share_out, float(shares[0])))
+        p_prev, yaw_prev, thrust_out, thrust_in = self.p_prev, self.yaw_prev, self.thrust_out, FanThrust(
+            st.fan_thrust(0, nf), st.fan_index)
+        share_in = min(self.share_out, float(shares[0]))
+
+        def transfer(positions=None, include_end=False):
+            seq.transfer(st.index, feet, p_prev, yaw_prev, p_first, yaw_first, tm.transfer_s, thrust_out, thrust_in,
+                         include_end=include_end, share=share_in, positions=positions)
+
+        if self.fast is None:
+            transfer()
+        else:
+            seq.rows.timed.append(time_phase(seq, seq.snapshot(), transfer, "transfer", feet, SIDES, 1.0, self.fast,
+                                             tm.transfer_s))
         if self.stop and seq.first_infeasible is not None:
             return seq.first_infeasible
         snap = seq.snapshot()
@@ -384,7 +399,18 @@ class Sequence:
         def build(positions):
             seq.swing(st.index, st.support, feet, st.path_m, st.p_body, yaw_of, tm.swing_s, shares, positions)
 
-        build(None)
+        if self.fast is None:
+            build(None)
+        else:
+            record = time_phase(seq, snap, lambda pos, end: build(pos), "swing", feet, (st.support,),
+                                float(len(st.path_m) - 1), self.fast, tm.swing_s)
+            if seq.first_infeasible is not snap[3] and seq.smooth_trunk:  # the smooth trunk left the feasible set:
+                seq.smooth_trunk = False  # the optimiser's own path, linear between its samples
+                seq.restore(snap)
+                record = time_phase(seq, snap, lambda pos, end: build(pos), "swing", feet, (st.support,),
+                                    float(len(st.path_m) - 1), self.fast, tm.swing_s)
+                seq.smooth_trunk = True
+            seq.rows.timed.append(record)
         if self.paced:
             pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict)
         if self.stop and seq.first_infeasible is not None:
@@ -402,7 +428,7 @@ class Sequence:
         return ({k: list(v) for k, v in seq.rows.columns.items()}, seq.t,
                 None if seq.q_prev is None else seq.q_prev.copy(), seq.first_infeasible,
                 {k: v.copy() for k, v in self.feet.items()}, self.p_prev.copy(), self.yaw_prev, self.thrust_out,
-                self.share_out, self.steps, [dict(p) for p in seq.rows.paced])
+                self.share_out, self.steps, [dict(p) for p in seq.rows.paced], [dict(p) for p in seq.rows.timed])
 
     def resume(self, state: tuple) -> None:
         """Back to a :meth:`state` (of a sequence of the same scenario's settings and the same first steps)."""
@@ -413,13 +439,23 @@ class Sequence:
         self.feet = {k: v.copy() for k, v in state[4].items()}
         self.p_prev, self.yaw_prev, self.thrust_out, self.share_out, self.steps = (state[5].copy(), *state[6:10])
         seq.rows.paced = [dict(p) for p in state[10]]
+        seq.rows.timed = [dict(p) for p in state[11]]
 
     def finish(self) -> tuple[Rows, dict | None]:
         """The final transfer to standing; (the rows, the first infeasible row or None)."""
         seq = self.seq
-        seq.transfer(self.steps, self.feet, self.p_prev, self.yaw_prev,
-                     standing_pose(self.robot, self.feet, self.yaw_prev), self.yaw_prev,
-                     self.scenario.timing.transfer_s, self.thrust_out, None, include_end=True, share=self.share_out)
+        end = standing_pose(self.robot, self.feet, self.yaw_prev)
+
+        def transfer(positions=None, include_end=True):
+            seq.transfer(self.steps, self.feet, self.p_prev, self.yaw_prev, end, self.yaw_prev,
+                         self.scenario.timing.transfer_s, self.thrust_out, None, include_end=include_end,
+                         share=self.share_out, positions=positions)
+
+        if self.fast is None:
+            transfer()
+        else:
+            seq.rows.timed.append(time_phase(seq, seq.snapshot(), transfer, "transfer", self.feet, SIDES, 1.0,
+                                             self.fast, self.scenario.timing.transfer_s, include_end=True))
         return seq.rows, seq.first_infeasible
 
 

@@ -201,9 +201,26 @@ def plan_summary(result: PlanResult) -> dict:
             out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
         if "dynamics" in rows.analysis:
             out["dynamics"] = dynamics_summary(rows, rows.analysis["dynamics"])
+        if sc.timing.fastest:
+            out["timing"] = timing_summary(sc, rows)
         dt = 1.0 / sc.timing.rate_hz
         yaw = np.unwrap(rows.array("yaw").astype(float))
         rate = np.gradient(yaw, dt)
         out["yaw"] = {"mode": sc.yaw_mode, "peak_rate_rad_s": float(np.abs(rate).max()),
                       "peak_accel_rad_s2": float(np.abs(np.gradient(rate, dt)).max())}
     return out
+
+
+def timing_summary(sc, rows) -> dict:
+    """summary.json's ``timing`` of a plan timed fastest: the limits it was timed under and, per phase, its
+    duration, the fixed timing's, the speed-up and the constraints that bind along its path (fractions of
+    its time)."""
+    tm = sc.timing
+    fixed = len(sc.steps) * (tm.swing_s + tm.transfer_s) + tm.transfer_s
+    total = (len(rows) - 1) / tm.rate_hz
+    return {"mode": tm.mode, "dynamic_share": tm.dynamic_share, "safety_factor": tm.safety_factor,
+            "spin_down_n": tm.spin_down_n, "min_swing_s": tm.min_swing_s, "min_transfer_s": tm.min_transfer_s,
+            "max_swing_s": tm.max_swing_s, "max_transfer_s": tm.max_transfer_s,
+            "fixed_swing_s": tm.swing_s, "fixed_transfer_s": tm.transfer_s,
+            "total_s": total, "fixed_total_s": fixed, "speed_up": fixed / total if total > 0 else None,
+            "phases": [dict(p) for p in rows.timed]}

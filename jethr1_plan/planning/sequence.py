@@ -59,6 +59,7 @@ class Rows:
     columns: dict[str, list] = field(default_factory=dict)
     analysis: dict = field(default_factory=dict)  # whole-trajectory figures (energy, torque ratios)
     paced: list[dict] = field(default_factory=list)  # the swings re-timed by :func:`pace_swing`, in order
+    timed: list[dict] = field(default_factory=list)  # the phases timed fastest (``planning.fast_timing``), in order
 
     def append(self, **values) -> None:
         for k, v in values.items():
@@ -99,6 +100,10 @@ class SequenceBuilder:
         self.first_infeasible: dict | None = None
         #: when set, the body yaw of row i (a smoothed schedule, e.g. the yaw MPC) instead of the blends
         self.yaw_of_row = None
+        #: P_body through the swing samples by a monotone cubic (PCHIP: C¹, no overshoot between samples)
+        #: instead of linearly (a fastest timing: the trunk's path has no corner at a sample for the rows to feel)
+        self.smooth_trunk = False
+        self.linear_segments: set[int] = set()  # segments (i → i + 1) kept linear where the smooth trunk fails
         self.names = [f.name for f in robot.fans]
         self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
@@ -185,15 +190,19 @@ class SequenceBuilder:
 
     def transfer(self, step: int, feet: dict[str, np.ndarray], p0: np.ndarray, yaw0: float, p1: np.ndarray,
                  yaw1: float, duration_s: float, thrust_out: FanThrust | None,
-                 thrust_in: FanThrust | None, include_end: bool = False, share: float = 1.0) -> None:
+                 thrust_in: FanThrust | None, include_end: bool = False, share: float = 1.0,
+                 positions: np.ndarray | None = None) -> None:
         """Double-support rows from (p0, yaw0) to (p1, yaw1), both soles on ``feet``.
 
         ``thrust_out``/``thrust_in``: the thrust per fan [N] of the swing before and after, ramped
         down over the first half and up over the second half. The end posture itself is written
         only with ``include_end``. ``share``: the share of the tolerance every row must hold.
+        ``positions``: the rows' places s ∈ [0, 1] along the blend (a time-optimal law: one row each,
+        the thrust ramped along s); default the minimum-jerk law over ``duration_s``, the thrust ramped
+        in time.
         """
         tol = self.tolerance.scaled(share)
-        n = max(1, round(duration_s / self.dt))
+        n = max(1, round(duration_s / self.dt)) if positions is None else max(1, len(positions) - int(include_end))
         hull = convex_hull(np.vstack([self._sole(feet[s], self.margin) for s in ("left", "right")]))
         real_hull = convex_hull(np.vstack([self._sole(feet[s]) for s in ("left", "right")]))
         dyaw = float(wrap_angle(yaw1 - yaw0))
@@ -209,8 +218,11 @@ class SequenceBuilder:
             v = into if thrust_in is not None else out
             idle_share = v / v.sum() if v.sum() > 0 else np.isin(np.arange(nf), coming.fans[:1]).astype(float)
         for k in range(n + 1 if include_end else n):
-            u = k / n
-            s = float(min_jerk(u))
+            if positions is None:
+                u = k / n
+                s = float(min_jerk(u))
+            else:
+                u = s = float(positions[k])
             p = p0 + s * (p1 - p0)
             yaw = float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
             stance = Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw)
@@ -269,7 +281,15 @@ class SequenceBuilder:
         one = len(active) == 1 and not self.robot.fans[active[0]].on_trunk
         if positions is None:
             positions = swing_row_positions(len(path), duration_s, 1.0 / self.dt)
-        p_rows = np.column_stack([np.interp(positions, idx, p_samples[:, j]) for j in range(3)])
+        if self.smooth_trunk and len(p_samples) > 2:  # a time-optimal swing: P_body C¹ through the samples
+            from scipy.interpolate import PchipInterpolator
+
+            p_rows = PchipInterpolator(idx, p_samples, axis=0)(np.clip(positions, 0.0, idx[-1]))
+            straight = np.isin(np.floor(positions).astype(int), sorted(self.linear_segments))
+            p_rows[straight] = np.column_stack([np.interp(positions[straight], idx, p_samples[:, j])
+                                                for j in range(3)])
+        else:
+            p_rows = np.column_stack([np.interp(positions, idx, p_samples[:, j]) for j in range(3)])
         swings = np.column_stack([np.interp(positions, idx, path[:, j]) for j in range(3)])
         yaws = np.array([float(yaw_fn(swings[k])) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows) + k)
                          for k in range(len(positions))])

@@ -81,7 +81,8 @@ def _row_count(x: RowData) -> list[Finding]:
                      + (" (cut short?)" if x.n < expected else ""))]
         return []
     if x.scenario is not None and x.rate_hz is not None and x.n:
-        expected = len(expected_sequence(x.scenario, x.rate_hz))
+        sequence = expected_sequence(x.scenario, x.rate_hz, x.summary)
+        expected = len(sequence) if sequence is not None else x.n
         if expected != x.n:
             return [(min(x.n, expected), f"the file has {x.n} rows, the scenario's plan {expected}")]
     return []
@@ -120,8 +121,9 @@ def _time(x: RowData) -> list[Finding]:
        "consistent with each other)")
 def _phases(x: RowData) -> list[Finding]:
     c = x.c
-    if x.scenario is not None and x.rate_hz is not None:
-        expected = expected_sequence(x.scenario, x.rate_hz)
+    expected = (expected_sequence(x.scenario, x.rate_hz, x.summary) if x.scenario is not None and x.rate_hz is not None
+                else None)
+    if expected is not None:
         out = []
         for i in range(min(x.n, len(expected))):
             got = (str(c["phase"][i]), int(c["step"][i]), int(c["sample"][i]), str(c["support"][i]))

@@ -228,11 +228,27 @@ class RowData:
         return self.scenario.timing.rate_hz if self.scenario is not None else None
 
 
-def expected_sequence(sc, rate_hz: float) -> list[tuple[str, int, int, str]]:
+def expected_sequence(sc, rate_hz: float, summary: dict | None = None) -> list[tuple[str, int, int, str]] | None:
     """(phase, step, sample, support) of every row the scenario's plan has, in order (docs/physics.md,
     "Sequence"): per step a transfer of round(transfer_s·rate) rows (at least one) on both soles, then a
     swing of round(swing_s·rate) rows (at least one) on the support sole; a last transfer one row longer
-    (it ends on the final stance)."""
+    (it ends on the final stance). A plan timed fastest (its scenario or ``summary.json`` says so): its phases'
+    row counts from ``summary.json``'s ``timing.phases`` (None without them)."""
+    raw = (summary or {}).get("timing")
+    timed: dict = raw if isinstance(raw, dict) else {}
+    if getattr(sc.timing, "fastest", False) or timed.get("mode") == "fastest":
+        phases = timed.get("phases")
+        if not isinstance(phases, list) or len(phases) != 2 * len(sc.steps) + 1:
+            return None
+        try:
+            counts = [int(p["rows"]) for p in phases]
+        except (KeyError, TypeError, ValueError):
+            return None
+        out = []
+        for k, st in enumerate(sc.steps):
+            out += [("transfer", k, i, "both") for i in range(counts[2 * k])]
+            out += [("swing", k, i, st.support) for i in range(counts[2 * k + 1])]
+        return out + [("transfer", len(sc.steps), i, "both") for i in range(counts[-1])]
     n_tr = max(1, round(sc.timing.transfer_s * rate_hz))
     n_sw = max(1, round(sc.timing.swing_s * rate_hz))
     out = []

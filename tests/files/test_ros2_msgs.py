@@ -14,7 +14,7 @@ typesys = pytest.importorskip("rosbags.typesys")
 
 def test_standard_definitions_are_ros2_jazzy_ones():
     """Field names, types, array kinds and constants as rosbags' copy of ROS 2 Jazzy has them."""
-    from rosbags.typesys.base import Nodetype
+    from rosbags.interfaces import Nodetype
 
     jazzy = typesys.get_typestore(typesys.Stores.ROS2_JAZZY).fielddefs
     for name, text in STANDARD_MSGDEFS.items():

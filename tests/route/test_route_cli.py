@@ -169,3 +169,36 @@ def test_random_ditches_are_as_wide_as_asked():
             assert abs(z - tops[-1]) <= 0.03 + 0.0025 + 1e-9
             tops.append(z)
             assert all(np.isclose(c.size_m[2], c.top_centre_m[2] + 0.14) for c in cs)  # on the floor
+
+
+def test_a_route_planned_fastest_verifies_where_its_fixed_timing_is_too_fast(tmp_path, route_cache, small_route,
+                                                                               capsys):
+    """``route --timing fastest``: the same footholds and samples, each step timed fastest (route.yaml says so),
+    and the plan verifies with the motion's own checks. The small terrain's fixed timing (2 s swings, 1 s
+    transfers) is faster than those checks allow: its rows, held to the same limits, fail them, and the
+    fastest plan is the longer one."""
+    import json
+    import shutil
+
+    from jethr1_plan.cli import run
+    from tests.conftest import SMALL_TERRAIN
+
+    (tmp_path / "small.yaml").write_text(SMALL_TERRAIN)
+    assert run(["route", str(tmp_path / "small.yaml"), "-o", str(tmp_path), "--cache", str(route_cache),
+                "--timing", "fastest", "--no-progress"]) == 0
+    fast, fixed = (json.loads((d / "summary.json").read_text()) for d in (tmp_path / "small", small_route))
+    assert fast["timing"]["mode"] == "fastest" and "timing" not in fixed
+    assert fast["sample_count"] == fixed["sample_count"]
+    assert "mode: fastest" in (tmp_path / "small" / "route.yaml").read_text()
+    capsys.readouterr()
+    assert run(["verify", str(tmp_path / "small")]) == 0
+    held = tmp_path / "fixed_held"
+    shutil.copytree(small_route, held)
+    (held / "trajectory.mcap").unlink()
+    fixed["timing"] = {k: fast["timing"][k] for k in ("mode", "dynamic_share", "safety_factor", "spin_down_n")}
+    (held / "summary.json").write_text(json.dumps(fixed))
+    capsys.readouterr()
+    assert run(["verify", str(held / "trajectory.csv"), "--json"]) != 0
+    found = {f["check"] for f in json.loads(capsys.readouterr().out)["failures"]}
+    assert found & {"dynamic limit broken", "joint too fast", "fan cannot follow"}
+    assert fast["trajectory"]["rows"] > fixed["trajectory"]["rows"]
