@@ -27,6 +27,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "balance-space": ("balance_space", "balance_space"),
     "batch": ("batch", "batch"),
     "compare": ("compare", "compare_cmd"),
+    "design": ("design", "design_cmd"),
     "ditch-curve": ("ditch_curve", "ditch_curve_cmd"),
     "plan": ("plan", "plan"),
     "reach": ("reach", "reach_cmd"),
