@@ -107,7 +107,7 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     cpu = sum(t["cpu_s"] for t in timings["judged"].values())
     err_console.print(f"{judged} variants judged ({cpu:.0f} s of CPU), {timings['from_cache']} from the cache; "
                       f"{wall:.0f} s in all. Wrote {outdir}/design.csv, design.json, design.png, timings.json"
-                      + (f", robots/ ({len(best)} variants)" if best else ""), markup=False, highlight=False)
+                      + (f", robots/ and scenarios/ ({len(best)} variants)" if best else ""), markup=False, highlight=False)
 
 
 def best_table(spec, best) -> Table:

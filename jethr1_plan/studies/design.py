@@ -239,7 +239,7 @@ def make_tasks(spec: DesignSpec, variants: list[Variant], code: bytes | None = N
             files = variant_files(base.yaml_path, v.design, JUDGED_NAME,
                                   f"A design variant of {base.name} ({spec.name} {v.name}).")
         except InputError as exc:
-            raise InputError(spec.source, f"base_robot {spec.base_robot}", str(exc)) from None
+            raise InputError(spec.source, f"variant {v.index}", str(exc)) from None
         key = variant_key(files, spec.judge, code)
         keys.append(key)
         if key not in tasks:

@@ -240,14 +240,15 @@ def readme_text(spec: DesignSpec, row: dict[str, Any], name: str) -> str:
         gap = w[level]["gap_m"]
         lines.append(f"* {what}: " + ("none of the gaps judged" if gap is None else
                                       f"{1000 * gap:.0f} mm (peak thrust {w[level]['max_thrust_n']:.2f} N)"))
-    lines += ["", "Plan the crossing: `jethr1 plan ditch_whole.yaml` from the folder the design command ran in.", ""]
+    lines += ["", f"Plan the crossing: `jethr1 plan scenarios/{name}_ditch_whole.yaml` (in the design's output folder) "
+              "from the folder the design command ran in.", ""]
     return "\n".join(lines)
 
 
 def best_folders(spec: DesignSpec, best: list[dict[str, Any]], outdir: Path) -> dict[str, bytes]:
-    """The files of the best variants' robot folders (relative path → bytes): ``robots/<name>/`` with the URDF,
-    the YAML, a README and ``ditch_whole.yaml`` (the crossing at the widest robust ditch), ``<name>`` being
-    ``<design name>_<variant>``."""
+    """The files of the best variants (relative path → bytes): their robot folders ``robots/<name>/`` (the URDF, the
+    YAML, a README) and ``scenarios/<name>_ditch_whole.yaml`` (the crossing of the widest robust ditch), ``<name>``
+    being ``<design name>_<variant>``."""
     from jethr1_plan.robot.model import load_robot
     from jethr1_plan.robot.variant import FanDesign, VariantDesign, variant_files
 
@@ -266,7 +267,7 @@ def best_folders(spec: DesignSpec, best: list[dict[str, Any]], outdir: Path) -> 
         out[f"robots/{name}/README.md"] = readme_text(spec, row, name).encode()
         gap = row["result"]["widest"]["whole"]["gap_m"]
         robot_path = (Path(outdir) / "robots" / name).as_posix()
-        out[f"robots/{name}/ditch_whole.yaml"] = scenario_text(
+        out[f"scenarios/{name}_ditch_whole.yaml"] = scenario_text(
             f"{name}_ditch_{1000 * gap:.0f}", robot_path, gap, spec.judge.as_dict(), row["result"]["thrust_max_n"],
             base.sole_length_m).encode()
     return out
