@@ -105,9 +105,10 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     err_console.print(best_table(spec, best))
     judged = len(timings["judged"])
     cpu = sum(t["cpu_s"] for t in timings["judged"].values())
+    written = f", robots/ and scenarios/ ({len(best)} variants)" if best else ""
     err_console.print(f"{judged} variants judged ({cpu:.0f} s of CPU), {timings['from_cache']} from the cache; "
-                      f"{wall:.0f} s in all. Wrote {outdir}/design.csv, design.json, design.png, timings.json"
-                      + (f", robots/ and scenarios/ ({len(best)} variants)" if best else ""), markup=False, highlight=False)
+                      f"{wall:.0f} s in all. Wrote {outdir}/design.csv, design.json, design.png, timings.json{written}",
+                      markup=False, highlight=False)
 
 
 def best_table(spec, best) -> Table:

@@ -12,7 +12,7 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.studies import design as design_mod
-from jethr1_plan.studies.design import LEVELS, widest_gaps
+from jethr1_plan.studies.design_judge import LEVELS, widest_gaps
 from jethr1_plan.studies.design_report import pareto_front
 from jethr1_plan.studies.design_spec import load_design
 

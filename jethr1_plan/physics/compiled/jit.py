@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numba
+from numba.core import event as numba_event
 
 __all__ = ["KERNEL_SOURCES", "cache_dir", "kernel", "sources_digest"]
 
@@ -70,6 +71,33 @@ def cache_dir() -> str:
         return str(local)
     home = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     return str(home / "jethr1_plan" / f"numba-{digest}")
+
+
+class _CompileNotice(numba_event.Listener):
+    """Warns (:class:`~jethr1_plan.errors.CompileNotice`) the first time this process compiles one of the package's
+    kernels: a kernel loaded from the cache is not compiled, and says nothing."""
+
+    said = False
+
+    def on_start(self, event) -> None:
+        dispatcher = (event.data or {}).get("dispatcher")
+        module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+        if self.said or not module.startswith("jethr1_plan."):
+            return
+        type(self).said = True
+        import warnings
+
+        from jethr1_plan.errors import CompileNotice
+
+        warnings.warn(CompileNotice(f"compiling the planner's kernels for this machine, once (about a minute on one "
+                                    f"core; cached in {cache_dir()}; `jethr1 warm-up` compiles them ahead)"),
+                      stacklevel=2)
+
+    def on_end(self, event) -> None:
+        pass
+
+
+numba_event.register("numba:compile", _CompileNotice())
 
 
 def kernel(fn: Callable | None = None, **options: Any) -> Any:
