@@ -65,7 +65,7 @@ def variant_rows(spec: DesignSpec, variants: list[Variant], keys: list[str], res
     for v, key in zip(variants, keys, strict=True):
         r = results[key]
         fan_mass = sum(f.mass_kg for f in v.design.fans)
-        row: dict[str, Any] = {"variant": v.name, "key": key[:16], "values": dict(v.values),
+        row: dict[str, Any] = {"variant": v.name, "values": dict(v.values),
                                "fans": len(v.design.fans), "fan_mass_kg": fan_mass,
                                "total_thrust_n": sum(f.max_thrust_n for f in v.design.fans),
                                "design": {"fans": [{"name": f.name, "mount": f.mount, "offset_m": list(f.offset_m),
@@ -89,9 +89,9 @@ def variant_rows(spec: DesignSpec, variants: list[Variant], keys: list[str], res
 
 
 def design_csv(spec: DesignSpec, rows: list[dict[str, Any]]) -> str:
-    """``design.csv``: ``variant``, ``key`` (the first 16 hex digits of its cache key), the axes, :data:`COLUMNS`."""
+    """``design.csv``: ``variant``, the axes, :data:`COLUMNS`."""
     axes = [a.name for a in spec.axes]
-    header = ["variant", "key", *axes, *COLUMNS]
+    header = ["variant", *axes, *COLUMNS]
     lines = []
     for row in rows:
         r = row["result"]
@@ -102,7 +102,7 @@ def design_csv(spec: DesignSpec, rows: list[dict[str, Any]]) -> str:
             return _num(w.get(level, {}).get(field)) if w else ""
 
         minimal = (r.get("minimal") or {}) if ok else {}
-        cells = [row["variant"], row["key"], *(_num(row["values"][a]) for a in axes), str(row["fans"]),
+        cells = [row["variant"], *(_num(row["values"][a]) for a in axes), str(row["fans"]),
                  _num(row.get("mass_kg")), _num(row.get("added_mass_kg")), _num(row["fan_mass_kg"]),
                  _num(row["total_thrust_n"]),
                  lv("whole", "gap_m"), lv("whole", "next_failing_m"), lv("whole", "max_thrust_n"),
@@ -227,7 +227,7 @@ def readme_text(spec: DesignSpec, row: dict[str, Any], name: str) -> str:
     d = row["design"]
     w = row["result"]["widest"]
     lines = [f"# {name}: a design variant of {spec.base_robot}", "",
-             f"Written by `jethr1 design {spec.source}` (variant {row['variant']}, key {row['key']}). Everything "
+             f"Written by `jethr1 design {spec.source}` (variant {row['variant']}). Everything "
              "but the fans and the scales below is the base robot's.", "",
              "| fan | mount | offset [m] | max thrust [N] | mass [kg] |", "| --- | --- | --- | ---: | ---: |"]
     for f in d["fans"]:

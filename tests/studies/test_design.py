@@ -92,7 +92,7 @@ def test_the_files_and_a_best_variant_ready_for_plan(swept):
 
     root, _, doc = swept
     table = read_csv_table((root / "j1" / "design.csv").read_text(), "design.csv", lambda h: True,
-                           text_columns=("variant", "key", "status"), bool_columns=("monotone", "pareto_mass",
+                           text_columns=("variant", "status"), bool_columns=("monotone", "pareto_mass",
                                                                                    "pareto_thrust"))
     np.testing.assert_array_equal(table["thrust_n"], [18.0, 23.0])
     np.testing.assert_allclose(table["total_thrust_n"], [36.0, 46.0])

@@ -82,7 +82,7 @@ class _CompileNotice(numba_event.Listener):
     def on_start(self, event) -> None:
         dispatcher = (event.data or {}).get("dispatcher")
         module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
-        if self.said or not module.startswith("jethr1_plan."):
+        if self.said or not (module.startswith("jethr1_plan.") or getattr(dispatcher, "jethr1_kernel", False)):
             return
         type(self).said = True
         import warnings
@@ -111,7 +111,9 @@ def kernel(fn: Callable | None = None, **options: Any) -> Any:
         saved = config.CACHE_DIR
         config.CACHE_DIR = cache_dir()
         try:
-            return numba.njit(cache=True, **{"error_model": "numpy", **options})(f)
+            compiled = numba.njit(cache=True, **{"error_model": "numpy", **options})(f)
+            compiled.jethr1_kernel = True  # (the compile notice knows the package's kernels by it)
+            return compiled
         finally:
             config.CACHE_DIR = saved
 
