@@ -144,16 +144,21 @@ def first_commands(jethr1: list[str], out: Path) -> dict[str, list[str]]:
                                                    str(out / "bs"), "--no-progress"],
         "jethr1 route configs/terrains/jet_hr1_trial.yaml": [*jethr1, "route", TERRAINS[0], "-o", str(out / "route"),
                                                              "--no-progress"],
-        "jethr1 ditch-curve --gaps 0.40:0.44:0.02": [*jethr1, "ditch-curve", "--gaps", "0.40:0.44:0.02", "-j", "1",
-                                                    "-o", str(out / "dc"), "--no-progress"],
+        "jethr1 ditch-curve --gaps 0.40:0.40:0.01 --scales ''": [*jethr1, "ditch-curve", "--gaps", "0.40:0.40:0.01",
+                                                                 "--scales", "", "-j", "1", "-o", str(out / "dc"),
+                                                                 "--no-progress"],
     }
+
+
+BEFORE = ("jethr1 plan configs/jet_hr1_trial.yaml", "jethr1 balance-space --resolution 0.05",
+          "jethr1 route configs/terrains/jet_hr1_trial.yaml")  # the first runs the issue names, timed without warm-up
 
 
 def first_runs(jethr1: list[str], out: Path, before: bool) -> None:
     """Each command's first run on a fresh install (an empty numba cache and map cache), after ``jethr1 warm-up``
     (what ``make install`` runs); with ``before``, also each one's first run without the warm-up (a fresh pair of
-    caches per command: it compiles what it needs and computes its maps itself). One run each, beside the
-    yardstick measured before and after them (the smaller kept)."""
+    caches per command, for the commands of :data:`BEFORE`: it compiles what it needs and computes its maps
+    itself). One run each, beside the yardstick measured before and after them (the smaller kept)."""
     def fresh(name: str) -> dict[str, str]:
         env = dict(os.environ)
         env["NUMBA_CACHE_DIR"] = str(out / name / "numba")
@@ -172,6 +177,8 @@ def first_runs(jethr1: list[str], out: Path, before: bool) -> None:
         rows.append((name, wall, cpu, any("compiling the planner's kernels" in line for line in said)))
     if before:
         for name, argv in first_commands(jethr1, out / "bare" / "out").items():
+            if name not in BEFORE:
+                continue
             said = []
             wall, cpu, _ = run_command(argv, ROOT, fresh(f"bare_{len(rows)}"), said)
             rows.append((f"{name} (no warm-up)", wall, cpu, any("compiling the planner's kernels" in line
