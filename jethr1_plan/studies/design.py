@@ -167,12 +167,27 @@ def read_cached(cache: Path, key: str) -> dict[str, Any] | None:
 
 
 def write_cached(cache: Path, key: str, result: dict[str, Any]) -> None:
-    from jethr1_plan.io.atomic import write_text_atomic
+    """Keep ``result`` under ``key``: written to a temporary file beside it and renamed into place (a cache entry
+    is whole or absent; not an output of the command, so not named among them on an interrupt).
+
+    Raises:
+        InputError: the cache cannot be written (a full disk, a read-only place).
+    """
     from jethr1_plan.io.json_text import json_text
 
     path = cache_path(cache, key)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(path, json_text({"key": key, "version": __version__, "result": result}))
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(json_text({"key": key, "version": __version__, "result": result}))
+        os.replace(tmp, path)
+    except OSError as exc:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+        raise InputError(str(path.parent), "", f"cannot write the design cache: {exc.strerror or exc} (--cache DIR "
+                         "or $JETHR1_CACHE choose another place)") from None
 
 
 def _in_process(tasks: list[Task]) -> Iterator[tuple[str, dict[str, Any], dict[str, float]]]:

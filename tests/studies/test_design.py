@@ -140,7 +140,7 @@ def tiny(tmp_path):
     return spec
 
 
-def test_an_interrupted_sweep_resumes_without_judging_again(tiny, tmp_path, monkeypatch):
+def test_an_interrupted_sweep_resumes_without_judging_again(tiny, tmp_path, monkeypatch, capsys):
     """Ctrl-C while the second variant is judged: exit 130, no output folder, the first variant's result in the
     cache; the same command then judges the second variant only, and writes what a run without the interrupt
     writes."""
@@ -156,6 +156,8 @@ def test_an_interrupted_sweep_resumes_without_judging_again(tiny, tmp_path, monk
 
     monkeypatch.setattr(design_mod, "judge_task", interrupting)
     assert design(spec, tmp_path / "out", tmp_path / "cache", "-j", "1") == 130
+    err = " ".join(capsys.readouterr().err.split())
+    assert "judges only the rest" in err and err.endswith("nothing written")  # the cache is not an output
     assert not (tmp_path / "out").exists()
     assert len(list((tmp_path / "cache" / "design").rglob("*.json"))) == 1
     monkeypatch.setattr(design_mod, "judge_task", real)
