@@ -20,6 +20,7 @@ from jethr1_plan.studies.design_spec import DesignSpec, Variant
 __all__ = ["COLUMNS", "OWN_FILES", "best_folders", "best_variants", "design_csv", "design_doc", "design_png",
            "pareto_front", "readme_text", "scenario_text", "variant_rows"]
 
+MASS_DIGITS = 9  # masses in the files to the microgram [kg]: sums of link masses differ from the design by rounding
 OWN_FILES = frozenset({"design.csv", "design.json", "design.png", "timings.json"})
 LEVEL_NAMES = ("whole", "half", "crossed")
 #: design.csv's columns after the axes' (each axis a column of its own, named as in the design file)
@@ -64,7 +65,7 @@ def variant_rows(spec: DesignSpec, variants: list[Variant], keys: list[str], res
     rows = []
     for v, key in zip(variants, keys, strict=True):
         r = results[key]
-        fan_mass = sum(f.mass_kg for f in v.design.fans)
+        fan_mass = round(sum(f.mass_kg for f in v.design.fans), MASS_DIGITS)
         row: dict[str, Any] = {"variant": v.name, "values": dict(v.values),
                                "fans": len(v.design.fans), "fan_mass_kg": fan_mass,
                                "total_thrust_n": sum(f.max_thrust_n for f in v.design.fans),
@@ -76,8 +77,8 @@ def variant_rows(spec: DesignSpec, variants: list[Variant], keys: list[str], res
                                           "leg_length_scale": v.design.leg_length_scale},
                                "status": r.get("status", "error"), "result": r}
         if r.get("status") == "ok":
-            row["mass_kg"] = r["mass_kg"]
-            row["added_mass_kg"] = r["mass_kg"] - base_mass_kg
+            row["mass_kg"] = round(r["mass_kg"], MASS_DIGITS)
+            row["added_mass_kg"] = round(r["mass_kg"] - base_mass_kg, MASS_DIGITS)
         rows.append(row)
     ok = [i for i, r in enumerate(rows) if r["status"] == "ok"]
     whole = [rows[i]["result"]["widest"]["whole"]["gap_m"] if i in ok else None for i in range(len(rows))]
@@ -144,8 +145,9 @@ def design_doc(spec: DesignSpec, base: dict[str, Any], rows: list[dict[str, Any]
 
 
 def design_png(spec: DesignSpec, rows: list[dict[str, Any]]) -> bytes:
-    """Left: the widest ditch at each level against the first axis (one line per value of the second, where there
-    is one). Right: the widest robust ditch against added mass, and against total thrust, with the fronts."""
+    """Left: the widest ditch crossed with the whole tolerance and at all against the first axis (a colour per value
+    of the second, where there is one). Middle and right: the widest robust ditch against added mass and against
+    total thrust, coloured by the first axis, with the fronts."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -156,26 +158,29 @@ def design_png(spec: DesignSpec, rows: list[dict[str, Any]]) -> bytes:
     first = spec.axes[0].name
     second = spec.axes[1].name if len(spec.axes) > 1 else None
     ax = axs[0]
-    groups: dict[float | None, list[dict[str, Any]]] = {}
+    groups: dict[float, list[dict[str, Any]]] = {}
     for r in ok:
-        groups.setdefault(r["values"][second] if second else None, []).append(r)
-    cmap = plt.get_cmap("viridis")
-    keys = sorted(groups, key=lambda v: (v is None, v))
-    discrete = spec.method == "grid" and len(keys) <= 12
-    for n, value in enumerate(keys):
+        groups.setdefault(r["values"][second] if second else 0.0, []).append(r)
+    values = sorted(groups)
+    norm = matplotlib.colors.Normalize(min(values), max(values) if max(values) > min(values) else min(values) + 1)
+    cmap = plt.get_cmap("plasma")
+    connect = spec.method == "grid"  # lines through a grid's points; a Latin hypercube's stand alone
+    for value in values:
         members = sorted(groups[value], key=lambda r: r["values"][first])
         x = [r["values"][first] for r in members]
-        colour = cmap(n / max(1, len(keys) - 1))
         for level, style in (("whole", "o-"), ("crossed", "x:")):
             gaps = [r["result"]["widest"][level]["gap_m"] for r in members]
-            y = [np.nan if g is None else 1000 * g for g in gaps]
-            label = (f"{level}, {second} = {value:g}" if second is not None else level) if discrete or n == 0 else None
-            ax.plot(x, y, style if discrete else style[0], ms=4, color=colour, label=label, lw=1)
+            ax.plot(x, [np.nan if g is None else 1000 * g for g in gaps], style if connect else style[0], ms=4,
+                    color=cmap(norm(value)), lw=1)
+    ax.plot([], [], "ko-", ms=4, lw=1, label="the whole tolerance")
+    ax.plot([], [], "kx:", ms=4, lw=1, label="crossed at all")
     ax.set_xlabel(first)
     ax.set_ylabel("widest ditch [mm]")
-    ax.set_title("widest ditch with the whole tolerance (o) and crossed at all (x)")
+    ax.set_title("the widest ditch crossed")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=8)
+    if second:
+        fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, label=second)
     for ax, cost, front, label in ((axs[1], "added_mass_kg", "pareto_mass", "added mass [kg]"),
                                    (axs[2], "total_thrust_n", "pareto_thrust", "total maximum thrust [N]")):
         whole = [r["result"]["widest"]["whole"]["gap_m"] for r in ok]
