@@ -74,10 +74,12 @@ def bare_evaluations_seconds(n: int = EVALUATIONS, iterations: int = IK_ITERATIO
     return time.perf_counter() - w0, time.process_time() - c0
 
 
-def run_command(argv: list[str], cwd: Path) -> tuple[float, float, int]:
-    """(wall [s], CPU of the process and its children [s], exit code) of one command."""
+def run_command(argv: list[str], cwd: Path, env: dict[str, str] | None = None, said: list[str] | None = None
+                ) -> tuple[float, float, int]:
+    """(wall [s], CPU of the process and its children [s], exit code) of one command (``said``: its stderr lines
+    appended)."""
     w0 = time.perf_counter()
-    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - w0
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -86,6 +88,8 @@ def run_command(argv: list[str], cwd: Path) -> tuple[float, float, int]:
         proc.stderr.close()
     if proc.returncode not in (0, 5, 6):
         raise SystemExit(f"{shlex.join(argv)} exited {proc.returncode}:\n{err[-2000:]}")
+    if said is not None:
+        said.extend(err.splitlines())
     return wall, usage.ru_utime + usage.ru_stime, proc.returncode
 
 
@@ -122,14 +126,94 @@ def commands(jethr1: list[str], out: Path) -> dict[str, list[str]]:
     }
 
 
+TERRAINS = ("configs/terrains/jet_hr1_trial.yaml", "configs/terrains/jet_hr1_trial_robust.yaml")
+
+
+def first_commands(jethr1: list[str], out: Path) -> dict[str, list[str]]:
+    """The commands whose first run on a fresh install is timed (in order: later ones read what earlier ones
+    wrote)."""
+    return {
+        "jethr1 plan configs/jet_hr1_trial.yaml": [*jethr1, "plan", "configs/jet_hr1_trial.yaml", "-o", str(out),
+                                                   "--no-progress"],
+        "jethr1 verify <the trial's plan>": [*jethr1, "verify", str(out / "jet_hr1_trial")],
+        "jethr1 simulate <the trial's plan>": [*jethr1, "simulate", str(out / "jet_hr1_trial"), "--no-progress"],
+        "jethr1 walk configs/walks/jethr1_walk.yaml": [*jethr1, "walk", "configs/walks/jethr1_walk.yaml", "-o",
+                                                       str(out)],
+        "jethr1 robot show": [*jethr1, "robot", "show"],
+        "jethr1 balance-space --resolution 0.05": [*jethr1, "balance-space", "--resolution", "0.05", "-o",
+                                                   str(out / "bs"), "--no-progress"],
+        "jethr1 route configs/terrains/jet_hr1_trial.yaml": [*jethr1, "route", TERRAINS[0], "-o", str(out / "route"),
+                                                             "--no-progress"],
+        "jethr1 ditch-curve --gaps 0.40:0.40:0.01 --scales ''": [*jethr1, "ditch-curve", "--gaps", "0.40:0.40:0.01",
+                                                                 "--scales", "", "-j", "1", "-o", str(out / "dc"),
+                                                                 "--no-progress"],
+    }
+
+
+BEFORE = ("jethr1 plan configs/jet_hr1_trial.yaml", "jethr1 balance-space --resolution 0.05",
+          "jethr1 route configs/terrains/jet_hr1_trial.yaml")  # the first runs the issue names, timed without warm-up
+
+
+def first_runs(jethr1: list[str], out: Path, before: bool) -> None:
+    """Each command's first run on a fresh install (an empty numba cache and map cache), after ``jethr1 warm-up``
+    (what ``make install`` runs); with ``before``, also each one's first run without the warm-up (a fresh pair of
+    caches per command, for the commands of :data:`BEFORE`: it compiles what it needs and computes its maps
+    itself). One run each, beside the yardstick measured before and after them (the smaller kept)."""
+    def fresh(name: str) -> dict[str, str]:
+        env = dict(os.environ)
+        env["NUMBA_CACHE_DIR"] = str(out / name / "numba")
+        env["JETHR1_CACHE"] = str(out / name / "maps")
+        return env
+
+    units = [bare_evaluations_seconds()]
+    rows: list[tuple[str, float, float, bool]] = []
+    env = fresh("installed")
+    said: list[str] = []
+    wall, cpu, _ = run_command([*jethr1, "warm-up", *TERRAINS], ROOT, env, said)
+    rows.append(("jethr1 warm-up (make install runs it; once)", wall, cpu, True))
+    for name, argv in first_commands(jethr1, out / "installed" / "out").items():
+        said = []
+        wall, cpu, _ = run_command(argv, ROOT, env, said)
+        rows.append((name, wall, cpu, any("compiling the planner's kernels" in line for line in said)))
+    if before:
+        for name, argv in first_commands(jethr1, out / "bare" / "out").items():
+            if name not in BEFORE:
+                continue
+            said = []
+            wall, cpu, _ = run_command(argv, ROOT, fresh(f"bare_{len(rows)}"), said)
+            rows.append((f"{name} (no warm-up)", wall, cpu, any("compiling the planner's kernels" in line
+                                                                for line in said)))
+    units.append(bare_evaluations_seconds())
+    unit_wall, unit_cpu = min(units)
+    print(f"first runs on a fresh install (empty numba and map caches), one run each, against {EVALUATIONS:,} bare "
+          f"PlaCo evaluations in the same run ({unit_wall:.2f} s wall, {unit_cpu:.2f} s CPU; target <= 4 units):")
+    print(f"  {'command':62s} {'wall [s]':>9s} {'CPU [s]':>8s} {'units (wall)':>13s} {'units (CPU)':>12s}  compiled")
+    for name, wall, cpu, compiled in rows:
+        print(f"  {name:62s} {wall:9.2f} {cpu:8.2f} {wall / unit_wall:13.2f} {cpu / unit_cpu:12.2f}  "
+              f"{'yes' if compiled else 'no'}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3, help="runs of each (the best is kept)")
     ap.add_argument("--jethr1", default=None, help="command prefix that runs jethr1 (default: this venv's)")
     ap.add_argument("--baseline", default=None, help="command prefix of another jethr1 (e.g. an older checkout), "
                     "timed in the same run beside this one")
+    ap.add_argument("--first-runs", choices=["yes", "no", "only"], default="yes",
+                    help="also time each command's first run on a fresh install, after jethr1 warm-up (only: nothing "
+                         "else)")
+    ap.add_argument("--before", action="store_true", help="with the first runs, also each one without the warm-up "
+                    "(a fresh numba cache each: minutes)")
     args = ap.parse_args()
     kinds = {"": shlex.split(args.jethr1) if args.jethr1 else [str(Path(sys.executable).with_name("jethr1"))]}
+    if args.first_runs != "no":
+        first = Path(tempfile.mkdtemp(prefix="bench_first_runs_"))
+        try:
+            first_runs(kinds[""], first, args.before)
+        finally:
+            shutil.rmtree(first, ignore_errors=True)
+        if args.first_runs == "only":
+            return
     if args.baseline:
         kinds = {"baseline": shlex.split(args.baseline), "this": kinds[""]}
     out = Path(tempfile.mkdtemp(prefix="bench_commands_"))

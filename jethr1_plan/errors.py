@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-__all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "EXIT_WORKER_LOST", "ExpectationFailed",
+__all__ = ["EXIT_CODES", "EXIT_REHEARSAL_FELL", "EXIT_VERIFY_FINDING", "EXIT_WORKER_LOST", "CompileNotice",
+           "ExpectationFailed",
            "InfeasiblePlan", "InputError", "Jethr1Error", "RobotModelError", "SelfCheckFailed", "WorkerLost",
            "interrupt_behind", "lost_worker_behind"]
 
@@ -91,6 +92,11 @@ class WorkerLost(Jethr1Error):
             how = "killed" if exitcode is None else f"ended (exit code {exitcode})"
         super().__init__(f"{what} was {how} before it finished, by the out-of-memory killer or a signal from "
                          f"outside: {advice}")
+
+
+class CompileNotice(UserWarning):
+    """A notice, not a failure: this process compiles the planner's kernels (numba), once per machine and version;
+    the command line shows it as one line on stderr (``jethr1 warm-up`` compiles them ahead)."""
 
 
 class SelfCheckFailed(Exception):

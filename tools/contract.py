@@ -19,7 +19,7 @@ PAGE = ROOT / "docs" / "contract.md"
 NO_DEFAULT = getattr(click.core, "UNSET", None)
 
 UNITS = {"_m": "m", "_rad": "rad", "_n": "N", "_nm": "N·m", "_nms": "N·m·s", "_s": "s", "_rad_s": "rad/s",
-         "_rad_s2": "rad/s²", "_kg": "kg", "_j": "J", "_hz": "Hz"}
+         "_rad_s2": "rad/s²", "_kg": "kg", "_j": "J", "_hz": "Hz", "_ns": "N·s"}
 
 
 def unit_of(name: str) -> str:
@@ -89,6 +89,8 @@ def files_section() -> list[str]:
     from jethr1_plan.files.walk_folder import WALK_FILES, WALK_TOPICS, walk_columns
     from jethr1_plan.io.atomic import RECORD
     from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.studies.design_report import COLUMNS as DESIGN_COLUMNS
+    from jethr1_plan.studies.design_report import OWN_FILES as DESIGN_FILES
 
     jethr1, dyros = load_robot("jethr1"), load_robot("dyros_jet_like")
     out = ["## Files", "",
@@ -117,7 +119,12 @@ def files_section() -> list[str]:
            "#### `trajectory.mcap`", "", *topics_table(WALK_TOPICS),
            "### Balance space (`balance-space`)", "",
            "#### `balance_space.csv`", "", *columns_table(list(BALANCE_SPACE_COLUMNS)),
-           "#### `balance_space.mcap`", "", *topics_table(BALANCE_SPACE_TOPICS)]
+           "#### `balance_space.mcap`", "", *topics_table(BALANCE_SPACE_TOPICS),
+           "### Design sweep (`design`)", "",
+           "Files: " + ", ".join(f"`{f}`" for f in sorted(DESIGN_FILES)) + ", and the best variants as robot "
+           "folders `robots/<name>/` with their crossings `scenarios/<name>_ditch_whole.yaml`.", "",
+           "#### `design.csv` (one row per variant; `<axis>`: a column per axis of the design file)", "",
+           *columns_table(["variant", "<axis>", *DESIGN_COLUMNS])]
     return out
 
 

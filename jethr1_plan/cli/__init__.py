@@ -11,6 +11,7 @@ import errno
 import importlib
 import os
 import sys
+import warnings
 
 import click
 
@@ -27,6 +28,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "balance-space": ("balance_space", "balance_space"),
     "batch": ("batch", "batch"),
     "compare": ("compare", "compare_cmd"),
+    "design": ("design", "design_cmd"),
     "ditch-curve": ("ditch_curve", "ditch_curve_cmd"),
     "plan": ("plan", "plan"),
     "reach": ("reach", "reach_cmd"),
@@ -39,6 +41,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "view": ("view", "view_cmd"),
     "walk": ("walk", "walk_cmd"),
     "walk-sweep": ("walk", "walk_sweep_cmd"),
+    "warm-up": ("warm_up", "warm_up_cmd"),
 }
 
 
@@ -168,9 +171,24 @@ def _on_sigterm(signum, frame) -> None:
 
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Notices (:class:`~jethr1_plan.errors.CompileNotice`) as one line on stderr; other warnings as Python shows
+    them."""
+    from jethr1_plan.errors import CompileNotice
+
+    if issubclass(category, CompileNotice):
+        print(f"jethr1: {message}", file=sys.stderr, flush=True)
+        return
+    _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
+
+
+_PYTHON_SHOWWARNING = warnings.showwarning
+
+
 def entry() -> None:
     import signal
 
+    warnings.showwarning = _show_warning
     signal.signal(signal.SIGTERM, _on_sigterm)
     # the worker pools' resource tracker (a process of its own) warns of "leaked semlock objects" when
     # an interrupt ends the pool; it cleans them up all the same: keep its warning off the terminal

@@ -83,7 +83,9 @@ SHARE_BACKOFF = (0.002, 0.01, 0.03, 0.1)  # δ: stage 2 solves at s* − δ, the
 SHARE_STEP = 0.01  # where a segment's check fails at a sample's share, the sample gives up this much of it
 SHARE_GAIN = 1e-3  # a share found again (from another posture) is kept when it is this much larger
 SHARE_ROUNDS = 3  # stage 1 and 2 alternate at most this many times at one sample
-BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7)
+BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7); more
+# while the first failing segment moves on along the path (a repair can push the failure to the next segment: the
+# (A-10) cone turns with the swing foot), at most one per sample
 
 
 class Found(NamedTuple):
@@ -217,8 +219,9 @@ def infeasible_between(robot: RobotModel, found: list[Found | None], between: Ca
                        samples: dict[tuple[int, float], AnalyticSample] | None = None) -> list[int]:
     """Indices i whose segment to sample i + 1 holds a posture that breaks a constraint: the rows
     the sequence builds there interpolate P_body and the swing sole linearly. Checked without
-    margins at ``fractions[i]`` (the fractions of the way at which the rows fall), or, without
-    them, at a quarter, half and three quarters of the way. ``samples`` keeps the problems between
+    margins (the (A-10) cone without SLSQP's slack either: the rows are held to it exactly) at
+    ``fractions[i]`` (the fractions of the way at which the rows fall), or, without them, at a
+    quarter, half and three quarters of the way. ``samples`` keeps the problems between
     samples from one call to the next (they do not change as P_body does)."""
     bad = []
     samples = {} if samples is None else samples
@@ -231,7 +234,7 @@ def infeasible_between(robot: RobotModel, found: list[Found | None], between: Ca
             if sample is None:
                 sample = samples[(i, lam)] = AnalyticSample(robot, between(i, lam), None, margin_scale=0.0)
             sample.evaluations = 0
-            ok, _ = sample.feasible((1 - lam) * a.p + lam * b.p)
+            ok, _ = sample.feasible((1 - lam) * a.p + lam * b.p, strict_edge=True)
             evals[i] += sample.evaluations
             if not ok:
                 bad.append(i)
@@ -375,10 +378,12 @@ def optimise_path(request: PathRequest) -> PathResult:
         return scaled(between(i, lam), (1.0 - lam) * shares[i] + lam * shares[i + 1])
 
     kept: dict[tuple[int, float], AnalyticSample] = {}
-    for _ in range(BETWEEN_ROUNDS if between is not None else 0):
+    first_bad = -1
+    for round_ in range(BETWEEN_ROUNDS + n if between is not None else 0):
         bad = infeasible_between(robot, found, held_between, evals, fractions, kept)
-        if not bad:
+        if not bad or (round_ >= BETWEEN_ROUNDS and bad[0] <= first_bad):
             break
+        first_bad = bad[0]
         redo = sorted({j for i in bad for j in (i, i + 1)})
         scale[redo] *= 2.0
         for j in redo:

@@ -183,12 +183,15 @@ class AnalyticSample:
             grad[:3] += 2 * k * d
         return obj, grad
 
-    def feasible(self, P: np.ndarray) -> tuple[bool, float]:
-        """Whether P_body (3,) holds every constraint (within MARGIN), and its exact thrust [N]."""
+    def feasible(self, P: np.ndarray, strict_edge: bool = False) -> tuple[bool, float]:
+        """Whether P_body (3,) holds every constraint (within MARGIN; with ``strict_edge`` the (A-10) cone without
+        it, as the output rows are held to it), and its exact thrust [N]."""
         _, cons, thrust = self.posture_terms(P[None])
         t = float(thrust[0])
         within = t <= self.problem.thrust_max_n if self.one else True  # several fans: the LP held each maximum
         ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and within
+        if strict_edge:
+            ok = ok and bool(cons[0][0] >= 0.0)
         return ok, t
 
     def restore(self, P: np.ndarray, iterations: int = 3, target: float = 2e-6, max_step: float = 0.005

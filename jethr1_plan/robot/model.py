@@ -35,6 +35,7 @@ __all__ = [
     "WalkingStructure",
     "build_with_robot",
     "fan_ground_xy",
+    "forget_robots",
     "load_robot",
     "reach_centre",
     "urdf_joints",
@@ -293,6 +294,15 @@ def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
     if isinstance(name_or_path, RobotModel):
         return name_or_path
     return _load(_resolve(name_or_path))
+
+
+def forget_robots() -> None:
+    """Forget every robot loaded so far (the caches of :func:`load_robot`, of PlaCo's models and of the URDF
+    checks, all keyed by file path): for a process that loads robots from folders it then removes, so that a
+    later folder at the same path is read afresh."""
+    _load.cache_clear()
+    _placo_robot.cache_clear()
+    check_urdf.cache_clear()
 
 
 @functools.lru_cache(maxsize=16)

@@ -29,6 +29,7 @@ import numpy as np
 
 from jethr1_plan.errors import InfeasiblePlan
 from jethr1_plan.physics.balance import Tolerance
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.scenario import BalanceConfig, Scenario, Step, Timing
 from jethr1_plan.swing_path import Carton, arc_path
 
@@ -64,10 +65,12 @@ def ditch_scenario(base: Scenario, gap_m: float, tolerance: Tolerance, sole_leng
                    balance=balance, expect={})
 
 
-def share_of_gap(scenario: Scenario) -> dict[str, Any]:
+def share_of_gap(scenario: Scenario, energy: bool = False) -> dict[str, Any]:
     """One gap under the robust policy with its tolerance as the objective: the plan's least
     tolerance share, where, what it means, its peak thrust [N] (output rows) and mean thrust [N]
-    (swing samples); share None and the reason where no plan exists."""
+    (swing samples); share None and the reason where no plan exists. With ``energy``, also the
+    joints' energy of the crossing ``energy_j`` [J] (B-44, ``summary.json``'s) and the fans' thrust
+    impulse ``impulse_ns`` [N·s] (∫ Σ_i F_i dt over the rows, trapezoidal)."""
     from jethr1_plan.planning.plan import plan
     from jethr1_plan.planning.report import share_summary
 
@@ -83,9 +86,14 @@ def share_of_gap(scenario: Scenario) -> dict[str, Any]:
     swing = np.concatenate([st.thrust_n for st in result.steps])
     shares = share_summary(rows, scenario.balance.tolerance)
     assert shares is not None  # a robust plan carries a share on every row
-    return {"share": shares["least"], "share_at": shares["least_at"], "tolerance": shares["tolerance"],
-            "rows_below_full": shares["rows_below_full"], "max_thrust_n": peak,
-            "mean_thrust_n": float(np.mean(swing[np.isfinite(swing)])), "reason": None}
+    out = {"share": shares["least"], "share_at": shares["least_at"], "tolerance": shares["tolerance"],
+           "rows_below_full": shares["rows_below_full"], "max_thrust_n": peak,
+           "mean_thrust_n": float(np.mean(swing[np.isfinite(swing)])), "reason": None}
+    if energy:
+        total = np.sum([rows.array(f"thrust_{f}") for f in fans], axis=0)
+        out["energy_j"] = float(rows.analysis["energy_j"])
+        out["impulse_ns"] = float(0.5 * np.sum(total[1:] + total[:-1]) / scenario.timing.rate_hz)
+    return out
 
 
 def robustness_curve(base: Scenario, gaps_m: np.ndarray, sole_length_m: float, jobs: int = 1,
@@ -222,14 +230,16 @@ def curve_png(doc: dict) -> bytes:
     return buf.getvalue()
 
 
-def default_base() -> Scenario:
-    """A scenario with every default (robot jethr1, Paper A's timing), as the curve's base."""
+def default_base(robot: RobotModel | None = None) -> Scenario:
+    """A scenario with every default (Paper A's timing; ``robot``, default jethr1), as the curve's base; F_max
+    is the largest maximum of the fans that may thrust while the left foot swings over the ditch."""
     from jethr1_plan.optimisers import OptimiserConfig
     from jethr1_plan.robot.model import load_robot
     from jethr1_plan.scenario import BodyYaw
 
-    robot = load_robot("jethr1")
+    robot = robot or load_robot("jethr1")
+    fans = [robot.fans[i].max_thrust_n for i in robot.swing_fans("left")]
     return Scenario(source="ditch-curve", name="ditch", robot=robot, seed=1, start={}, cartons=(), steps=(),
                     optimiser=OptimiserConfig(),
-                    balance=BalanceConfig(thrust_max_n=max(f.max_thrust_n for f in robot.fans)), body_yaw=BodyYaw(),
+                    balance=BalanceConfig(thrust_max_n=max(fans, default=0.0)), body_yaw=BodyYaw(),
                     timing=Timing(7.5, 3.0, 50.0), nominal_height_m=None)

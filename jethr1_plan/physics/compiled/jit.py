@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numba
+from numba.core import event as numba_event
 
 __all__ = ["KERNEL_SOURCES", "cache_dir", "kernel", "sources_digest"]
 
@@ -72,6 +73,33 @@ def cache_dir() -> str:
     return str(home / "jethr1_plan" / f"numba-{digest}")
 
 
+class _CompileNotice(numba_event.Listener):
+    """Warns (:class:`~jethr1_plan.errors.CompileNotice`) the first time this process compiles one of the package's
+    kernels: a kernel loaded from the cache is not compiled, and says nothing."""
+
+    said = False
+
+    def on_start(self, event) -> None:
+        dispatcher = (event.data or {}).get("dispatcher")
+        module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+        if self.said or not (module.startswith("jethr1_plan.") or getattr(dispatcher, "jethr1_kernel", False)):
+            return
+        type(self).said = True
+        import warnings
+
+        from jethr1_plan.errors import CompileNotice
+
+        warnings.warn(CompileNotice(f"compiling the planner's kernels for this machine, once (about a minute on one "
+                                    f"core; cached in {cache_dir()}; `jethr1 warm-up` compiles them ahead)"),
+                      stacklevel=2)
+
+    def on_end(self, event) -> None:
+        pass
+
+
+numba_event.register("numba:compile", _CompileNotice())
+
+
 def kernel(fn: Callable | None = None, **options: Any) -> Any:
     """``numba.njit(cache=True, **options)`` cached in :func:`cache_dir`; as ``@kernel`` or ``@kernel(inline=...)``.
 
@@ -83,7 +111,9 @@ def kernel(fn: Callable | None = None, **options: Any) -> Any:
         saved = config.CACHE_DIR
         config.CACHE_DIR = cache_dir()
         try:
-            return numba.njit(cache=True, **{"error_model": "numpy", **options})(f)
+            compiled = numba.njit(cache=True, **{"error_model": "numpy", **options})(f)
+            compiled.jethr1_kernel = True  # (the compile notice knows the package's kernels by it)
+            return compiled
         finally:
             config.CACHE_DIR = saved
 

@@ -1,0 +1,105 @@
+"""``jethr1 warm-up``: compile the planner's kernels ahead (numba's on-disk cache), in parallel processes, and compute
+the balance-space maps of the terrains given, so that no command a user runs first waits for either.
+
+``make install`` runs it after installing. Each process runs some of the commands on small inputs (a balance-space
+sweep on a coarse grid for both supports; plans of Paper A's forward step over 300 mm, robust with the default SQP
+and with GAS, and over 450 mm, minimal, with a trunk fan sharing the thrust; the verification of a plan; a walk),
+which compiles every kernel those commands load, for the argument types they pass; what two processes both compile
+is written twice, atomically (numba's cache). Then each terrain's maps are computed (or found) where ``jethr1 route``
+looks for them.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import click
+
+from jethr1_plan.cli.common import cap_jobs, err_console
+
+__all__ = ["warm_up_cmd"]
+
+WALK = """name: warm_up_walk
+robot: jethr1
+footsteps: {kind: repetitive, step_length_m: 0.1, count: 2, first: left, step_width_m: 0.14}
+timing: {start_s: 0.5, single_support_s: 0.8, double_support_s: 0.4, end_s: 0.5, control_hz: 100, swing_height_m: 0.03}
+"""
+
+
+def exercises(tmp: Path) -> list[list[list[str]]]:
+    """The commands each warm-up process runs, in turn (argument lists of ``jethr1``), their inputs written into
+    ``tmp``: the balance-space sweeps in one process, the plans, their verification and a walk in the other."""
+    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.studies.design_report import scenario_text
+
+    judge = {"seed": 1, "optimiser": "sqp", "tolerance": {"thrust_error": 0.1, "mass_error": 0.05, "com_error_m": 0.01}}
+    sole = load_robot("jethr1").sole_length_m
+    (tmp / "robust.yaml").write_text(scenario_text("robust", "jethr1", 0.3, judge, 23.0, sole))
+    minimal = {**judge, "tolerance": {"thrust_error": 0.0, "mass_error": 0.0, "com_error_m": 0.0}}
+    (tmp / "trunk_fan.yaml").write_text(scenario_text("trunk_fan", "jethr1_trunk_fan", 0.45, minimal, 20.0, sole)
+                                        .replace("policy: robust", "policy: minimal"))
+    (tmp / "walk.yaml").write_text(WALK)
+    out = str(tmp / "out")
+    sweeps = [["balance-space", "--resolution", "0.1", "-j", "1", "--support", side,
+               "-o", f"{out}/bs_{side}", "--no-progress"] for side in ("right", "left")]
+    plans = [["plan", str(tmp / "robust.yaml"), "-o", out, "--no-progress"],
+             ["plan", str(tmp / "robust.yaml"), "-o", f"{out}/gas", "--optimiser", "gas", "--no-progress"],
+             ["plan", str(tmp / "trunk_fan.yaml"), "-o", out, "--no-progress"],
+             ["verify", f"{out}/robust"],
+             ["walk", str(tmp / "walk.yaml"), "-o", out, "--no-rehearse"]]
+    return [sweeps, plans]
+
+
+DRIVER = """import json, sys
+from jethr1_plan.cli import run
+for argv in json.loads(sys.argv[1]):
+    code = run(argv)
+    if code not in (0, 5):
+        sys.exit(f"jethr1 {' '.join(argv)} exited {code}")
+"""
+
+
+@click.command("warm-up")
+@click.argument("terrains", nargs=-1, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-j", "--jobs", default=2, show_default=True, type=click.IntRange(min=1),
+              help="Processes that compile (and compute the maps).")
+@click.option("--cache", "cache", default=None, type=click.Path(file_okay=False, path_type=Path),
+              help="Where the maps are kept (as jethr1 route's --cache).")
+def warm_up_cmd(terrains: tuple[Path, ...], jobs: int, cache: Path | None) -> None:
+    """Compile the planner's kernels ahead, in parallel processes, and compute the balance-space maps of the TERRAINS
+    given (as jethr1 route would), so that the first command a user runs does not wait for them."""
+    from jethr1_plan.route.terrain import load_terrain
+
+    loaded = [load_terrain(t) for t in terrains]  # bad input before any work
+    jobs = cap_jobs(jobs)
+    t0 = time.perf_counter()
+    say = err_console.print
+    with tempfile.TemporaryDirectory(prefix="jethr1-warm-up-") as tmp:
+        groups = exercises(Path(tmp))
+        say(f"jethr1 warm-up: compiling the planner's kernels in {min(jobs, len(groups))} processes (about a minute)",
+            markup=False, highlight=False)
+        pending = [list(g) for g in groups]
+        if jobs < len(groups):  # fewer processes: the groups run one after another in them
+            pending = [[argv for g in groups[k::jobs] for argv in g] for k in range(jobs)]
+        procs = [subprocess.Popen([sys.executable, "-c", DRIVER, json.dumps(argvs)], stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.PIPE, text=True) for argvs in pending]
+        failed = []
+        for p in procs:
+            _, err = p.communicate()
+            if p.returncode != 0:
+                failed.append(err.strip().splitlines()[-1] if err.strip() else f"exit {p.returncode}")
+        if failed:  # a command that works on its own small inputs failed: a bug
+            raise RuntimeError(f"jethr1 warm-up: {failed[0]}")
+    say(f"jethr1 warm-up: kernels compiled and cached in {time.perf_counter() - t0:.0f} s", markup=False,
+        highlight=False)
+    if loaded:
+        from jethr1_plan.route.planner import route_maps
+
+        for terrain in loaded:
+            route_maps(terrain, cache, jobs=jobs, say=lambda line: say(line, markup=False, highlight=False))
+    say(f"jethr1 warm-up: done in {time.perf_counter() - t0:.0f} s", markup=False, highlight=False)

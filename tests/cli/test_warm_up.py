@@ -1,0 +1,76 @@
+"""Compiling is said, once, as one line; a kernel loaded from the cache says nothing; ``jethr1 warm-up``'s small
+inputs are valid scenarios, and a bad terrain is exit 2 before any work."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import warnings
+
+import pytest
+
+from jethr1_plan.cli import _show_warning, run
+from jethr1_plan.errors import CompileNotice
+
+PROBE = """import warnings
+from jethr1_plan.errors import CompileNotice
+from jethr1_plan.physics.compiled import jit
+import probed
+with warnings.catch_warnings(record=True) as seen:
+    warnings.simplefilter("always")
+    probed.twice(1.0)
+    probed.twice(2.5)
+print(sum(issubclass(w.category, CompileNotice) for w in seen))
+"""
+PROBED = """from jethr1_plan.physics.compiled.jit import kernel
+@kernel
+def twice(x):
+    return 2.0 * x
+"""
+
+
+def test_a_compile_is_said_once_and_a_cache_load_not_at_all(tmp_path):
+    """A kernel compiled in a fresh cache warns once (two calls, one notice); the next process loads it from the
+    cache and says nothing."""
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PATH": "/usr/bin:/bin"}
+    script = tmp_path / "probe.py"
+    script.write_text(PROBE)
+    (tmp_path / "probed.py").write_text(PROBED)
+    runs = [subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env) for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), [(r.returncode, r.stderr[-1500:]) for r in runs]
+    assert [r.stdout.strip() for r in runs] == ["1", "0"]
+
+
+def test_the_command_line_shows_the_notice_as_one_line(capsys):
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = _show_warning
+        warnings.warn(CompileNotice("compiling the planner's kernels (a test)"), stacklevel=1)
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["jethr1: compiling the planner's kernels (a test)"]
+
+
+def test_the_warm_up_inputs_are_valid_scenarios_and_walks(tmp_path):
+    """Every command the warm-up runs names inputs that load (scenarios, a walk) and options the commands take."""
+    from jethr1_plan.cli import COMMANDS
+    from jethr1_plan.cli.warm_up import exercises
+    from jethr1_plan.scenario import load_scenario
+    from jethr1_plan.walking.spec import load_walk
+
+    groups = exercises(tmp_path)
+    assert len(groups) == 2 and all(groups)
+    for argv in (a for g in groups for a in g):
+        assert argv[0] in COMMANDS
+    robust, trunk = load_scenario(tmp_path / "robust.yaml"), load_scenario(tmp_path / "trunk_fan.yaml")
+    assert robust.balance.policy == "robust" and trunk.balance.policy == "minimal"
+    assert len(trunk.robot.fans) == 3 and trunk.balance.thrust_max_n == 20.0
+    load_walk(tmp_path / "walk.yaml")
+
+
+@pytest.mark.parametrize("terrain", ["missing.yaml", "bad.yaml"])
+def test_a_bad_terrain_is_exit_2_before_any_work(tmp_path, capsys, terrain):
+    (tmp_path / "bad.yaml").write_text("goal: {carton: 0}\nnot_a_key: 1\n")
+    assert run(["warm-up", str(tmp_path / terrain), "--cache", str(tmp_path / "maps")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and terrain in err[0]
+    assert not (tmp_path / "maps").exists()
