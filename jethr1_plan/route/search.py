@@ -227,7 +227,7 @@ class StepModel:
         for clearance in opt.clearances_m:
             # an arc at most a half circle (the sole never moves back), but for the lowest of the list
             tall = (clearance > chord / 2) & (clearance > lowest)
-            paths = arc_paths(self.holds.xyz[frm], ends, clearance, opt.samples)  # (K, N, 3)
+            paths = arc_paths(self.holds.xyz[frm], ends, clearance, opt.samples, opt.lift_m, opt.descent_m)  # (K, N, 3)
             rel = paths - sup
             ok, thrust, margin, reason, need = m.lookup(rel)
             far = np.any(np.linalg.norm(rel, axis=2) > self.span, axis=1)

@@ -65,6 +65,8 @@ TERRAIN_SCHEMA = {
             "clearances_m": {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.5},
                              "minItems": 1, "maxItems": 5},
             "samples": {"type": "integer", "minimum": 5, "maximum": 200},
+            "lift_m": {"type": "number", "minimum": 0, "maximum": 0.1},
+            "descent_m": {"type": "number", "minimum": 0, "maximum": 0.1},
             "map_resolution_m": {"type": "number", "minimum": 0.005, "maximum": 0.1},
             "cost": {"type": "object", "additionalProperties": False, "properties": {
                 "step": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}, "peak_thrust": _weight,
@@ -100,6 +102,8 @@ class RouteOptions:
     #                               2 to 5 mm off a first foothold: docs/route.md)
     clearances_m: tuple[float, ...] = (0.1, 0.07, 0.05)  # the arcs tried for each step, in this order (sagitta) [m]
     samples: int = 25  # swing samples per step (route.yaml's arcs)
+    lift_m: float = 0.02  # each swing leaves its carton straight up by this, then its arc [m] (swing_path)
+    descent_m: float = 0.02  # and comes down on the next straight down from this high [m]
     map_resolution_m: float = 0.02  # the balance-space map's grid [m] (docs/route.md: measured)
     cost: CostWeights = field(default_factory=CostWeights)
 
