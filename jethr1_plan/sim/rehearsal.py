@@ -29,12 +29,16 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.control import thrust_feedback as ctl
-from jethr1_plan.control.swing_placement import PlacementGains, SwingPlacement, yaw_of
+from jethr1_plan.control.feedback import UNLOADED, Controller
+from jethr1_plan.control.imu_thrust import ImuGains
+from jethr1_plan.control.measurement import Measurement, Reference
+from jethr1_plan.control.swing_placement import PlacementGains, yaw_of
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
-from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.model import LAW_SENSORS, RobotModel, Sensors
+from jethr1_plan.sim.sensors import OwnKinematics, SensorDraw, SensorModel
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin
 from jethr1_plan.swing_path import Carton, sole_on_carton
 
@@ -46,7 +50,6 @@ HOLD_S = 1.0  # the last posture is held this long after the plan ends [s]
 FALL_TILT_DEG = 10.0  # a trunk tilted more than this from level has fallen [deg]
 FALL_DROP_M = 0.10  # a pelvis this far below the plan has fallen [m]
 ON_TOP_TOL_M = 0.005  # a sole within this of a carton's top (height) stands on it [m]
-UNLOADED = 0.01  # a sole carrying less than this fraction of the weight is off the ground (single support)
 RECORD_HZ = 50.0  # rate of the recorded states (simulation.mcap) [Hz]
 
 
@@ -59,32 +62,37 @@ class Perturbation:
     thrust_gain: float = 1.0  # every fan gives this × its command
     fan_lag_s: float = 0.05  # time constant of the fans' first-order lag [s]
     servo_stiffness_scale: float = 1.0  # every servo's stiffness and damping × this
+    sensors: SensorDraw | None = None  # the run's sensor biases, offsets, delays and noise seed (None: nominal)
 
     @classmethod
-    def draw(cls, rng: np.random.Generator) -> Perturbation:
+    def draw(cls, rng: np.random.Generator, sensors: Sensors | None = None, n_joints: int = 0) -> Perturbation:
         """A randomised trial, the default (wider) randomisation: mass ±5 %, CoM within 5 mm, thrust
         gain 0.8..1.1, lag 30..80 ms, and servo stiffness 0.8..1.25 (log-uniform: the sag
-        compensation then under- or overshoots). Uniform; the CoM offset uniform over the disc."""
-        return cls._draw(rng, 0.05, 0.005, (0.8, 1.1))
+        compensation then under- or overshoots). Uniform; the CoM offset uniform over the disc. With the
+        robot's ``sensors``, then its sensors' errors (:meth:`SensorDraw.draw`)."""
+        return cls._draw(rng, 0.05, 0.005, (0.8, 1.1), sensors, n_joints)
 
     @classmethod
-    def draw_within(cls, rng: np.random.Generator, tolerance: dict) -> Perturbation:
+    def draw_within(cls, rng: np.random.Generator, tolerance: dict, sensors: Sensors | None = None,
+                    n_joints: int = 0) -> Perturbation:
         """A randomised trial inside a plan's ``tolerance`` (:func:`held_tolerance`): thrust gain
         uniform in 1 ± thrust_error, mass scale in 1 ± mass_error, the CoM offset uniform over the
-        disc of radius com_error_m; lag and servo stiffness as :meth:`draw` (the plan's tolerance
-        does not cover them: the twin's own spread)."""
+        disc of radius com_error_m; lag, servo stiffness and the sensors as :meth:`draw` (the plan's
+        tolerance does not cover them: the twin's own spread)."""
         x = float(tolerance["thrust_error"])
-        return cls._draw(rng, float(tolerance["mass_error"]), float(tolerance["com_error_m"]), (1.0 - x, 1.0 + x))
+        return cls._draw(rng, float(tolerance["mass_error"]), float(tolerance["com_error_m"]), (1.0 - x, 1.0 + x),
+                         sensors, n_joints)
 
     @classmethod
-    def _draw(cls, rng: np.random.Generator, mass_error: float, com_m: float, gain: tuple[float, float]
-              ) -> Perturbation:
+    def _draw(cls, rng: np.random.Generator, mass_error: float, com_m: float, gain: tuple[float, float],
+              sensors: Sensors | None, n_joints: int) -> Perturbation:
         mass = float(rng.uniform(1.0 - mass_error, 1.0 + mass_error))
         r, a = com_m * math.sqrt(float(rng.uniform())), float(rng.uniform(0.0, 2 * math.pi))
         thrust = float(rng.uniform(*gain))
         lag = float(rng.uniform(0.03, 0.08))
         stiffness = float(math.exp(rng.uniform(math.log(0.8), math.log(1.25))))
-        return cls(mass, (r * math.cos(a), r * math.sin(a)), thrust, lag, stiffness)
+        drawn = SensorDraw.draw(sensors, rng, n_joints) if sensors is not None else None
+        return cls(mass, (r * math.cos(a), r * math.sin(a)), thrust, lag, stiffness, drawn)
 
     def inside(self, tolerance: dict) -> dict[str, bool]:
         """Whether this draw lies inside a plan's ``tolerance``, per model error and in all
@@ -123,6 +131,8 @@ class PlanTrack:
     feet: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3) planned sole centres [m]
     feet_yaw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2) [rad]
     feet_rot: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 2, 3, 3) planned sole orientations
+    fans_m: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, F, 3) planned fan positions [m]
+    trunk_rot: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N, 3, 3) planned trunk orientations
     #: the tolerance the plan holds at every row: thrust_error, mass_error (fractions), com_error_m [m],
     #: and ``source`` (see :func:`held_tolerance`)
     tolerance: dict = field(default_factory=dict)
@@ -199,6 +209,9 @@ def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
     feet = np.zeros((n, 2, 3))
     yaw = np.zeros((n, 2))
     rot = np.zeros((n, 2, 3, 3))
+    fan_ids = [twin.fan_bodies[f.frame] for f in twin.robot.fans]
+    fans = np.zeros((n, len(fan_ids), 3))
+    trunk = np.zeros((n, 3, 3))
     for i in range(n):
         d.qpos[:7] = track.pelvis[i]
         d.qpos[twin.qpos_adr] = track.q[i]
@@ -209,7 +222,10 @@ def _plan_kinematics(twin: Twin, track: PlanTrack) -> None:
             R = d.xmat[b].reshape(3, 3)
             rot[i, k] = R
             yaw[i, k] = math.atan2(R[1, 0], R[0, 0])
-    track.feet, track.feet_yaw, track.feet_rot = feet, yaw, rot
+        for k, b in enumerate(fan_ids):
+            fans[i, k] = d.xpos[b]
+        trunk[i] = d.xmat[twin.trunk].reshape(3, 3)
+    track.feet, track.feet_yaw, track.feet_rot, track.fans_m, track.trunk_rot = feet, yaw, rot, fans, trunk
 
 
 @dataclass
@@ -232,6 +248,8 @@ class RunResult:
     simulated_s: float
     wall_s: float
     record: dict | None = None
+    law: str | None = None  # the thrust law the controller ran (None: feed-forward)
+    steps: list[dict] = field(default_factory=list)  # per swing: support slip and turn, the landing error's parts
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -271,10 +289,165 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
     return {s: (f, moment[s] / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, f in force.items()}
 
 
+def _law_of(robot: RobotModel, controller: str) -> str | None:
+    """The thrust law a ``controller`` runs: None (feed-forward), the robot's own (``feedback``), or a named
+    law (``imu_tilt_pid``, ``cop_edge_pi``).
+
+    Raises:
+        InputError: the robot declares no sensors a feedback law could read, or not those the named law needs.
+    """
+    if controller == "feedforward":
+        return None
+    law = robot.feedback_law if controller == "feedback" else controller
+    if law is None:
+        raise InputError(str(robot.yaml_path), "sensors", "the robot declares no sensors a feedback law reads "
+                         "(an IMU and encoders, or sole force sensors and encoders): only feed-forward runs")
+    missing = [n for n in LAW_SENSORS[law] if n not in robot.sensors.names]
+    if missing:
+        raise InputError(str(robot.yaml_path), "sensors", f"{law} reads the {' and '.join(missing)}, which the "
+                         f"robot does not declare (it has: {', '.join(robot.sensors.names) or 'none'})")
+    return law
+
+
+class _StepJudge:
+    """Per swing, from the twin's truth (the judge's, never a controller's): the support sole's slip and
+    turn over the swing, and the landing error (the swing sole at the end of the transfer after it, against
+    the plan) in parts that add up to it:
+
+    * ``inherited``: where the landing would be had the support sole not moved during the swing and the
+      legs held the planned relative pose: the support sole's error at the swing's start, carried over;
+    * ``support_slip``: the support sole's slip and turn during the swing, carried to the landing;
+    * ``servo_sag``: the legs' joints off the plan at touchdown (the servos' sag beyond the plan's
+      compensation, their tracking lag), less the thrust part;
+    * ``thrust``: the swing leg's deflection under the thrust's deviation from the plan at touchdown
+      (J_solẹ·k⁻¹·J_fanᵀ·ΔF, the nominal stiffness scaled by the run's);
+    * ``touchdown``: the plan's own swing sole not yet at (or past) its landing when the sole touched;
+    * ``slide``: the landed sole's motion from touchdown to the end of the transfer.
+
+    Touchdown: the first tick after the swing's middle with the swing sole carrying over 2 N (in the
+    transfer, where it never did during the swing)."""
+
+    TOUCH_N = 2.0  # a sole carrying this has touched down [N]
+
+    def __init__(self, twin: Twin, track: PlanTrack, stiffness_scale: float) -> None:
+        self.twin, self.track = twin, track
+        self.k = twin.robot.servo_stiffness_nm_per_rad * stiffness_scale
+        self.swings: dict[int, dict] = {}
+        for st in np.unique(track.step[track.phase == "swing"]):
+            rows = np.flatnonzero((track.phase == "swing") & (track.step == st))
+            sup = str(track.support[rows[0]])
+            self.swings[int(st)] = {"first": int(rows[0]), "last": int(rows[-1]), "support": sup,
+                                    "swing": other_side(sup)}
+        self.judge = {step: row for row, step, _ in _landing_rows(track)}
+        self.current: dict | None = None
+        self.done: list[dict] = []
+        self.jacp = np.zeros((3, twin.model.nv))
+        self.jacr = np.zeros((3, twin.model.nv))
+
+    def _pose(self, d, side: str) -> tuple[np.ndarray, np.ndarray]:
+        b = self.twin.foot_bodies[side]
+        return d.xpos[b].copy(), d.xmat[b].reshape(3, 3).copy()
+
+    def tick(self, d, i: int, t: float, loads: dict, applied: np.ndarray) -> None:
+        """After a physics step at plan row ``i`` (time ``t`` [s]): ``loads`` the soles' true normal forces,
+        ``applied`` the fans' true thrust."""
+        track = self.track
+        step = int(track.step[i])
+        cur = self.current
+        if cur is None and track.phase[i] == "swing" and step in self.swings:
+            info = self.swings[step]
+            sup = info["support"]
+            si, wi = SIDES.index(sup), SIDES.index(info["swing"])
+            landing = track.feet[info["last"], wi]
+            r_plan = _yaw_rotation(float(track.feet_yaw[info["first"], si]))
+            p0, r0 = self._pose(d, sup)
+            cur = self.current = {**info, "step": step, "landing": landing,
+                                  "land_rel": r_plan.T @ (landing - track.feet[info["first"], si]),
+                                  "p0": p0, "r0": r0, "touch": None, "swing_end": None}
+            return
+        if cur is None:
+            return
+        sup, sw = cur["support"], cur["swing"]
+        if cur["swing_end"] is None and (track.phase[i] != "swing" or int(track.step[i]) != cur["step"]):
+            p, r = self._pose(d, sup)
+            cur["swing_end"] = (p, r)
+        if cur["touch"] is None and i > (cur["first"] + cur["last"]) / 2 and loads[sw] > self.TOUCH_N:
+            cur["touch"] = self._touchdown(d, i, applied)
+        judge = self.judge.get(cur["step"])
+        if judge is not None and t >= track.time_s[judge] - 1e-9:
+            self._finish(d)
+
+    def _touchdown(self, d, i: int, applied: np.ndarray) -> dict:
+        import mujoco
+
+        track, cur, twin = self.track, self.current, self.twin
+        assert cur is not None
+        sup, sw = cur["support"], cur["swing"]
+        si, wi = SIDES.index(sup), SIDES.index(sw)
+        p, r = self._pose(d, sup)
+        pw, _ = self._pose(d, sw)
+        land_rel, landing = cur["land_rel"], cur["landing"]
+        r_plan = _yaw_rotation(float(track.feet_yaw[i, si]))
+        rel_plan = r_plan.T @ (track.feet[i, wi] - track.feet[i, si])
+        rel = r.T @ (pw - p)
+        # the swing leg's deflection under the thrust's deviation from the plan (the swing sole's fans)
+        fans = [k for k, f in enumerate(twin.robot.fans) if f.leg == sw]
+        leg = np.array(twin.robot.legs[sw].index)
+        dq = np.zeros(len(self.k))
+        for k in fans:
+            body = twin.fan_bodies[twin.robot.fans[k].frame]
+            mujoco.mj_jac(twin.model, d, self.jacp, None, d.xpos[body], body)
+            dq += self.jacp[2, twin.dof_adr] * (float(applied[k]) - float(track.thrust[i, k])) / self.k
+        mujoco.mj_jacBody(twin.model, d, self.jacp, self.jacr, twin.foot_bodies[sw])
+        thrust_part = self.jacp[:, twin.dof_adr[leg]] @ dq[leg]
+        servo = r @ (rel - rel_plan)
+        return {"row": i, "time_s": float(track.time_s[i]), "world": (pw - landing)[:2],
+                "inherited": (cur["p0"] + cur["r0"] @ land_rel - landing)[:2],
+                "support_slip": (p + r @ land_rel - cur["p0"] - cur["r0"] @ land_rel)[:2],
+                "servo_sag": (servo - thrust_part)[:2], "thrust": thrust_part[:2],
+                "touchdown": (r @ (rel_plan - land_rel))[:2]}
+
+    def _finish(self, d) -> None:
+        cur = self.current
+        assert cur is not None
+        sup, sw = cur["support"], cur["swing"]
+        pw, _ = self._pose(d, sw)
+        end, r_end = cur["swing_end"] or self._pose(d, sup)
+        slip = (end - cur["p0"])[:2]
+        err = (pw - cur["landing"])[:2]
+        rec = {"step": cur["step"], "swing": sw, "support": sup,
+               "support_slip_m": float(np.hypot(*slip)), "support_slip_xy_m": [float(v) for v in slip],
+               "support_turn_rad": float(yaw_of(r_end) - yaw_of(cur["r0"])),
+               "landing_error_m": float(np.hypot(*err)), "landing_error_xy_m": [float(v) for v in err],
+               "touchdown": None, "parts_xy_m": None}
+        touch = cur["touch"]
+        if touch is not None:
+            rec["touchdown"] = {"row": touch["row"], "time_s": touch["time_s"]}
+            parts = {k: touch[k] for k in ("inherited", "support_slip", "servo_sag", "thrust", "touchdown")}
+            parts["slide"] = err - touch["world"]
+            rec["parts_xy_m"] = {k: [float(v[0]), float(v[1])] for k, v in parts.items()}
+        self.done.append(rec)
+        self.current = None
+
+
+def _yaw_rotation(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Perturbation | None = None,
              gains: ctl.Gains | None = None, record: bool = False, params: TwinParams | None = None,
-             compensate: bool = True, placement: PlacementGains | None = None) -> RunResult:
-    """Run ``track`` in a fresh twin with ``controller`` (``feedforward`` or ``feedback``).
+             compensate: bool = True, placement: PlacementGains | None = None, imu_gains: ImuGains | None = None,
+             seed: int = 0) -> RunResult:
+    """Run ``track`` in a fresh twin with ``controller``: ``feedforward`` (the plan's commands), ``feedback``
+    (the robot's own thrust law, ``RobotModel.feedback_law``) or a law by name (``imu_tilt_pid``,
+    ``cop_edge_pi``).
+
+    The controller (:class:`~jethr1_plan.control.feedback.Controller`) sees the robot only through its
+    declared sensors (:class:`~.sensors.SensorModel`: noise, bias and delay, the run's
+    :class:`~.sensors.SensorDraw` from ``perturbation.sensors``, else nominal with the noise seeded by
+    ``seed``) and its own kinematic model (:class:`~.sensors.OwnKinematics`); the verdict and the
+    measurements are the twin's truth.
 
     With ``compensate`` the servos follow the plan's command columns (``<joint>_cmd_rad``: the
     posture plus the sag of the servos under the row's static torque) and the fans its
@@ -282,19 +455,24 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     the feedback's extra thrust moves the swing leg's commands by J_fanᵀ·ΔF/k as the robot would;
     without it the servos follow the joint columns and the fans the thrust columns.
 
-    ``feedback`` also places the swing sole (:mod:`jethr1_plan.control.swing_placement`, gains
-    ``placement``): in single support the yaw the support sole has slipped by (the trunk's IMU
-    orientation through the joint encoders' kinematics) turns the swing leg's commands back about the
+    A feedback controller also places the swing sole (:mod:`jethr1_plan.control.swing_placement`, gains
+    ``placement``) where the robot has an IMU: in single support the yaw the support sole has slipped by
+    (the IMU's attitude through the encoders' kinematics) turns the swing leg's commands back about the
     support sole, so that the landing stays where the plan puts it in the world; the offset is held
     after the landing.
+
+    Raises:
+        InputError: ``feedback`` on a robot without the sensors of a law.
     """
     import mujoco
 
     p = perturbation or Perturbation()
     robot = track.robot
+    law = _law_of(robot, controller)
     gains = gains or ctl.Gains.of(robot)
+    imu_gains = imu_gains or ImuGains.of(robot)
     twin = build_twin(robot, track.cartons, params)
-    if not len(track.feet) or not len(track.feet_rot):
+    if not len(track.feet) or not len(track.feet_rot) or not len(track.fans_m):
         _plan_kinematics(twin, track)
     _apply(twin, p)
     m = twin.model
@@ -303,23 +481,19 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     d.qpos[twin.qpos_adr] = track.q[0]
     mujoco.mj_forward(m, d)
     target = track.q_cmd if compensate else track.q
-    stiffness = robot.servo_stiffness_nm_per_rad
-    lag_nominal = np.array([f.lag_s for f in robot.fans])
-    extra = np.zeros(len(robot.fans))
-    jac = np.zeros((3, m.nv))
     thrust_ff = track.thrust_cmd if compensate else track.thrust
-    dt_c = 1.0 / gains.rate_hz
+    rate = imu_gains.rate_hz if law == "imu_tilt_pid" else gains.rate_hz
+    dt_c = 1.0 / rate
     nsub = max(1, round(dt_c / m.opt.timestep))
     dt_c = nsub * m.opt.timestep
     fans = robot.fans
     fan_ids = [twin.fan_bodies[f.frame] for f in fans]
     side_index = {s: k for k, s in enumerate(SIDES)}
     applied = np.zeros(len(fans))
-    caps = np.array([min(f.max_thrust_n, track.thrust_max_n) for f in fans])  # each fan's limit [N]
-    law = ctl.ThrustFeedback(gains)
-    place = SwingPlacement(placement or PlacementGains(), len(robot.joint_names))
-    leg_joints = {s: np.array(robot.legs[s].index) for s in SIDES}
-    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    sensors = SensorModel(twin, robot.sensors, p.sensors or SensorDraw(noise_seed=seed), dt_c)
+    loop = Controller(robot, OwnKinematics(robot) if law is not None else None, law, track.thrust_max_n, gains,
+                      imu_gains, placement, compensate)
+    judge_steps = _StepJudge(twin, track, p.servo_stiffness_scale)
     buf = np.zeros(6)
     n_rows = len(track)
     duration = float(track.time_s[-1])
@@ -332,6 +506,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
     landing: list[dict] = []
     judge = _landing_rows(track)
     weight = GRAVITY * float(m.body_mass.sum())
+    nothing = Measurement(0.0, None, None, None, None)
     wall0 = time.perf_counter()
     k_end = n_settle + n_plan + n_hold
     t = 0.0
@@ -344,13 +519,17 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
             i = min(int(x), n_rows - 2)
             a = x - i
         j = i + 1
-        d.ctrl[:] = (1 - a) * target[i] + a * target[j]
-        ff = ((1 - a) * thrust_ff[i] + a * thrust_ff[j]) if k >= n_settle else np.zeros(len(fans))
+        active = k >= n_settle
         sup = track.support[i]
+        ref = Reference(t, sup, (1 - a) * target[i] + a * target[j],
+                        ((1 - a) * thrust_ff[i] + a * thrust_ff[j]) if active else np.zeros(len(fans)),
+                        track.trunk_rot[i], track.feet[i], track.feet_yaw[i], track.fans_m[i], active)
+        cmd = loop.step(sensors.read(d, t) if law is not None else nothing, ref)
+        d.ctrl[:] = cmd.q
         loads = _sole_loads(twin, d, buf)
         total = sum(f for f, _ in loads.values())
         cop = np.asarray(sum(f * c for f, c in loads.values()) / total) if total > 1e-9 else None
-        # single support as the robot feels it: the swing sole carries (next to) nothing
+        # single support as the twin measures it: the swing sole carries (next to) nothing
         alone = sup != "both" and loads[sup][0] > 0.2 * weight and loads[other_side(sup)][0] < UNLOADED * weight
         if alone:
             poly = sole_polygon(track.feet[i, side_index[sup], :2], track.feet_yaw[i, side_index[sup]],
@@ -358,40 +537,8 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
             margin = float(polygon_margin(loads[sup][1][:2], poly))
             if margin < least_margin:
                 least_margin, least_at = margin, track.where(i)
-        cmd = ff.copy()
-        if controller == "feedback" and alone and k >= n_settle:
-            # the law acts on the total thrust of the fans that carry it, in their planned shares;
-            # without planned thrust, on the swing sole's first fan. Its saturation is the whole
-            # thrust the fans are given: [0, the total at which a carrying fan reaches its limit]
-            ff_total = float(ff.sum())
-            carry = (np.flatnonzero(ff > 0) if ff_total > 0
-                     else np.array(robot.swing_fans(other_side(sup))[:1], dtype=int))
-            share = ff[carry] / ff_total if ff_total > 0 else np.ones(len(carry))
-            if len(carry):
-                top = float(np.min(caps[carry] / share))
-                point = sum(share[n] * d.xpos[fan_ids[k]][:2] for n, k in enumerate(carry))
-                cmd[carry] = share * law.step(loads[sup][1][:2], point, poly, float(ff[carry].sum()), top)
-        else:  # double support: the planned thrust; the integral leaks away
-            law.idle()
-        if controller == "feedback" and k >= n_settle:
-            if alone:  # the support sole's yaw: the trunk's orientation (IMU) through the encoders' kinematics
-                sw, si, wi = other_side(sup), side_index[sup], side_index[other_side(sup)]
-                lever = (1 - a) * track.feet[i, wi, :2] + a * track.feet[j, wi, :2] - track.feet[i, si, :2]
-                mujoco.mj_jacBody(m, d, jacp, jacr, twin.foot_bodies[sw])
-                cols = twin.dof_adr[leg_joints[sw]]
-                place.step(yaw_of(d.xmat[twin.foot_bodies[sup]]), float(track.feet_yaw[i, si]), lever,
-                           np.vstack([jacp[:, cols], jacr[:, cols]]), leg_joints[sw], dt_c)
-            d.ctrl[:] += place.offset
-        applied += (p.thrust_gain * cmd - applied) * (dt_c / p.fan_lag_s)
-        # the thrust the feedback adds to the plan, as the robot estimates it (its fans' nominal lag):
-        # the servos that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
-        extra += (cmd - ff - extra) * (dt_c / lag_nominal)
-        if compensate and np.any(np.abs(extra) > 1e-6):
-            for f_idx, body in enumerate(fan_ids):
-                if abs(extra[f_idx]) > 1e-6:
-                    mujoco.mj_jac(m, d, jac, None, d.xpos[body], body)
-                    d.ctrl[:] -= jac[2, twin.dof_adr] * extra[f_idx] / stiffness
-        max_thrust = max(max_thrust, float(cmd.max(initial=0.0)))
+        applied += (p.thrust_gain * cmd.thrust - applied) * (dt_c / p.fan_lag_s)
+        max_thrust = max(max_thrust, float(cmd.thrust.max(initial=0.0)))
         d.xfrc_applied[:] = 0.0
         for f_idx, body in enumerate(fan_ids):
             fz = float(applied[f_idx])
@@ -415,12 +562,14 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
                       else f"pelvis {z_plan - d.qpos[2]:.3f} m below the plan")
             fell = {**track.where(i), "reason": reason}
             break
-        while judge and k >= n_settle and t >= track.time_s[judge[0][0]] - 1e-9:
+        if active:
+            judge_steps.tick(d, i, t, {s: f for s, (f, _) in loads.items()}, applied)
+        while judge and active and t >= track.time_s[judge[0][0]] - 1e-9:
             row, step, sole = judge.pop(0)
             err = d.xpos[twin.foot_bodies[sole]] - track.feet[row, side_index[sole]]
             landing.append({"step": step, "sole": sole, "xy_m": float(np.hypot(err[0], err[1])),
                             "z_m": float(err[2])})
-        if rec is not None and k >= n_settle and (k - n_settle) % record_every == 0:
+        if rec is not None and active and (k - n_settle) % record_every == 0:
             rec["t"].append(t)
             rec["qpos"].append(d.qpos[:7].tolist() + d.qpos[twin.qpos_adr].tolist())
             rec["thrust"].append(applied.tolist())
@@ -428,6 +577,8 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
             rec["com"].append(d.subtree_com[twin.trunk].tolist())
     wall = time.perf_counter() - wall0
     on_top = {s: _on_cartons(track, d.xpos[twin.foot_bodies[s]], d.xmat[twin.foot_bodies[s]]) for s in SIDES}
+    if rec is not None:
+        rec["steps"] = judge_steps.done
     return RunResult(
         controller=controller, compensated=compensate, perturbation=asdict(p),
         survived=fell is None and all(on_top.values()), fell=fell,
@@ -435,7 +586,7 @@ def rehearse(track: PlanTrack, controller: str = "feedforward", perturbation: Pe
         least_cop_margin_m=None if math.isinf(least_margin) else least_margin, least_cop_margin_at=least_at,
         landing_errors_m=landing,
         soles_on_cartons_at_end=on_top, max_thrust_n=max_thrust, simulated_s=max(t, 0.0) + SETTLE_S,
-        wall_s=wall, record=rec)
+        wall_s=wall, record=rec, law=law, steps=judge_steps.done)
 
 
 def _landing_rows(track: PlanTrack) -> list[tuple[int, int, str]]:
