@@ -19,8 +19,11 @@ TRIAL_BYTES = 20_000  # a trial's result held until the end (its measurements, l
 
 @click.command("simulate")
 @click.argument("plan_dir", metavar="PLAN_DIR", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--controller", type=click.Choice(["feedforward", "feedback"]), default="feedforward", show_default=True,
-              help="The planned thrust alone, or corrected by the plan's feedback law on the centre of pressure.")
+@click.option("--controller", type=click.Choice(["feedforward", "feedback", "imu_tilt_pid", "cop_edge_pi"]),
+              default="feedforward", show_default=True,
+              help="The plan's commands alone, or corrected by the robot's feedback law (feedback: the one its "
+                   "sensors allow, summary.json's controller.law), or a law by name; the controller reads only "
+                   "the sensors the robot YAML declares, with their noise, bias and delay (docs/rehearsal.md).")
 @click.option("--mass-scale", type=FiniteFloat(0.5, 2.0), default=1.0, show_default=True,
               help="Every link's mass and inertia times this.")
 @click.option("--thrust-scale", type=FiniteFloat(0.0, 2.0), default=1.0, show_default=True,
@@ -70,16 +73,19 @@ def simulate_cmd(plan_dir, controller, mass_scale, thrust_scale, fan_lag_s, tria
         perturbations = [Perturbation(mass_scale, (0.0, 0.0), thrust_scale, fan_lag_s)]
     else:
         randomisation = "within_tolerance" if within_tolerance else "default"
-        perturbations = draws(seed, trials, randomisation, track.tolerance)
+        perturbations = draws(seed, trials, randomisation, track.tolerance, track.robot)
     with Progress(not no_progress, f"simulate {plan_dir}") as progress:
         runs = simulate(plan_dir, controller, perturbations, jobs=jobs, progress=progress, compensate=not raw,
-                        track=track)
-    from jethr1_plan.control.thrust_feedback import Gains
+                        track=track, seed=seed)
+    from jethr1_plan.control.feedback import controller_summary
 
     ok = sum(r.survived for r in runs)
     simulated, wall = sum(r.simulated_s for r in runs), sum(r.wall_s for r in runs)
-    doc = {"plan": str(plan_dir), "controller": controller, "compensated": not raw,
-           "gains": Gains.of(track.robot).__dict__,
+    law = runs[0].law
+    doc = {"plan": str(plan_dir), "controller": controller, "law": law, "compensated": not raw,
+           "sensors": track.robot.sensors.describe(),
+           "loop": controller_summary(track.robot, track.tolerance["thrust_error"], track.tolerance["mass_error"],
+                                      track.thrust_max_n) if law is not None else None,
            "trials": trials, "seed": seed if trials else None, "runs": [r.as_dict() for r in runs],
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
            "certificate": (certificate(runs, perturbations, track.tolerance, randomisation)

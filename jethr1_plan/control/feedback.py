@@ -26,15 +26,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from jethr1_plan.control import thrust_feedback as cop
-from jethr1_plan.control.imu_thrust import ImuGains, ImuThrust, tilt_error
+from jethr1_plan.control.imu_thrust import ImuGains, ImuThrust, imu_law, tilt_error
 from jethr1_plan.control.measurement import Command, Kinematics, Measurement, Reference
-from jethr1_plan.control.swing_placement import PlacementGains, SwingPlacement, yaw_of
+from jethr1_plan.control.swing_placement import PlacementGains, SwingPlacement, placement_law, yaw_of
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, sole_polygon
 from jethr1_plan.robot.model import LAW_SENSORS, RobotModel
 
-__all__ = ["UNLOADED", "Controller", "Diagnostics"]
+__all__ = ["UNLOADED", "Controller", "Diagnostics", "controller_summary"]
 
 UNLOADED = 0.01  # a sole carrying less than this fraction of the weight is off the ground
+
+
+def controller_summary(robot: RobotModel, thrust_error: float, mass_error: float, thrust_max_n: float) -> dict:
+    """The robot's loop as ``summary.json`` states it (``controller``): the law (``law``: its name, None where
+    the robot's sensors allow none), the sensors it reads and the robot declares, its signals, gains and
+    saturation, and the swing-foot placement where the robot has an IMU."""
+    name = robot.feedback_law
+    out: dict = {"law": name, "sensors": robot.sensors.describe()}
+    if name == "imu_tilt_pid":
+        out.update(imu_law(ImuGains.of(robot)))
+    elif name == "cop_edge_pi":
+        out.update(cop.law(cop.Gains.of(robot), thrust_error, mass_error, thrust_max_n))
+        out["sensors_read"] = list(LAW_SENSORS[name])
+    else:
+        out["description"] = "feed-forward only: the robot declares no sensors a thrust law reads"
+    if name is not None and robot.sensors.imu is not None:
+        out["swing_placement"] = placement_law(PlacementGains())
+    return out
 
 
 @dataclass

@@ -51,7 +51,7 @@ def imu_law(gains: ImuGains) -> dict:
     """The law as ``summary.json`` states it: its signals, gains and saturation, with units."""
     return {
         "kind": "imu_tilt_pid",
-        "sensors": ["imu", "encoders"],
+        "sensors_read": ["imu", "encoders"],
         "signal": "the trunk's tilt towards the swing fan from the IMU's attitude [rad], its rate from the gyro "
                   "[rad/s]",
         "reference": "the planned trunk attitude; the direction from the planned support sole to the planned fan",

@@ -177,13 +177,10 @@ def plan_summary(result: PlanResult) -> dict:
         if shares is not None:
             robustness["tolerance_share"] = shares
         out["robustness"] = robustness
-        from jethr1_plan.control.swing_placement import PlacementGains, placement_law
-        from jethr1_plan.control.thrust_feedback import Gains, law
+        from jethr1_plan.control.feedback import controller_summary
 
         tol = sc.balance.tolerance
-        controller = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)
-        controller["swing_placement"] = placement_law(PlacementGains())  # (simulate --controller feedback)
-        out["controller"] = controller
+        out["controller"] = controller_summary(result.robot, tol.thrust, tol.mass, sc.balance.thrust_max_n)
         if "tau" in rows.columns:
             tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
             ratio = rows.analysis["ratio"]
