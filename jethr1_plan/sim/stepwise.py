@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -47,13 +48,13 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.planning.plan import Sequence, add_analysis, plan, row_solver
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.scenario import Scenario, Step
+from jethr1_plan.scenario import Scenario, Step, load_scenario_text
 from jethr1_plan.sim.run import HOLD_S, SETTLE_S, RunResult, TwinRun
 from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
 from jethr1_plan.swing_path import Carton, path_length
 
-__all__ = ["STAND_S", "Execution", "StepPlan", "execute", "reanchor_ends", "replan_step"]
+__all__ = ["STAND_S", "Execution", "StepPlan", "execute", "executed_plan", "reanchor_ends", "replan_step"]
 
 STAND_S = 0.5  # after each step the robot stands this long before it measures and plans the next [s]
 #: a re-anchored step may exceed the edge angle ρ of (A-10) by this [rad]: the plan's postures sit on ρ
@@ -229,3 +230,61 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         out.run.survived = False
     return out
 
+
+
+def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tuple[PlanResult, str]:
+    """The steps the robot executed, as a plan of the twin's world, for ``folder`` (where it will be written
+    with its scenario, ``executed.yaml``); the plan and that scenario's text ("" where the executed landings
+    break a scenario's rules: then the plan names no scenario and ``verify`` checks its rows against its own
+    swing paths).
+
+    Each step's trunk postures as the robot planned them (carried into the world by its support sole's
+    true pose), its swing path from where the sole stood to where it truly landed (the path moved to those
+    ends, :func:`reanchor_ends`; the height of the carton it landed on), the rows built by the planner's
+    row builder (the edge angle widened as for a re-anchored step) with the scenario's timing: no pauses
+    between the steps. A sole stands where it landed until it swings again (its slip while it supports is
+    in the run's record). Rows that break the planner's rules are kept, marked infeasible."""
+    import yaml
+
+    robot = scenario.robot
+    feet = {s: np.asarray(scenario.start[s], dtype=float).copy() for s in SIDES}
+    steps: list[Step] = []
+    results: list[StepResult] = []
+    docs: list[dict] = []
+    for plan_k, rec in zip(execution.plans, execution.steps, strict=False):
+        if "landed_m" not in rec:
+            break
+        st = plan_k.result.steps[0]
+        frame = plan_k.to_world
+        landed = np.array([rec["landed_m"][0], rec["landed_m"][1], rec["landing_m"][2]])
+        path = reanchor_ends(frame.point(st.path_m), feet[st.swing], landed)
+        samples = [replace(x, best=replace(x.best, p_body=frame.point(x.best.p_body))) for x in st.samples]
+        steps.append(Step(st.swing, path))
+        results.append(StepResult(len(results), st.swing, st.support, path, samples, st.fan_index))
+        docs.append({"swing": str(st.swing), "path": {"kind": "points", "points_m": path.tolist()}})
+        feet[st.swing] = landed
+    rho = scenario.balance.rho_rad + RHO_SLACK_RAD
+    doc = yaml.safe_load(scenario.text) if scenario.text else {}
+    doc.pop("expect", None)
+    doc.update(name=f"{scenario.name}_executed", steps=docs,
+               start={str(s): [float(v) for v in scenario.start[s]] for s in SIDES})
+    doc.setdefault("balance", {})["rho_rad"] = float(rho)
+    text = ("# The steps `jethr1 simulate` executed step by step (the twin's world): each swing from where its\n"
+            "# sole stood to where it landed. Written beside the plan it makes (docs/rehearsal.md).\n"
+            + yaml.safe_dump(doc, sort_keys=False))
+    source = str(Path(folder) / "executed.yaml")
+    try:
+        load_scenario_text(text, source)
+    except InputError:
+        text = ""
+    done = replace(scenario, name=f"{scenario.name}_executed", steps=tuple(steps), expect={}, source=source,
+                   text=text, start={s: np.asarray(scenario.start[s], dtype=float) for s in SIDES},
+                   balance=replace(scenario.balance, rho_rad=rho))
+    seq = Sequence(done, robot, row_solver(robot), None)
+    for st in results:
+        seq.add(st)
+    rows, bad = seq.finish()
+    bad = add_analysis(rows, robot, 1.0 / done.timing.rate_hz, False) or bad
+    first = bad if bad is not None else next(({"row": i, "reason": r} for i, r in enumerate(rows.columns["reason"])
+                                              if r), None)
+    return PlanResult(done, robot, "executed", done.seed, results, rows, first, 0, 0.0), text
