@@ -10,7 +10,7 @@ returns the servo and fan commands. Its parts:
   support sole's centre of pressure from its force sensors, the fan's position from the encoders'
   kinematics, both in the sole's frame), in single support; the planned thrust in double support;
 * the swing-foot placement (:mod:`.swing_placement`): the support sole's yaw from the IMU's attitude
-  through the encoders' kinematics;
+  through the encoders' kinematics, at ``PLACEMENT_HZ``;
 * the sag of the servos that carry the extra thrust: the swing leg's commands move by J_fanᵀ·ΔF/k
   (ΔF the law's addition as the fans deliver it through their nominal lag, J_fan from the robot's own
   kinematics at the measured joints, k the servos' nominal stiffness).
@@ -35,6 +35,7 @@ from jethr1_plan.robot.model import LAW_SENSORS, RobotModel
 __all__ = ["UNLOADED", "Controller", "Diagnostics", "controller_summary"]
 
 UNLOADED = 0.01  # a sole carrying less than this fraction of the weight is off the ground
+PLACEMENT_HZ = 100.0  # the swing-foot placement's rate (its yaw filter's time constant is 50 ms) [Hz]
 
 
 def controller_summary(robot: RobotModel, thrust_error: float, mass_error: float, thrust_max_n: float) -> dict:
@@ -92,6 +93,9 @@ class Controller:
         self.legs = {s: np.array(robot.legs[s].index) for s in SIDES}
         self.weight_n = GRAVITY * robot.mass_kg
         self.extra = np.zeros(len(robot.fans))  # the law's addition as the fans deliver it (nominal lag) [N]
+        self.place_every = max(1, round(self.rate_hz / PLACEMENT_HZ))  # the placement's ticks
+        self.tick = 0
+        self.polygon = sole_polygon(np.zeros(2), 0.0, robot.sole_length_m, robot.sole_width_m)
         self.last = Diagnostics()
 
     def _single(self, m: Measurement, support: str) -> bool:
@@ -131,8 +135,7 @@ class Controller:
                     p_s, r_s = kin.sole(sup)
                     fan = sum(share[n] * kin.fan(int(f)) for n, f in enumerate(carry))
                     fan_xy = (r_s.T @ (fan - p_s))[:2]  # in the support sole's frame
-                    poly = sole_polygon(np.zeros(2), 0.0, self.robot.sole_length_m, self.robot.sole_width_m)
-                    total = self.cop_law.step(m.soles[sup].cop_m, fan_xy, poly, float(ff[carry].sum()), top)
+                    total = self.cop_law.step(m.soles[sup].cop_m, fan_xy, self.polygon, float(ff[carry].sum()), top)
                     error = self.cop_law.last_error_m
                 else:
                     assert m.trunk_rotation is not None and m.trunk_rate_rad_s is not None
@@ -146,14 +149,17 @@ class Controller:
             self.cop_law.idle()
             self.imu_law.idle()
         if self.placing:
-            if single:  # the support sole's yaw: the IMU's attitude through the encoders' kinematics
+            self.tick += 1
+            if single and self.tick % self.place_every == 0:
+                # the support sole's yaw: the IMU's attitude through the encoders' kinematics
                 sw = other_side(sup)
                 si, wi = SIDES.index(sup), SIDES.index(sw)
                 _, r_sup = kin.sole(sup)
                 lever = ref.feet_m[wi, :2] - ref.feet_m[si, :2]
+                dt = self.place_every / self.rate_hz
                 self.place.step(yaw_of(r_sup), float(ref.feet_yaw_rad[si]), lever,
-                                kin.sole_jacobian(sw, self.legs[sw]), self.legs[sw], 1.0 / self.rate_hz)
-                self.place.release(self.legs[sup], 1.0 / self.rate_hz)
+                                kin.sole_jacobian(sw, self.legs[sw]), self.legs[sw], dt)
+                self.place.release(self.legs[sup], dt)
             q += self.place.offset
         # the thrust the law adds, as the robot estimates the fans deliver it (their nominal lag): the servos
         # that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)

@@ -23,6 +23,7 @@ on the twin (``bench/tune_controller.py``). Pure numpy; SI units.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -66,17 +67,18 @@ def tilt_error(rotation: np.ndarray, rate_body: np.ndarray, planned: np.ndarray,
                ) -> tuple[float, float]:
     """(e [rad], ė [rad/s]): the trunk's tilt towards the horizontal direction ``toward_xy`` beyond the
     planned attitude, and its rate from the gyro ``rate_body`` (body frame)."""
-    u = np.asarray(toward_xy, dtype=float)
-    norm = float(np.hypot(u[0], u[1]))
+    ux, uy = float(toward_xy[0]), float(toward_xy[1])
+    norm = math.hypot(ux, uy)
     if norm < 1e-9:
         return 0.0, 0.0
-    u = u / norm
-    z = np.asarray(rotation, dtype=float)[:, 2]
-    z_plan = np.asarray(planned, dtype=float)[:, 2]
-    e = float((z[:2] - z_plan[:2]) @ u)
-    w = np.asarray(rotation, dtype=float) @ np.asarray(rate_body, dtype=float)
-    dz = np.cross(w, z)
-    return e, float(dz[:2] @ u)
+    ux, uy = ux / norm, uy / norm
+    R = np.asarray(rotation, dtype=float)
+    z = R[:, 2]
+    e = (float(z[0]) - float(planned[0][2])) * ux + (float(z[1]) - float(planned[1][2])) * uy
+    wx, wy, wz = (R @ np.asarray(rate_body, dtype=float)).tolist()
+    zx, zy, zz = z.tolist()
+    # (w × z) in x and y, along u
+    return e, (wy * zz - wz * zy) * ux + (wz * zx - wx * zz) * uy
 
 
 class ImuThrust:

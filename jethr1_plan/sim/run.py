@@ -97,15 +97,16 @@ def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.nda
 
     force = {s: 0.0 for s in twin.sole_geoms}  # [N]
     moment = {s: np.zeros(3) for s in twin.sole_geoms}  # Σ force · contact point [N·m]
-    by_geom = {g: s for s, g in twin.sole_geoms.items()}
-    for ci in range(d.ncon):
-        con = d.contact[ci]
-        side = by_geom.get(con.geom1, by_geom.get(con.geom2))
-        if side is not None:
-            mujoco.mj_contactForce(twin.model, d, ci, buf)
-            z = abs(float(con.frame[2::3] @ buf[:3]))  # the world z component of the contact force
-            force[side] += z
-            moment[side] = moment[side] + z * con.pos
+    n = d.ncon
+    if n:
+        contact = d.contact
+        geoms, frames, points = contact.geom[:n], contact.frame[:n], contact.pos[:n]
+        for side, g in twin.sole_geoms.items():
+            for ci in np.flatnonzero((geoms[:, 0] == g) | (geoms[:, 1] == g)).tolist():
+                mujoco.mj_contactForce(twin.model, d, ci, buf)
+                z = abs(float(frames[ci, 2::3] @ buf[:3]))  # the world z component of the contact force
+                force[side] += z
+                moment[side] += z * points[ci]
     return {s: (f, moment[s] / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, f in force.items()}
 
 

@@ -41,13 +41,15 @@ __all__ = ["OwnKinematics", "SensorDraw", "SensorModel", "rotation_vector"]
 
 def rotation_vector(v: np.ndarray) -> np.ndarray:
     """The rotation (3, 3) of the rotation vector ``v`` (3,) [rad] (Rodrigues)."""
-    v = np.asarray(v, dtype=float)
-    a = float(np.linalg.norm(v))
+    x, y, z = (float(a) for a in v)
+    a = math.sqrt(x * x + y * y + z * z)
     if a < 1e-12:
         return np.eye(3)
-    k = v / a
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(a) * K + (1.0 - math.cos(a)) * (K @ K)
+    kx, ky, kz = x / a, y / a, z / a
+    s, c = math.sin(a), 1.0 - math.cos(a)
+    return np.array([[1.0 - c * (ky * ky + kz * kz), -s * kz + c * kx * ky, s * ky + c * kx * kz],
+                     [s * kz + c * kx * ky, 1.0 - c * (kx * kx + kz * kz), -s * kx + c * ky * kz],
+                     [-s * ky + c * kx * kz, s * kx + c * ky * kz, 1.0 - c * (kx * kx + ky * ky)]])
 
 
 @dataclass(frozen=True)
