@@ -145,7 +145,7 @@ class SensorModel:
         import mujoco
 
         twin, sensors = self.twin, self.sensors
-        mujoco.mj_objectVelocity(twin.model, d, mujoco.mjtObj.mjOBJ_BODY, twin.trunk, self.vel, 1)
+        mujoco.mj_objectVelocity(twin.model, d, mujoco.mjtObj.mjOBJ_XBODY, twin.trunk, self.vel, 1)  # body frame
         self.history.append(_Truth(d.xmat[twin.trunk].reshape(3, 3).copy(), self.vel[:3].copy(),
                                    d.qpos[twin.qpos_adr].copy(),
                                    self._sole_truth(d) if sensors.soles is not None else None))

@@ -149,9 +149,10 @@ def _perceived(target_world: np.ndarray, sup_true: np.ndarray, yaw_true: float, 
 
 def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "feedback",
             perturbation: Perturbation | None = None, seed: int = 0, record: bool = False,
-            thrust_max_n: float | None = None) -> Execution:
+            thrust_max_n: float | None = None, placed_m: tuple[float, float] = (0.0, 0.0)) -> Execution:
     """Execute ``scenario`` step by step in the twin (the module docstring); ``nominal`` its steps as its plan
-    optimised them (``plan(scenario).steps``); ``controller`` as :class:`~.run.TwinRun` takes it.
+    optimised them (``plan(scenario).steps``); ``controller`` as :class:`~.run.TwinRun` takes it;
+    ``placed_m``: the robot put down this far (x, y) [m] off its plan's start (it does not know).
 
     Raises:
         InputError: the robot has no IMU and encoders to estimate where it stands.
@@ -177,7 +178,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         s_frame = feet_nominal[k][sup]
         if k == 0:
             start = {s: np.asarray(scenario.start[s], dtype=float) for s in SIDES}
-            sup_true, yaw_true = start[sup].copy(), 0.0
+            sup_true, yaw_true = start[sup] + np.array([placed_m[0], placed_m[1], 0.0]), 0.0
             yaw_est = 0.0
         else:
             m = run.measure()
@@ -206,6 +207,9 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         table = plan_table(robot, result.rows)
         track = track_of(table, robot, scenario.cartons, scenario.timing.rate_hz, thrust_max, tolerance)
         plan_kinematics(run.twin, track)
+        if k == 0:
+            first = moved(track, to_world)
+            run.start(first.pelvis[0], first.q[0])
         seg = run.follow(moved(track, to_world), moved(track, to_imu), settle_s=SETTLE_S if k == 0 else 0.0,
                          hold_s=HOLD_S if k == n - 1 else STAND_S)
         out.plans.append(StepPlan(k, result.scenario, result, mode, to_world, start, target))
