@@ -391,7 +391,8 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
     beside them, over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
     whose rows all hold quasistatically, the multibody ZMP ``margin_m`` inside and the twist within the
     capacity, is kept. Where none is, the swing of the largest multibody margin (then the least twist)
-    is kept and, if ``strict``, its rows that leave the margin or the capacity are marked infeasible. A
+    is kept and, if ``strict``, its rows that leave the margin are marked infeasible (the twist is
+    reported, ``summary.json``'s ``dynamics``: a capacity that bounds it from below, not a fall). A
     swing looked at again is noted in ``seq.rows.paced`` (:func:`_note_pace`). Returns the kept swing's
     least multibody margin [m] (None: the swing was infeasible already, or needed no pacing)."""
     start, before = snap[0], snap[3]
@@ -427,15 +428,11 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
     if not strict:
         return float(np.min(margins))
     c = seq.rows.columns
-    for i in np.flatnonzero((margins < margin_m) | (twist > 1.0)).tolist():
+    for i in np.flatnonzero(margins < margin_m).tolist():
         r = start + i
-        if margins[i] < margin_m:
-            reason = (f"the rows' motion moves the ZMP to {1000 * margins[i]:.1f} mm from the sole's edge (multibody "
-                      f"ZMP by central differences; {1000 * margin_m:g} mm wanted, the quasistatic ZMP "
-                      f"{1000 * float(c['zmp_margin'][r]):.1f} mm inside), paced or not")
-        else:
-            reason = (f"the rows' motion twists the support sole about the ZMP by {twist[i]:.2f} times what its "
-                      "friction holds (the body yaw's turn), paced or not")
+        reason = (f"the rows' motion moves the ZMP to {1000 * margins[i]:.1f} mm from the sole's edge (multibody "
+                  f"ZMP by central differences; {1000 * margin_m:g} mm wanted, the quasistatic ZMP "
+                  f"{1000 * float(c['zmp_margin'][r]):.1f} mm inside), paced or not")
         c["feasible"][r] = False
         c["reason"][r] = c["reason"][r] or reason
         seq._mark(int(c["step"][r]), "swing", int(c["sample"][r]), reason, {"p_body_m": list(c["p_body"][r])})
