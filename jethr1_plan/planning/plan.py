@@ -393,8 +393,7 @@ class Sequence:
 
         build(None)
         if self.paced:
-            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict,
-                       np.array([yaw_of(x) for x in st.path_m]))
+            pace_swing(seq, snap, build, st.p_body, tm.swing_s, b.sole_margin_m, self.strict)
         if self.stop and seq.first_infeasible is not None:
             return seq.first_infeasible
         feet[st.swing] = st.path_m[-1].copy()

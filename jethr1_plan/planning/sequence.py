@@ -346,9 +346,6 @@ def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop
 
 #: the trunk accelerations [m/s²] a paced swing is tried with, in order (:func:`pace_swing`)
 PACE_ACCEL = (0.4, 0.2, 0.1, 0.05)
-#: the body yaw counts in a pace as the trunk's motion at this radius [m] (about Jet-HR1's radius of gyration
-#: about the vertical): a yaw acceleration α [rad/s²] as YAW_RADIUS_M·α [m/s²]
-YAW_RADIUS_M = 0.1
 
 
 def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: float, held: bool) -> None:
@@ -362,69 +359,46 @@ def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: flo
 def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
     """(rows,) the multibody ZMP's margin in the support [m] of the swing rows written from row ``start``
     on (the row before them in the stencil; the last held)."""
-    return swing_dynamics(seq, start)[0]
-
-
-def swing_dynamics(seq: SequenceBuilder, start: int) -> tuple[np.ndarray, np.ndarray]:
-    """(margin, twist) per swing row written from row ``start`` on: the multibody ZMP's margin in the support
-    [m] and the yaw moment about it over the sole's twist capacity (``physics.row_dynamics``; where the
-    ZMP is outside, the moment over nothing: inf unless it is 0)."""
     lo = max(start - 1, 0)
     dyn = rows_dynamics(seq.rows, seq.robot, seq.dt, lo)
-    twist = np.abs(np.nan_to_num(dyn.yaw_moment_nm[start - lo:])) if dyn.yaw_moment_nm is not None else None
-    cap = dyn.capacity_nm[start - lo:] if dyn.capacity_nm is not None else None
-    if twist is None or cap is None:
-        return dyn.margin[start - lo:], np.zeros(len(dyn.margin) - (start - lo))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(cap > 0, twist / np.where(cap > 0, cap, 1.0), np.where(twist > 0, np.inf, 0.0))
-    return dyn.margin[start - lo:], ratio
+    return dyn.margin[start - lo:]
 
 
 def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, duration_s: float,
-               margin_m: float, strict: bool = True, yaw_samples: np.ndarray | None = None) -> float | None:
+               margin_m: float, strict: bool = True) -> float | None:
     """Re-time a swing whose rows' own motion moves the multibody ZMP to within ``margin_m`` [m] of the
-    support sole's edge (or beyond), or twists the support sole about it by more than the sole's twist
-    capacity (``physics.row_dynamics.twist_capacity``; the body yaw's turns, Paper A's (A-4), are what
-    twist it). ``build(positions)`` writes the swing (``positions`` None: the minimum-jerk law) after
-    ``snap``; it is rebuilt paced (:func:`paced_row_positions` of ``p_samples`` (N, 3), then where the
-    twist is too much, of them with the body yaw ``yaw_samples`` (N,) [rad] times :data:`YAW_RADIUS_M`
-    beside them, over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
-    whose rows all hold quasistatically, the multibody ZMP ``margin_m`` inside and the twist within the
-    capacity, is kept. Where none is, the swing of the largest multibody margin (then the least twist)
-    is kept and, if ``strict``, its rows that leave the margin are marked infeasible (the twist is
-    reported, ``summary.json``'s ``dynamics``: a capacity that bounds it from below, not a fall). A
-    swing looked at again is noted in ``seq.rows.paced`` (:func:`_note_pace`). Returns the kept swing's
-    least multibody margin [m] (None: the swing was infeasible already, or needed no pacing)."""
+    support sole's edge (or beyond). ``build(positions)`` writes the swing (``positions`` None: the
+    minimum-jerk law) after ``snap``; it is rebuilt paced (:func:`paced_row_positions` of ``p_samples``
+    (N, 3) over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
+    whose rows all hold quasistatically with the multibody ZMP ``margin_m`` inside is kept. Where none
+    is, the swing of the largest multibody margin is kept and, if ``strict``, its rows that leave the
+    margin are marked infeasible. A swing looked at again is noted in ``seq.rows.paced`` (:func:`_note_pace`).
+    Returns the kept swing's least multibody margin [m] (None: the swing was infeasible already, or needed no
+    pacing)."""
     start, before = snap[0], snap[3]
     if seq.first_infeasible is not before:
         return None
-    margins, twist = swing_dynamics(seq, start)
-    least, most = float(np.min(margins)), float(np.max(twist))
-    if least >= margin_m and most <= 1.0:
+    least = float(np.min(swing_dynamic_margin(seq, start)))
+    if least >= margin_m:
         return None
-    paces = [p_samples]
-    if most > 1.0 and yaw_samples is not None:
-        paces.append(np.column_stack([p_samples, YAW_RADIUS_M * np.unwrap(np.asarray(yaw_samples, dtype=float))]))
-    best: tuple[float, float, np.ndarray | None, float | None] = (least, -most, None, None)
+    best: tuple[float, np.ndarray | None, float | None] = (least, None, None)
     rate = 1.0 / seq.dt
     for accel in PACE_ACCEL:
-        for paced in paces:  # the trunk's motion alone, then with its yaw
-            seq.restore(snap)
-            positions = paced_row_positions(paced, duration_s, rate, accel)
-            build(positions)
-            if seq.first_infeasible is not before:
-                continue
-            margins, twist = swing_dynamics(seq, start)
-            least, most = float(np.min(margins)), float(np.max(twist))
-            if least >= margin_m and most <= 1.0:
-                _note_pace(seq, start, accel, least, True)
-                return least
-            if (min(least, margin_m), -most) > (min(best[0], margin_m), best[1]):
-                best = (least, -most, positions, accel)
+        seq.restore(snap)
+        positions = paced_row_positions(p_samples, duration_s, rate, accel)
+        build(positions)
+        if seq.first_infeasible is not before:
+            continue
+        least = float(np.min(swing_dynamic_margin(seq, start)))
+        if least >= margin_m:
+            _note_pace(seq, start, accel, least, True)
+            return least
+        if least > best[0]:
+            best = (least, positions, accel)
     seq.restore(snap)
-    build(best[2])
-    margins, twist = swing_dynamics(seq, start)
-    _note_pace(seq, start, best[3], float(np.min(margins)), False)
+    build(best[1])
+    margins = swing_dynamic_margin(seq, start)
+    _note_pace(seq, start, best[2], float(np.min(margins)), False)
     if not strict:
         return float(np.min(margins))
     c = seq.rows.columns
@@ -437,5 +411,3 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
         c["reason"][r] = c["reason"][r] or reason
         seq._mark(int(c["step"][r]), "swing", int(c["sample"][r]), reason, {"p_body_m": list(c["p_body"][r])})
     return float(np.min(margins))
-
-

@@ -108,6 +108,7 @@ SCHEMA = _obj({
         }, "additionalProperties": False},
         "perception": _obj({"landing_error_m": _num(0, 0.5)}),
     }),
+    "execution": _obj({"landing_error_m": _num(0, 0.5)}),
     "twin": _obj({
         "timestep_s": _num(0, 0.01, lo_open=True),
         "sole_friction": _num(0, 10, lo_open=True),

@@ -93,13 +93,17 @@ class CostWeights:
     edge_m: float = 0.025
 
 
+DEFAULT_EDGE_MARGIN_M = 0.005  # candidate soles inside their carton's top by this, for a robot with no measured error [m]
+
+
 @dataclass(frozen=True)
 class RouteOptions:
     """``route:`` of a terrain."""
 
     foothold_spacing_m: float = 0.02  # candidate sole centres on a carton top, this far apart [m]
-    edge_margin_m: float = 0.005  # each candidate sole lies this far inside its carton's top [m] (the twin lands
-    #                               2 to 5 mm off a first foothold: docs/route.md)
+    #: each candidate sole lies this far inside its carton's top [m]; a terrain that does not say takes the robot's
+    #: measured landing error (its YAML's execution.landing_error_m: docs/route.md), else DEFAULT_EDGE_MARGIN_M
+    edge_margin_m: float = 0.005
     clearances_m: tuple[float, ...] = (0.1, 0.07, 0.05)  # the arcs tried for each step, in this order (sagitta) [m]
     samples: int = 25  # swing samples per step (route.yaml's arcs)
     lift_m: float = 0.02  # each swing leaves its carton straight up by this, then its arc [m] (swing_path)
@@ -184,6 +188,8 @@ def load_terrain_text(text: str, src: str) -> Terrain:
     cost = fill_dataclass(CostWeights(), opts.pop("cost", {}))
     if "clearances_m" in opts:
         opts["clearances_m"] = tuple(float(c) for c in opts["clearances_m"])
+    if "edge_margin_m" not in opts:
+        opts["edge_margin_m"] = robot.landing_error_m if robot.landing_error_m is not None else DEFAULT_EDGE_MARGIN_M
     options = fill_dataclass(RouteOptions(), opts, cost=cost)
     return Terrain(source=src, name=doc.get("name", Path(src).stem), doc=doc, base=base, names=names, goal=goal,
                    limits=limits, options=options, text=text)
