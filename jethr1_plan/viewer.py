@@ -272,7 +272,7 @@ def _color(c: Any) -> tuple[int, int, int, int]:
 
 def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, scene: _Scene) -> None:
     """``visualization_msgs/MarkerArray`` (the last message): CUBEs and CUBE_LISTs as boxes,
-    LINE_STRIPs as lines."""
+    LINE_STRIPs as lines, SPHEREs as points and TEXT_VIEW_FACING as labelled points."""
     rr = _rerun()
     boxes: dict[str, list] = defaultdict(list)
     for m in msgs[-1].markers:
@@ -293,6 +293,11 @@ def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, sce
             pts = np.array([(p.x, p.y, p.z) for p in m.points], dtype=float)
             rec.log(entity, _world(rr), rr.LineStrips3D([pts], radii=m.scale.x / 2, colors=[_color(m.color)]),
                     static=True)
+        elif m.type in (2, 9):  # SPHERE; TEXT_VIEW_FACING (a rehearsal's landings: the label at a point)
+            p = m.pose.position
+            rec.log(entity, _world(rr), rr.Points3D([(p.x, p.y, p.z)], radii=m.scale.x / 2 if m.type == 2 else 0.002,
+                                                    colors=[_color(m.color)],
+                                                    labels=[m.text] if m.type == 9 else None), static=True)
     for entity, cubes in boxes.items():
         rec.log(entity, _world(rr), rr.Boxes3D(centers=[c[0] for c in cubes], half_sizes=[c[1] for c in cubes],
                                                quaternions=[c[2] for c in cubes], colors=[c[3] for c in cubes],

@@ -73,7 +73,10 @@ def _bound(k: int, n: int) -> dict:
 
 def _why(r: RunResult) -> str:
     if r.fell:
-        return f"fell: {r.fell['reason']} at {r.fell['phase']} row {r.fell['row']}"
+        return f"fell: {r.fell['reason']} at {r.fell['phase']} row {r.fell['row']}" + (
+            f" of step {r.fell['step']}" if "run_time_s" in r.fell else "")
+    if r.stopped:
+        return f"stopped: {r.stopped}"
     return "off the cartons at the end"
 
 

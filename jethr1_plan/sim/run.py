@@ -70,6 +70,7 @@ class RunResult:
     record: dict | None = None
     law: str | None = None  # the thrust law the controller ran (None: feed-forward)
     steps: list[dict] = field(default_factory=list)  # per swing: support slip and turn, the landing error's parts
+    stopped: str | None = None  # why the robot stopped before the plan's end without falling (step by step)
 
     def as_dict(self) -> dict:
         out = asdict(self)

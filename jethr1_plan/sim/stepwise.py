@@ -230,8 +230,13 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         if seg.fell is not None:
             break
     out.run = run.result()
+    for rec_k, judged in zip(out.steps, out.run.steps, strict=False):  # the footholds the robot aimed for
+        judged["foothold_m"] = rec_k["landing_m"]
+        if "landing_error_m" in rec_k:
+            judged["foothold_error_m"] = rec_k["landing_error_m"]
     if out.refused is not None:
         out.run.survived = False
+        out.run.stopped = f"step {out.refused['step']} could not be planned from where the robot stood"
     return out
 
 
