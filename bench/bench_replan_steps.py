@@ -35,7 +35,8 @@ def main(argv: list[str]) -> int:
     whole, steps = out["--whole"], out["steps"]
     rec = steps["step_by_step"]["steps"]
     print(f"{args.config.name}, {args.controller}")
-    print(f"  whole plan replayed:   landing errors {[round(1000 * e['xy_m'], 1) for e in whole['landing_errors_m']]} mm, "
+    errors = [round(1000 * e["xy_m"], 1) for e in whole["landing_errors_m"]]
+    print(f"  whole plan replayed:   landing errors {errors} mm, "
           f"support slip {1000 * whole['support_max_slip_m']:.1f} mm, survived {whole['survived']}")
     print(f"  step by step:          landing errors {[round(1000 * s['landing_error_m'], 1) for s in rec]} mm "
           f"(against the footholds), support slip {max(1000 * s['judge']['support_slip_m'] for s in rec):.1f} mm "

@@ -86,7 +86,7 @@ def main() -> int:
         for r in t["runs"]:
             label = f"{r['controller'][:4]} x{r['stiffness_scale']:.2f}"
             print(f"{t['seed']:>5} {t['steps']:>5} {label:>14} {'pass' if r['passed'] else 'FAIL':>7} "
-                  f"{str(r['landings_mm']):40s} {str(r['slip_mm']):28s} {r['turn_deg']}")
+                  f"{r['landings_mm']!s:40s} {r['slip_mm']!s:28s} {r['turn_deg']}")
     print(f"\n{routed} terrains routed: {crossed} crossed (every run within its limits), {failing} failing; "
           f"{refused} refused (exit 3) on the way")
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)

@@ -97,8 +97,8 @@ def main() -> int:
             folders[path.stem] = work / path.stem
             found += 1
         seed += 1
-    print(f"{len(folders)} plans, {args.trials} trials each, feedback (Jet-HR1's IMU law), step by step, -j {args.jobs}",
-          flush=True)
+    print(f"{len(folders)} plans, {args.trials} trials each, feedback (Jet-HR1's IMU law), step by step, "
+          f"-j {args.jobs}", flush=True)
     for name, folder in folders.items():
         if name in doc["plans"]:
             continue
@@ -107,9 +107,10 @@ def main() -> int:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json_text(doc))
         c, e = rec["certificate"], rec["landing_error_m"]
-        print(f"{name:18s} {rec['steps']} steps  {c['survived']:4d}/{c['trials']:<4d} lower bound {c['lower_bound']:.4f}  "
-              f"landing p50 {1000 * e.get('p50', np.nan):.1f} p99 {1000 * e.get('p99', np.nan):.1f} max "
-              f"{1000 * e.get('max', np.nan):.1f} mm  {rec['wall_s']:.0f} s ({rec['realtime_factor']:.1f}x)", flush=True)
+        print(f"{name:18s} {rec['steps']} steps  {c['survived']:4d}/{c['trials']:<4d} lower bound "
+              f"{c['lower_bound']:.4f}  landing p50 {1000 * e.get('p50', np.nan):.1f} p99 "
+              f"{1000 * e.get('p99', np.nan):.1f} max {1000 * e.get('max', np.nan):.1f} mm  {rec['wall_s']:.0f} s "
+              f"({rec['realtime_factor']:.1f}x)", flush=True)
         for f in c["failures"]:
             p = f["perturbation"]
             print(f"    trial {f['trial']}: {f['why']}; thrust x{p['thrust_gain']:.3f} mass x{p['mass_scale']:.3f} "

@@ -21,8 +21,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["VERTICAL_INTERVALS_PER", "Carton", "arc_path", "vertical_intervals", "arc_paths", "collides", "first_collision", "interpolate_path", "path_length",
-           "sole_on_carton"]
+__all__ = [
+    "VERTICAL_INTERVALS_PER",
+    "Carton",
+    "arc_path",
+    "arc_paths",
+    "collides",
+    "first_collision",
+    "interpolate_path",
+    "path_length",
+    "sole_on_carton",
+    "vertical_intervals",
+]
 
 
 @dataclass(frozen=True)

@@ -8,12 +8,12 @@ import pytest
 from jethr1_plan.swing_path import (
     Carton,
     arc_path,
-    vertical_intervals,
     arc_paths,
     collides,
     first_collision,
     interpolate_path,
     sole_on_carton,
+    vertical_intervals,
 )
 
 
@@ -124,13 +124,13 @@ def test_an_arc_with_a_vertical_lift_and_descent():
     assert (n_lift, n_down) == (1, 1) and len(pts) == 25
     np.testing.assert_array_equal(pts[0], start)
     np.testing.assert_array_equal(pts[-1], end)
-    np.testing.assert_allclose(pts[n_lift], start + [0.0, 0.0, 0.02], atol=1e-15)
-    np.testing.assert_allclose(pts[-1 - n_down], end + [0.0, 0.0, 0.03], atol=1e-15)
+    np.testing.assert_allclose(pts[n_lift], start + np.array([0.0, 0.0, 0.02]), atol=1e-15)
+    np.testing.assert_allclose(pts[-1 - n_down], end + np.array([0.0, 0.0, 0.03]), atol=1e-15)
     # the arc between them: its sagitta over the raised chord
     a, b = pts[n_lift], pts[-1 - n_down]
     np.testing.assert_allclose(pts[n_lift:len(pts) - n_down], arc_path(a, b, 0.08, 25 - n_lift - n_down), atol=1e-15)
     # the vectorised paths are the same
-    many = arc_paths(start, np.array([end, end + [0.02, 0.0, 0.0]]), 0.08, 25, 0.02, 0.03)
+    many = arc_paths(start, np.array([end, end + np.array([0.02, 0.0, 0.0])]), 0.08, 25, 0.02, 0.03)
     np.testing.assert_allclose(many[0], pts, atol=1e-14)
     assert vertical_intervals(49, 0.02, 0.0) == (2, 0)
     with pytest.raises(ValueError, match="fewer than 2"):

@@ -123,14 +123,14 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
     if executions is not None:
         for doc_r, ex in zip(run_docs, executions, strict=True):
             doc_r["step_by_step"] = execution_record(ex)
-    doc = {"plan": str(plan_dir), "mode": "step_by_step" if stepwise else "whole", "controller": controller,
+    cert = certificate(runs, perturbations, track.tolerance, randomisation) if trials is not None else None
+    doc: dict = {"plan": str(plan_dir), "mode": "step_by_step" if stepwise else "whole", "controller": controller,
            "law": law, "compensated": not raw, "sensors": track.robot.sensors.describe(),
            "loop": controller_summary(track.robot, track.tolerance["thrust_error"], track.tolerance["mass_error"],
                                       track.thrust_max_n) if law is not None else None,
            "trials": trials, "seed": seed, "runs": run_docs,
            "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
-           "certificate": (certificate(runs, perturbations, track.tolerance, randomisation)
-                           if trials is not None else None),
+           "certificate": cert,
            "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
     if executions is not None:
         executed, feasible = write_executed(Path(plan_dir), scenario, executions[0])
@@ -143,8 +143,8 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
     if as_json:
         print_json(doc)
     _table(plan_dir, controller, runs, perturbations, track, executions)
-    if doc["certificate"] is not None:
-        for text in describe(doc["certificate"]):
+    if cert is not None:
+        for text in describe(cert):
             err_console.print(text, highlight=False)
     rtf = doc["timing"]["realtime_factor"]
     line = (f"simulate: {ok}/{len(runs)} runs survived ({controller}{', ' + law if law and law != controller else ''}"
@@ -190,7 +190,8 @@ def _table(plan_dir, controller, runs, perturbations, track, executions) -> None
             j = rec.get("judge") or {}
             parts = j.get("parts_xy_m") or {}
             e = rec.get("landing_error_xy_m", [float("nan")] * 2)
-            s.add_row(str(rec["step"]), rec["swing"], rec["mode"], f"{1000 * rec.get('landing_error_m', float('nan')):.1f}",
+            s.add_row(str(rec["step"]), rec["swing"], rec["mode"],
+                      f"{1000 * rec.get('landing_error_m', float('nan')):.1f}",
                       f"{1000 * e[0]:+.1f}, {1000 * e[1]:+.1f}", f"{1000 * j.get('support_slip_m', float('nan')):.1f}",
                       f"{np.degrees(j.get('support_turn_rad', float('nan'))):+.2f}",
                       " / ".join(f"{1000 * float(np.hypot(*v)):.1f}" for v in parts.values()) or "-")

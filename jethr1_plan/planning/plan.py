@@ -308,8 +308,8 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     mu = robot.sole_friction
     inner = np.arange(1, len(rows) - 1)
     for i in inner[dyn.friction_ratio[inner] > mu / GRIP_SAFETY].tolist():
-        bad.setdefault(i, f"the rows' motion needs a friction ratio of {dyn.friction_ratio[i]:.2f}, more than the soles' "
-                          f"μ {mu:g} / {GRIP_SAFETY:g}")
+        bad.setdefault(i, f"the rows' motion needs a friction ratio of {dyn.friction_ratio[i]:.2f}, more than the "
+                          f"soles' μ {mu:g} / {GRIP_SAFETY:g}")
     first = None
     for i in sorted(bad):
         c["feasible"][i] = False

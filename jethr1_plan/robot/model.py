@@ -21,10 +21,10 @@ from jethr1_plan.robot.schema import LEG_ROLES, read_robot_yaml
 from jethr1_plan.robot.urdf import UrdfJoint, check_urdf, geometry_boxes, quiet_stderr, urdf_joints
 
 __all__ = [
+    "LAW_SENSORS",
     "LEG_ROLES",
     "ROBOTS_DIR",
     "SOLE_FRICTION",
-    "LAW_SENSORS",
     "ControllerSettings",
     "EncoderSpec",
     "Fan",
@@ -32,8 +32,8 @@ __all__ = [
     "ImuSpec",
     "Leg",
     "RobotModel",
-    "SoleSensorSpec",
     "Sensors",
+    "SoleSensorSpec",
     "TwinSettings",
     "UrdfJoint",
     "WalkingStructure",

@@ -93,7 +93,8 @@ class CostWeights:
     edge_m: float = 0.025
 
 
-DEFAULT_EDGE_MARGIN_M = 0.005  # candidate soles inside their carton's top by this, for a robot with no measured error [m]
+#: candidate soles lie inside their carton's top by this, for a robot with no measured landing error [m]
+DEFAULT_EDGE_MARGIN_M = 0.005
 
 
 @dataclass(frozen=True)

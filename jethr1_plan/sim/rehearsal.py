@@ -27,7 +27,7 @@ from jethr1_plan.sim.run import (
     TwinRun,
     law_of,
 )
-from jethr1_plan.sim.run import _sole_loads as _sole_loads  # noqa: F401  (the tests' oracle of the loads)
+from jethr1_plan.sim.run import _sole_loads as _sole_loads
 from jethr1_plan.sim.track import Perturbation, PlanTrack, held_tolerance, load_plan, plan_kinematics
 from jethr1_plan.sim.twin import TwinParams
 

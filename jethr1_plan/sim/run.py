@@ -308,7 +308,8 @@ class TwinRun:
         self.rec: dict[str, list] | None = ({"t": [], "qpos": [], "thrust": [], "cop": [], "com": []} if record
                                             else None)
         self.max_tilt = self.sup_tilt = self.sup_slip = self.max_thrust = 0.0
-        self.least_margin, self.least_at = math.inf, None
+        self.least_margin: float = math.inf
+        self.least_at: dict | None = None
         self.fell: dict | None = None
         self.landings: list[dict] = []
         self.steps: list[dict] = []

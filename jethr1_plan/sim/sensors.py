@@ -77,8 +77,8 @@ class SensorDraw:
         delays = rng.uniform(1.0, 2.0, 3)
         seed = int(rng.integers(0, 2**62))
         tilt = (imu.attitude_bias_rad if imu else 0.0) * r
-        return cls((tilt * math.cos(a), tilt * math.sin(a)),
-                   tuple(float(v) for v in gyro * (imu.rate_bias_rad_s if imu else 0.0)),
+        gx, gy, gz = (float(v) for v in gyro * (imu.rate_bias_rad_s if imu else 0.0))
+        return cls((tilt * math.cos(a), tilt * math.sin(a)), (gx, gy, gz),
                    drift * (imu.yaw_drift_rad_s if imu else 0.0),
                    tuple(float(v) for v in offsets * (enc.offset_rad if enc else 0.0)),
                    float(delays[0] * imu.delay_s) if imu else None,

@@ -61,7 +61,8 @@ STAND_S = 0.5  # after each step the robot stands this long before it measures a
 #: (Paper A's margin for the mass model's error, not a balance condition: every row's thrust still balances
 #: within the tolerance), and moving the swing sole by millimetres tips them over it by tenths of a degree
 RHO_SLACK_RAD = math.radians(3.0)
-TRUNK_SHARES = (0.5, 0.0, 1.0)  # a re-anchored step's trunk moves by these shares of its swing sole's shift, tried in turn
+#: a re-anchored step's trunk moves by these shares of its swing sole's shift, tried in turn
+TRUNK_SHARES = (0.5, 0.0, 1.0)
 
 
 def reanchor_ends(path_m: np.ndarray, start_m: np.ndarray, end_m: np.ndarray) -> np.ndarray:
@@ -113,8 +114,9 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
     robot = scenario.robot
     st = scenario.steps[k]
     path = reanchor_ends(st.path_m, start[st.swing], target)
-    one = replace(scenario, name=f"{scenario.name}_step{k}", start={s: np.asarray(start[s], dtype=float) for s in SIDES},
-                  steps=(Step(st.swing, path),), cartons=cartons, expect={})
+    one = replace(scenario, name=f"{scenario.name}_step{k}",
+                  start={s: np.asarray(start[s], dtype=float) for s in SIDES}, steps=(Step(st.swing, path),),
+                  cartons=cartons, expect={})
     if scenario.yaw_mode != "mpc":
         moved_one = replace(one, balance=replace(one.balance, rho_rad=one.balance.rho_rad + RHO_SLACK_RAD))
         for share in TRUNK_SHARES:
@@ -182,6 +184,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
             yaw_est = 0.0
         else:
             m = run.measure()
+            assert m.joints_rad is not None and m.trunk_rotation is not None  # the IMU and encoders (checked above)
             kin.update(m.joints_rad, m.trunk_rotation)
             p_sup, r_sup = kin.sole(sup)
             p_sw, _ = kin.sole(sw)
@@ -195,8 +198,8 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         error = np.array([radius * math.cos(angle), radius * math.sin(angle)])
         target = _perceived(st.landing_m, sup_true, yaw_true, s_frame, error)
         shift = s_frame - sup_true
-        cartons = tuple(Carton(tuple(float(v) for v in np.asarray(c.top_centre_m) + shift), c.size_m)
-                        for c in scenario.cartons)
+        cartons = tuple(Carton((float(c.top_centre_m[0] + shift[0]), float(c.top_centre_m[1] + shift[1]),
+                                float(c.top_centre_m[2] + shift[2])), c.size_m) for c in scenario.cartons)
         try:
             result, mode = replan_step(scenario, k, nominal[k], start, target, cartons)
         except InfeasiblePlan as exc:
@@ -204,6 +207,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
             break
         to_world = Frame.mapping(s_frame, 0.0, sup_true, yaw_true)
         to_imu = Frame.mapping(s_frame, 0.0, np.zeros(3), yaw_est)
+        assert result.rows is not None  # a plan's rows (planned whole, not samples only)
         table = plan_table(robot, result.rows)
         track = track_of(table, robot, scenario.cartons, scenario.timing.rate_hz, thrust_max, tolerance)
         plan_kinematics(run.twin, track)

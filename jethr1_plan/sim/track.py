@@ -234,7 +234,8 @@ class Frame:
         c, s = math.cos(yaw), math.sin(yaw)
         a = np.asarray(a_xyz, dtype=float)
         turned = np.array([c * a[0] - s * a[1], s * a[0] + c * a[1], a[2]])
-        return cls(float(yaw), tuple(float(v) for v in np.asarray(b_xyz, dtype=float) - turned))
+        x, y, z = (float(v) for v in np.asarray(b_xyz, dtype=float) - turned)
+        return cls(float(yaw), (x, y, z))
 
 
 def moved(track: PlanTrack, frame: Frame) -> PlanTrack:
@@ -246,7 +247,7 @@ def moved(track: PlanTrack, frame: Frame) -> PlanTrack:
     half = frame.yaw_rad / 2
     qz = np.array([math.cos(half), 0.0, 0.0, math.sin(half)])  # w, x, y, z
     quat = track.pelvis[:, 3:7]
-    w1, x1, y1, z1 = qz
+    w1, z1 = qz[0], qz[3]
     w2, x2, y2, z2 = quat.T
     turned = np.column_stack([w1 * w2 - z1 * z2, w1 * x2 - z1 * y2, w1 * y2 + z1 * x2, w1 * z2 + z1 * w2])
     pelvis = np.column_stack([frame.point(track.pelvis[:, :3]), turned])

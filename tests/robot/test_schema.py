@@ -36,8 +36,9 @@ CASES = {
                                          r"legs\.right\.sole: frame 'nowhere' not in the URDF"),
     "a stance narrower than the soles": (lambda d: d.update(stance_width_m=0.05), "stance_width_m: 0.05 m: the soles"),
     "an unknown law": (lambda d: d["controller"].update(law="magic"), r"controller\.law: .*magic"),
-    "the CoP law without sole sensors": (lambda d: d["controller"].update(law="cop_edge_pi"),
-                                         r"controller\.law: cop_edge_pi reads the soles; sensors: declares encoders, imu"),
+    "the CoP law without sole sensors": (
+        lambda d: d["controller"].update(law="cop_edge_pi"),
+        r"controller\.law: cop_edge_pi reads the soles; sensors: declares encoders, imu"),
     "the IMU law without an IMU": (lambda d: d["sensors"].update(imu=None),
                                    r"controller\.law: imu_tilt_pid reads the imu; sensors: declares encoders"),
     "a negative IMU noise": (lambda d: d["sensors"]["imu"].update(attitude_noise_rad=-0.001),
