@@ -93,21 +93,27 @@ def _apply(twin: Twin, p: Perturbation) -> None:
 
 def _sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.ndarray]]:
     """Per sole: the normal force [N] of its contacts and their centre of pressure (x, y, z) [m]
-    (the sole's centre where it carries nothing)."""
-    import mujoco
-
+    (the sole's centre where it carries nothing). The contact forces are the constraint solver's: the
+    twin's elliptic cones keep each contact's force in its frame (normal, then tangential) at its
+    ``efc_address`` (what ``mj_contactForce`` reads)."""
     force = {s: 0.0 for s in twin.sole_geoms}  # [N]
     moment = {s: np.zeros(3) for s in twin.sole_geoms}  # Σ force · contact point [N·m]
     n = d.ncon
     if n:
         contact = d.contact
-        geoms, frames, points = contact.geom[:n], contact.frame[:n], contact.pos[:n]
+        geoms = contact.geom[:n]
+        adr = contact.efc_address[:n]
         for side, g in twin.sole_geoms.items():
-            for ci in np.flatnonzero((geoms[:, 0] == g) | (geoms[:, 1] == g)).tolist():
-                mujoco.mj_contactForce(twin.model, d, ci, buf)
-                z = abs(float(frames[ci, 2::3] @ buf[:3]))  # the world z component of the contact force
-                force[side] += z
-                moment[side] += z * points[ci]
+            idx = np.flatnonzero(((geoms[:, 0] == g) | (geoms[:, 1] == g)) & (adr >= 0))
+            if not len(idx):
+                continue
+            a = adr[idx]
+            frames = contact.frame[idx]
+            f = d.efc_force
+            # the world z component of each contact's force (its frame's rows are the normal and tangents)
+            z = np.abs(frames[:, 2] * f[a] + frames[:, 5] * f[a + 1] + frames[:, 8] * f[a + 2])
+            force[side] = float(z.sum())
+            moment[side] = z @ contact.pos[idx]
     return {s: (f, moment[s] / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, f in force.items()}
 
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -86,14 +86,6 @@ class SensorDraw:
                    float(delays[2] * sole.delay_s) if sole else None, seed)
 
 
-@dataclass
-class _Truth:
-    rotation: np.ndarray
-    rate: np.ndarray
-    joints: np.ndarray
-    soles: dict[str, tuple[float, np.ndarray]] | None = field(default=None)
-
-
 class SensorModel:
     """The robot's declared sensors reading the twin (the module docstring), one :meth:`read` per control
     tick of ``period_s``."""
@@ -110,7 +102,7 @@ class SensorModel:
 
         self.lag = {"imu": ticks(draw.imu_delay_s, sensors.imu), "encoders": ticks(draw.encoder_delay_s,
                     sensors.encoders), "soles": ticks(draw.sole_delay_s, sensors.soles)}
-        self.history: deque[_Truth] = deque(maxlen=max(self.lag.values()) + 1)
+        self.history: deque[tuple] = deque(maxlen=max(self.lag.values()) + 1)  # (rotation, rate, joints, soles)
         self.vel = np.zeros(6)
         self.buf = np.zeros(6)
 
@@ -145,42 +137,41 @@ class SensorModel:
         import mujoco
 
         twin, sensors = self.twin, self.sensors
-        mujoco.mj_objectVelocity(twin.model, d, mujoco.mjtObj.mjOBJ_XBODY, twin.trunk, self.vel, 1)  # body frame
-        self.history.append(_Truth(d.xmat[twin.trunk].reshape(3, 3).copy(), self.vel[:3].copy(),
-                                   d.qpos[twin.qpos_adr].copy(),
-                                   self._sole_truth(d) if sensors.soles is not None else None))
-
-        def old(sensor: str) -> _Truth:
-            return self.history[max(0, len(self.history) - 1 - self.lag[sensor])]
-
+        imu, enc, sole = sensors.imu, sensors.encoders, sensors.soles
+        if imu is not None:
+            mujoco.mj_objectVelocity(twin.model, d, mujoco.mjtObj.mjOBJ_XBODY, twin.trunk, self.vel, 1)  # body frame
+        self.history.append((d.xmat[twin.trunk].reshape(3, 3).copy() if imu else None,
+                             self.vel[:3].copy() if imu else None,
+                             d.qpos[twin.qpos_adr] if enc else None,
+                             self._sole_truth(d) if sole is not None else None))
+        last = len(self.history) - 1
         rng, draw = self.rng, self.draw
         rotation = rate = joints = None
         soles = None
-        if sensors.imu is not None:
-            imu, truth = sensors.imu, old("imu")
+        if imu is not None:
+            truth = self.history[max(0, last - self.lag["imu"])]
             err = np.array([draw.imu_tilt_bias_rad[0], draw.imu_tilt_bias_rad[1], draw.yaw_drift_rad_s * time_s])
-            err = err + rng.normal(0.0, imu.attitude_noise_rad, 3) if imu.attitude_noise_rad > 0 else err
-            rotation = rotation_vector(err) @ truth.rotation
-            rate = truth.rate + np.asarray(draw.gyro_bias_rad_s)
+            if imu.attitude_noise_rad > 0:
+                err += rng.normal(0.0, imu.attitude_noise_rad, 3)
+            rotation = rotation_vector(err) @ truth[0]
+            rate = truth[1] + np.asarray(draw.gyro_bias_rad_s)
             if imu.rate_noise_rad_s > 0:
-                rate = rate + rng.normal(0.0, imu.rate_noise_rad_s, 3)
-        if sensors.encoders is not None:
-            enc, truth = sensors.encoders, old("encoders")
-            joints = truth.joints + self.offset
+                rate += rng.normal(0.0, imu.rate_noise_rad_s, 3)
+        if enc is not None:
+            joints = self.history[max(0, last - self.lag["encoders"])][2] + self.offset
             if enc.noise_rad > 0:
-                joints = joints + rng.normal(0.0, enc.noise_rad, len(joints))
+                joints += rng.normal(0.0, enc.noise_rad, len(joints))
             if enc.resolution_rad > 0:
                 joints = np.round(joints / enc.resolution_rad) * enc.resolution_rad
-        if sensors.soles is not None:
-            spec, truth = sensors.soles, old("soles")
-            assert truth.soles is not None
+        if sole is not None:
+            truth_soles = self.history[max(0, last - self.lag["soles"])][3]
             soles = {}
             for s in SIDES:
-                f, cop = truth.soles[s]
-                if spec.force_noise_n > 0:
-                    f = max(0.0, f + float(rng.normal(0.0, spec.force_noise_n)))
-                if spec.cop_noise_m > 0:
-                    cop = cop + rng.normal(0.0, spec.cop_noise_m, 2)
+                f, cop = truth_soles[s]
+                if sole.force_noise_n > 0:
+                    f = max(0.0, f + float(rng.normal(0.0, sole.force_noise_n)))
+                if sole.cop_noise_m > 0:
+                    cop = cop + rng.normal(0.0, sole.cop_noise_m, 2)
                 soles[s] = SoleReading(f, cop)
         return Measurement(time_s, rotation, rate, joints, soles)
 
