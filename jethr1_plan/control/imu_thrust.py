@@ -38,7 +38,7 @@ class ImuGains:
     rate_hz: float = 500.0  # loop rate [Hz]
     kp_n_per_rad: float = 300.0  # [N/rad]
     ki_n_per_rad_s: float = 300.0  # [N/(rad·s)]
-    kd_n_s_per_rad: float = 15.0  # [N·s/rad]
+    kd_n_s_per_rad: float = 30.0  # [N·s/rad]
     leak_time_s: float = 0.3  # the integral's decay time in double support [s]
 
     @classmethod
