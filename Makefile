@@ -51,6 +51,8 @@ bench: install
 	$(BIN)/python bench/bench_route.py
 	$(BIN)/python bench/bench_replan_steps.py
 	$(BIN)/python bench/bench_design.py
+	$(BIN)/python bench/bench_replay.py -j 2
+	$(BIN)/python bench/bench_stepwise.py -j 2
 	$(BIN)/python bench/bench_commands.py
 	$(BIN)/python bench/bench_fast_timing.py --trials 40 -j 2
 

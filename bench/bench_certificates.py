@@ -34,7 +34,7 @@ SEED = 0  # simulate's default seed
 
 def certify(folder: Path, trials: int, randomisation: str, jobs: int) -> dict:
     track = load_plan(folder)
-    ps = draws(SEED, trials, randomisation, track.tolerance)
+    ps = draws(SEED, trials, randomisation, track.tolerance, track.robot)
     t0 = time.perf_counter()
     runs = simulate(folder, "feedback", ps, jobs=jobs)
     cert = certificate(runs, ps, track.tolerance, randomisation)

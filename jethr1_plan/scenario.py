@@ -104,7 +104,9 @@ SCHEMA = _obj({
         "landing_m": _vec3,
         "path": {"oneOf": [
             _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0, "maximum": 2},
-                  "samples": {"type": "integer", "minimum": 2, "maximum": MAX_SAMPLES}}, ("kind",)),
+                  "samples": {"type": "integer", "minimum": 2, "maximum": MAX_SAMPLES},
+                  "lift_m": {"type": "number", "minimum": 0, "maximum": 0.2},
+                  "descent_m": {"type": "number", "minimum": 0, "maximum": 0.2}}, ("kind",)),
             _obj({"kind": {"const": "points"},
                   "points_m": {"type": "array", "items": _vec3, "minItems": 2, "maxItems": MAX_SAMPLES}},
                  ("kind", "points_m")),
@@ -312,8 +314,12 @@ def _build(doc: dict, src: str, robot) -> Scenario:
         else:
             if "landing_m" not in sd:
                 raise InputError(src, f"{key}.landing_m", "missing")
-            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float),
-                           **{k: path_doc[k] for k in ("clearance_m", "samples") if k in path_doc})
+            try:
+                pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float),
+                               **{k: path_doc[k] for k in ("clearance_m", "samples", "lift_m", "descent_m")
+                                  if k in path_doc})
+            except ValueError as exc:
+                raise InputError(src, f"{key}.path.samples", str(exc)) from None
         landing = pts[-1]
         if not on_terrain(landing):
             raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "

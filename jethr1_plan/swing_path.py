@@ -3,6 +3,16 @@
 A path is an array of sole positions (N, 3) [m]. The arc lies in the vertical plane through the
 start and landing sole centres; its sagitta (height of the arc over the midpoint of the chord) is
 the clearance. Terrain checks test the whole sole rectangle against every carton.
+
+An arc may begin with a vertical lift and end with a vertical descent (``lift_m``, ``descent_m``):
+the sole leaves its carton straight up and comes down on the next one straight down, the arc then
+joining the top of the lift to the top of the descent. Why: a robot whose servos sag by more or
+less than its commands assume (their stiffness known to ±25 %) holds its swing sole a few
+millimetres too low or too high; on an arc's slanted end that height error becomes an error along
+the step (the sole touches early or late), on a vertical descent it does not, and a sole that sags
+at lift-off does not drag over the carton it leaves. Each vertical segment takes
+:data:`VERTICAL_INTERVALS_PER` of the path's sample intervals (at least one); the swing's time law,
+slow at both ends, spends about a fifth of the swing on each.
 """
 
 from __future__ import annotations
@@ -11,8 +21,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Carton", "arc_path", "arc_paths", "collides", "first_collision", "interpolate_path", "path_length",
-           "sole_on_carton"]
+__all__ = [
+    "VERTICAL_INTERVALS_PER",
+    "Carton",
+    "arc_path",
+    "arc_paths",
+    "collides",
+    "first_collision",
+    "interpolate_path",
+    "path_length",
+    "sole_on_carton",
+    "vertical_intervals",
+]
 
 
 @dataclass(frozen=True)
@@ -33,15 +53,56 @@ class Carton:
         return x - hx, x + hx, y - hy, y + hy
 
 
-def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25) -> np.ndarray:
+VERTICAL_INTERVALS_PER = 24  # a vertical segment takes one in this many of a path's sample intervals
+
+
+def vertical_intervals(samples: int, lift_m: float, descent_m: float) -> tuple[int, int]:
+    """The sample intervals of a path's vertical lift and descent (0 where there is none): each
+    ``round((samples − 1) / VERTICAL_INTERVALS_PER)``, at least 1.
+
+    Raises:
+        ValueError: too few samples to leave the arc two of them.
+    """
+    each = max(1, round((samples - 1) / VERTICAL_INTERVALS_PER))
+    lift, descent = (each if lift_m > 0 else 0), (each if descent_m > 0 else 0)
+    if samples - lift - descent < 2:
+        raise ValueError(f"{samples} samples leave the arc fewer than 2 beside its vertical lift and descent")
+    return lift, descent
+
+
+def _with_vertical_ends(arc, start: np.ndarray, end: np.ndarray, lift_m: float, descent_m: float,
+                        samples: int) -> np.ndarray:
+    """``arc(a, b, n)`` between the top of the lift over ``start`` and the top of the descent onto
+    ``end`` (each (..., 3)), with the vertical segments before and after it: (..., samples, 3)."""
+    n_lift, n_down = vertical_intervals(samples, lift_m, descent_m)
+    up = np.array([0.0, 0.0, 1.0])
+    a, b = start + lift_m * up, end + descent_m * up
+    middle = arc(a, b, samples - n_lift - n_down)
+    lift = start[..., None, :] + (np.arange(n_lift) / max(n_lift, 1))[:, None] * (lift_m * up)
+    down = b[..., None, :] - (np.arange(1, n_down + 1) / max(n_down, 1))[:, None] * (descent_m * up)
+    out = np.concatenate([np.broadcast_to(lift, (*middle.shape[:-2], n_lift, 3)), middle,
+                          np.broadcast_to(down, (*middle.shape[:-2], n_down, 3))], axis=-2)
+    out[..., 0, :] = start
+    out[..., -1, :] = end
+    return out
+
+
+def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25,
+             lift_m: float = 0.0, descent_m: float = 0.0) -> np.ndarray:
     """Circular arc from ``start_m`` to ``end_m`` (3,) with sagitta ``clearance_m``, ``samples`` points.
 
     Points are equally spaced in arc angle; the first and last are exactly the end points. With
     zero clearance or coincident horizontal positions the path degenerates to the straight chord.
+    With ``lift_m`` or ``descent_m`` [m] the arc runs between the top of a vertical lift over the
+    start and the top of a vertical descent onto the end (:func:`vertical_intervals` of the samples
+    each, equally spaced).
     """
     start, end = np.asarray(start_m, dtype=float), np.asarray(end_m, dtype=float)
     if samples < 2:
         raise ValueError("an arc needs at least 2 samples")
+    if lift_m > 0 or descent_m > 0:
+        return _with_vertical_ends(lambda a, b, n: arc_path(a, b, clearance_m, n), start, end, lift_m, descent_m,
+                                   samples)
     chord = end - start
     c = float(np.linalg.norm(chord))
     t = np.linspace(0.0, 1.0, samples)
@@ -67,7 +128,8 @@ def arc_path(start_m: np.ndarray, end_m: np.ndarray, clearance_m: float = 0.05, 
     return pts
 
 
-def arc_paths(start_m: np.ndarray, ends_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25) -> np.ndarray:
+def arc_paths(start_m: np.ndarray, ends_m: np.ndarray, clearance_m: float = 0.05, samples: int = 25,
+              lift_m: float = 0.0, descent_m: float = 0.0) -> np.ndarray:
     """:func:`arc_path` from one ``start_m`` (3,) to each of ``ends_m`` (K, 3) at once: (K, samples, 3) [m].
 
     The same arcs as :func:`arc_path` to rounding (numpy's vectorised sin and arcsin may differ from
@@ -76,6 +138,16 @@ def arc_paths(start_m: np.ndarray, ends_m: np.ndarray, clearance_m: float = 0.05
     start, ends = np.asarray(start_m, dtype=float), np.asarray(ends_m, dtype=float).reshape(-1, 3)
     if samples < 2:
         raise ValueError("an arc needs at least 2 samples")
+    if lift_m > 0 or descent_m > 0:
+        up = np.array([0.0, 0.0, 1.0])
+        a, b = start + lift_m * up, ends + descent_m * up
+        n_lift, n_down = vertical_intervals(samples, lift_m, descent_m)
+        middle = arc_paths(a, b, clearance_m, samples - n_lift - n_down)
+        lift = start + (np.arange(n_lift) / max(n_lift, 1))[:, None] * (lift_m * up)
+        down = b[:, None, :] - (np.arange(1, n_down + 1) / max(n_down, 1))[:, None] * (descent_m * up)
+        out = np.concatenate([np.broadcast_to(lift, (len(ends), n_lift, 3)), middle, down], axis=1)
+        out[:, 0], out[:, -1] = start, ends
+        return out
     chord = ends - start
     c = np.linalg.norm(chord, axis=1)
     t = np.linspace(0.0, 1.0, samples)

@@ -288,7 +288,7 @@ def _color(c: Any) -> tuple[int, int, int, int]:
 
 def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, scene: _Scene) -> None:
     """``visualization_msgs/MarkerArray`` (the last message): CUBEs and CUBE_LISTs as boxes,
-    LINE_STRIPs as lines, TEXT_VIEW_FACINGs as labelled points."""
+    LINE_STRIPs as lines, SPHEREs as points and TEXT_VIEW_FACINGs as labelled points."""
     rr = _rerun()
     boxes: dict[str, list] = defaultdict(list)
     texts: dict[str, list] = defaultdict(list)
@@ -309,6 +309,10 @@ def _markers(rec: Any, path: str, times: list[int], msgs: list, prefix: str, sce
         elif m.type == 4 and m.points:  # LINE_STRIP
             pts = np.array([(p.x, p.y, p.z) for p in m.points], dtype=float)
             rec.log(entity, _world(rr), rr.LineStrips3D([pts], radii=m.scale.x / 2, colors=[_color(m.color)]),
+                    static=True)
+        elif m.type == 2:  # SPHERE
+            p = m.pose.position
+            rec.log(entity, _world(rr), rr.Points3D([(p.x, p.y, p.z)], radii=m.scale.x / 2, colors=[_color(m.color)]),
                     static=True)
         elif m.type == 9:  # TEXT_VIEW_FACING
             p = m.pose.position

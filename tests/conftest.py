@@ -90,7 +90,7 @@ terrain:
 goal: {region: {x_m: [0.495, 0.705], y_m: [-0.2, 0.2]}}
 balance: {policy: robust, thrust_max_n: 23.0, sole_margin_m: 0.005}
 timing: {swing_s: 2.0, transfer_s: 1.0, rate_hz: 20.0}
-route: {map_resolution_m: 0.05, samples: 10}
+route: {map_resolution_m: 0.05, samples: 10, lift_m: 0.0, descent_m: 0.0}  # 2 s swings: no time for vertical ends
 """
 
 

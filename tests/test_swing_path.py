@@ -13,6 +13,7 @@ from jethr1_plan.swing_path import (
     first_collision,
     interpolate_path,
     sole_on_carton,
+    vertical_intervals,
 )
 
 
@@ -112,3 +113,25 @@ def test_arc_paths_are_the_arcs_of_arc_path():
     for clearance in (0.0, 0.05, 0.3):
         np.testing.assert_allclose(arc_paths(start, ends, clearance, 25),
                                    np.array([arc_path(start, e, clearance, 25) for e in ends]), atol=1e-14)
+
+
+def test_an_arc_with_a_vertical_lift_and_descent():
+    """The sole leaves straight up by lift_m and comes down straight down from descent_m over the landing:
+    a height error on the way down moves the touchdown along the vertical, not along the step."""
+    start, end = np.array([0.0, 0.1, 0.0]), np.array([0.3, 0.05, -0.02])
+    pts = arc_path(start, end, 0.08, 25, lift_m=0.02, descent_m=0.03)
+    n_lift, n_down = vertical_intervals(25, 0.02, 0.03)
+    assert (n_lift, n_down) == (1, 1) and len(pts) == 25
+    np.testing.assert_array_equal(pts[0], start)
+    np.testing.assert_array_equal(pts[-1], end)
+    np.testing.assert_allclose(pts[n_lift], start + np.array([0.0, 0.0, 0.02]), atol=1e-15)
+    np.testing.assert_allclose(pts[-1 - n_down], end + np.array([0.0, 0.0, 0.03]), atol=1e-15)
+    # the arc between them: its sagitta over the raised chord
+    a, b = pts[n_lift], pts[-1 - n_down]
+    np.testing.assert_allclose(pts[n_lift:len(pts) - n_down], arc_path(a, b, 0.08, 25 - n_lift - n_down), atol=1e-15)
+    # the vectorised paths are the same
+    many = arc_paths(start, np.array([end, end + np.array([0.02, 0.0, 0.0])]), 0.08, 25, 0.02, 0.03)
+    np.testing.assert_allclose(many[0], pts, atol=1e-14)
+    assert vertical_intervals(49, 0.02, 0.0) == (2, 0)
+    with pytest.raises(ValueError, match="fewer than 2"):
+        arc_path(start, end, 0.08, 3, lift_m=0.02, descent_m=0.02)

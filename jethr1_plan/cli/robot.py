@@ -53,4 +53,8 @@ def _print_robot(summary: dict) -> None:
         f.add_row(fan["name"], fan["frame"], fan["mount"], f"{fan['max_thrust_n']:.1f}",
                   ", ".join(f"{v:+.3f}" for v in fan["offset_m"]))
     out.print(f)
+    sensors = [name for name in ("imu", "encoders", "soles") if summary["sensors"][name] is not None]
+    out.print(f"sensors: {', '.join(sensors) or 'none declared'}; feedback law: {summary['feedback_law'] or 'none'}"
+              + (f"; measured landing error {1000 * summary['landing_error_m']:.1f} mm"
+                 if summary["landing_error_m"] is not None else ""))
 

@@ -55,6 +55,7 @@ class PlacementGains:
     filter_s: float = 0.05  # time constant of the low-pass on the measured yaw slip [s]
     damping: float = 0.01  # damped least squares: λ² added to J·Jᵀ [m² or rad²]
     max_offset_rad: float = 0.15  # each joint's offset is clipped to ± this [rad]
+    release_s: float = 0.2  # a support leg lets go of its offset (from its own swing) with this time constant [s]
 
 
 def placement_law(gains: PlacementGains) -> dict:
@@ -111,3 +112,9 @@ class SwingPlacement:
         dq = J.T @ np.linalg.solve(J @ J.T + lam * lam * np.eye(len(J)), target)
         self.offset[joints] = np.clip(dq, -top, top)
         return self.offset
+
+    def release(self, joints: np.ndarray, dt_s: float) -> None:
+        """One tick of letting go of the offset of ``joints`` (the support leg's: the offset it was given
+        when it last swung, held through its landing), with the time constant ``release_s``: a support
+        leg that keeps it turns the trunk, and the swing sole with it, about the sole it stands on."""
+        self.offset[joints] *= max(0.0, 1.0 - dt_s / self.gains.release_s)

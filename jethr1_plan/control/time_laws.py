@@ -65,7 +65,8 @@ def pace_accelerations(p_samples: np.ndarray, tau: np.ndarray, rates: np.ndarray
     each segment |ΔP_i|·max|u''|, and at each sample the one-row kink |ΔP_i − ΔP_i−1|·u'/``row_s``."""
     d = np.diff(np.asarray(p_samples, dtype=float), axis=0)
     seg = np.linalg.norm(d, axis=1) * _hermite_ends(tau, rates[:-1], rates[1:])
-    turn = np.linalg.norm(np.diff(np.vstack([np.zeros(3), d, np.zeros(3)]), axis=0), axis=1)
+    zero = np.zeros((1, d.shape[1]))
+    turn = np.linalg.norm(np.diff(np.vstack([zero, d, zero]), axis=0), axis=1)
     return np.concatenate([seg, turn * rates / row_s])
 
 
@@ -80,7 +81,8 @@ def paced_time_law(p_samples: np.ndarray, duration_s: float, rate_hz: float, acc
     shortened to keep ``duration_s``). At rest at both ends. Returns the best of ``rounds``."""
     p = np.asarray(p_samples, dtype=float)
     d = np.diff(p, axis=0)
-    turn = np.linalg.norm(np.diff(np.vstack([np.zeros(3), d, np.zeros(3)]), axis=0), axis=1)
+    zero = np.zeros((1, d.shape[1]))
+    turn = np.linalg.norm(np.diff(np.vstack([zero, d, zero]), axis=0), axis=1)
     row_s = 1.0 / rate_hz
     cap = np.where(turn > 0, accel_max * row_s / np.maximum(turn, 1e-12), np.inf)
     tau = min_jerk_segment_times(len(p) - 1, duration_s)

@@ -56,6 +56,7 @@ __all__ = [
     "robot_transforms",
     "seconds",
     "stamps",
+    "step_markers",
     "swing_path_markers",
     "topics_markdown",
     "urdf_message",
@@ -378,6 +379,30 @@ def cube_marker(ns: str, ident: int, centre, size, rgba, frame_id: str = "world"
     return {"header": header(0.0, frame_id), "ns": ns, "id": ident, "type": 1, "action": 0,
             "pose": {"position": _xyz(centre), "orientation": _xyzw((0.0, 0.0, 0.0, 1.0))},
             "scale": _xyz(size), "color": _color(rgba)}
+
+
+def step_markers(steps: Iterable[dict], frame_id: str = "world") -> dict:
+    """``/sim/steps``: per landing (``foothold_m``, ``landed_m`` [m], ``error_m``, ``slip_m`` [m], ``turn_rad``
+    [rad], ``step``): a green SPHERE at the foothold, an orange one where the sole landed, a LINE_STRIP between
+    them and a TEXT_VIEW_FACING label above: the step, its landing error, the support sole's slip and turn."""
+    markers = []
+    for k, st in enumerate(steps):
+        foot, landed = np.asarray(st["foothold_m"], dtype=float), np.asarray(st["landed_m"], dtype=float)
+        base = {"header": header(0.0, frame_id), "ns": f"step_{st['step']}", "action": 0}
+        ident = 4 * k
+        for j, (where, rgba) in enumerate(((foot, (0.2, 0.8, 0.2, 0.9)), (landed, (1.0, 0.55, 0.1, 0.9)))):
+            markers.append({**base, "id": ident + j, "type": 2, "scale": _xyz((0.012, 0.012, 0.012)),
+                            "pose": {"position": _xyz(where), "orientation": _xyzw((0.0, 0.0, 0.0, 1.0))},
+                            "color": _color(rgba)})
+        markers.append({**base, "id": ident + 2, "type": 4, "scale": {"x": 0.002},
+                        "pose": {"orientation": _xyzw((0.0, 0.0, 0.0, 1.0))}, "color": _color((1.0, 1.0, 1.0, 1.0)),
+                        "points": _xyz(np.vstack([foot, landed]))})
+        text = (f"step {st['step']}: {1000 * st['error_m']:.1f} mm off; support slip {1000 * st['slip_m']:.1f} mm, "
+                f"turn {np.degrees(st['turn_rad']):+.2f} deg")
+        markers.append({**base, "id": ident + 3, "type": 9, "scale": {"z": 0.02}, "text": text,
+                        "pose": {"position": _xyz(landed + np.array([0.0, 0.0, 0.06])),
+                                 "orientation": _xyzw((0.0, 0.0, 0.0, 1.0))}, "color": _color((1.0, 1.0, 1.0, 1.0))})
+    return {"markers": markers}
 
 
 def carton_markers(cartons: Iterable) -> dict:

@@ -22,6 +22,7 @@ from jethr1_plan.files.mcap import (
     header,
     pose_stamped,
     robot_transforms,
+    step_markers,
     urdf_message,
 )
 from jethr1_plan.robot.model import RobotModel
@@ -40,13 +41,17 @@ SIMULATION_TOPICS: dict[str, Topic] = {
                          "at 50 Hz: the thrust each fan applied [N] and the frame it acts at (`sim/left_fan` …)"),
     "/sim/com": Topic(POSE, False, "at 50 Hz: the twin's centre of mass"),
     "/sim/cop": Topic(POSE, False, "at 50 Hz while a sole bears weight: the centre of pressure"),
+    "/sim/steps": Topic(MARKERS, True, "per landing: the foothold (green sphere), where the sole landed (orange), a "
+                                       "line between them and a label: the landing's error, the support sole's slip "
+                                       "and turn over the swing"),
 }
 
 
 def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
     """The MCAP bytes of a rehearsal's ``record`` (``t`` [s], ``qpos`` (N, 7 + J): position, w-x-y-z
     quaternion and joints, ``thrust`` (N, F) [N], ``com`` (N, 3) [m], ``cop`` per sample (3,) [m] or
-    None)."""
+    None; ``steps``: per landing the judge's record, ``sim.run.StepJudge``, with ``foothold_m`` and
+    ``foothold_error_m`` where the foothold is not the plan's landing)."""
     out = Ros2Mcap(SIMULATION_TOPICS)
     out.write("/sim/robot_description", 0.0, urdf_message(robot, PREFIX))
     out.write("/terrain", 0.0, carton_markers(cartons))
@@ -64,4 +69,8 @@ def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
         if has.any():
             cop = np.array([c for c in record["cop"] if c is not None], dtype=float)
             out.write_rows("/sim/cop", t[has], pose_stamped(t[has], "world", cop))
+    out.write("/sim/steps", 0.0, step_markers(
+        {"step": st["step"], "foothold_m": st.get("foothold_m", st["target_m"]), "landed_m": st["landed_m"],
+         "error_m": st.get("foothold_error_m", st["landing_error_m"]), "slip_m": st["support_slip_m"],
+         "turn_rad": st["support_turn_rad"]} for st in record.get("steps", [])))
     return out.finish()

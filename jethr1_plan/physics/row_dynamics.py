@@ -13,6 +13,12 @@
 * **The multibody ZMP**: (−n_y/f_z, n_x/f_z) of the ground's share, the point the soles' pressure
   must be centred on for the rows to be executed as written; with v = a = 0 it is the quasistatic
   ZMP of (A-1, A-2). Its signed distance to the support polygon is the dynamic margin.
+* **What the soles' friction must hold**: the ground's horizontal force over its vertical one (the
+  friction ratio, against the soles' μ), and its moment about the vertical through the ZMP,
+  M_z = n_z − (z_x·f_y − z_y·f_x): the twist the soles must resist without turning. A sole pressed
+  evenly over a disc of radius ρ around the ZMP resists up to (2/3)·μ·f_z·ρ (the friction of each
+  ring, μ·p·r, integrated over the disc): with ρ the ZMP's margin inside the support, that is
+  :func:`twist_capacity`, a lower bound on what a sole whose pressure is centred there holds.
 """
 
 from __future__ import annotations
@@ -27,7 +33,14 @@ from jethr1_plan.geometry import SIDES, convex_hull, polygon_margin, pose_differ
 if TYPE_CHECKING:
     from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["RowDynamics", "ground_wrench", "row_derivatives", "row_dynamics"]
+__all__ = ["RowDynamics", "ground_wrench", "row_derivatives", "row_dynamics", "twist_capacity"]
+
+
+def twist_capacity(mu: float, vertical_force_n: np.ndarray, margin_m: np.ndarray) -> np.ndarray:
+    """(2/3)·μ·f_z·ρ [N·m]: the yaw moment a sole pressed evenly over the disc of radius ρ (``margin_m``,
+    the ZMP's margin inside the support) around the ZMP resists by friction μ (the module docstring);
+    0 where ρ ≤ 0 or f_z ≤ 0."""
+    return (2.0 / 3.0) * mu * np.maximum(vertical_force_n, 0.0) * np.maximum(margin_m, 0.0)
 
 
 def row_derivatives(base: np.ndarray, q: np.ndarray, dt: float, ends: str = "hold") -> tuple[np.ndarray, np.ndarray]:
@@ -70,13 +83,16 @@ def ground_wrench(T_base: np.ndarray, base_rows: np.ndarray) -> tuple[np.ndarray
 @dataclass(frozen=True)
 class RowDynamics:
     """Per row (N,): the multibody ZMP of the ground's share [m] (N, 2), its margin in the support
-    polygon [m] (positive inside), the ground's vertical force [N] and friction ratio |f_xy|/f_z.
+    polygon [m] (positive inside), the ground's vertical force [N], friction ratio |f_xy|/f_z and yaw
+    moment about the ZMP [N·m].
     The first and last rows see beyond the rows (the robot held at rest there)."""
 
     zmp: np.ndarray
     margin: np.ndarray
     vertical_force_n: np.ndarray
     friction_ratio: np.ndarray
+    yaw_moment_nm: np.ndarray | None = None  # the ground's moment about the vertical through the ZMP [N·m]
+    capacity_nm: np.ndarray | None = None  # the soles' twist capacity there, :func:`twist_capacity` [N·m]
 
     def least(self) -> tuple[int, float]:
         """(row, margin [m]) of the least dynamic margin over the inner rows (N > 2), else over all."""
@@ -100,7 +116,7 @@ def row_dynamics(robot: RobotModel, base: np.ndarray, q: np.ndarray, thrust_n: n
     fan_frames = [f.frame for f in robot.fans]
     n = len(q)
     zmp, margin = np.zeros((n, 2)), np.zeros(n)
-    fz, friction = np.zeros(n), np.zeros(n)
+    fz, friction, twist = np.zeros(n), np.zeros(n), np.zeros(n)
     hulls: dict[bytes, np.ndarray] = {}
     for i in range(n):
         w.set_T_world_fbase(base[i])
@@ -118,6 +134,7 @@ def row_dynamics(robot: RobotModel, base: np.ndarray, q: np.ndarray, thrust_n: n
         zmp[i] = (-moment[1] / f[2], moment[0] / f[2]) if f[2] > 0 else (np.nan, np.nan)
         fz[i] = f[2]
         friction[i] = np.hypot(f[0], f[1]) / f[2] if f[2] > 0 else np.inf
+        twist[i] = moment[2] - (zmp[i, 0] * f[1] - zmp[i, 1] * f[0]) if f[2] > 0 else np.nan
         down = SIDES if support[i] not in SIDES else (str(support[i]),)
         placed = [w.get_T_world_frame(soles[s]) for s in down]
         key = np.round([(T[0, 3], T[1, 3], T[0, 0], T[1, 0]) for T in placed], 9).tobytes()
@@ -127,4 +144,4 @@ def row_dynamics(robot: RobotModel, base: np.ndarray, q: np.ndarray, thrust_n: n
                                   robot.sole_width_m) for T in placed]
             poly = hulls[key] = polys[0] if len(polys) == 1 else convex_hull(np.vstack(polys))
         margin[i] = float(polygon_margin(zmp[i], poly)) if f[2] > 0 else -np.inf
-    return RowDynamics(zmp, margin, fz, friction)
+    return RowDynamics(zmp, margin, fz, friction, twist, twist_capacity(robot.sole_friction, fz, margin))

@@ -46,6 +46,7 @@ __all__ = [
 ]
 
 STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
+GRIP_SAFETY = 2.0  # the rows' motion may need at most μ / this of friction
 
 Progress = Callable[[str, int, int], None]  # progress(label, done, total)
 
@@ -281,7 +282,8 @@ def row_solver(robot: RobotModel, given: PostureSolver | None = None, kinematics
 def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) -> dict | None:
     """Add Paper B's per-row figures (static torques, κ, yaw momentum) and the rows' dynamics
     (:func:`plan_row_dynamics`) to ``rows``; mark infeasible the rows whose motion needs the ground to
-    pull (a vertical ground force ≤ 0) and, under ``strict_torque``, torques above the servo limits.
+    pull (a vertical ground force ≤ 0) or more friction than μ / ``GRIP_SAFETY`` (``physics.row_dynamics``),
+    and, under ``strict_torque``, torques above the servo limits.
     Returns the first such row."""
     a = analyse_rows(robot, rows, dt)
     c = rows.columns
@@ -304,6 +306,13 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     for i in (np.flatnonzero(dyn.vertical_force_n[1:-1] <= 0.0) + 1).tolist():  # the stencil's inner rows
         bad.setdefault(i, f"the rows' motion needs the ground to pull ({dyn.vertical_force_n[i]:.1f} N vertical): "
                           "the trunk falls faster than gravity")
+    # the soles' grip, with a margin: the friction the rows' motion needs within μ / GRIP_SAFETY (the twist
+    # about the ZMP is the swings' pacing's, ``sequence.pace_swing``)
+    mu = robot.sole_friction
+    inner = np.arange(1, len(rows) - 1)
+    for i in inner[dyn.friction_ratio[inner] > mu / GRIP_SAFETY].tolist():
+        bad.setdefault(i, f"the rows' motion needs a friction ratio of {dyn.friction_ratio[i]:.2f}, more than the "
+                          f"soles' μ {mu:g} / {GRIP_SAFETY:g}")
     first = None
     for i in sorted(bad):
         c["feasible"][i] = False

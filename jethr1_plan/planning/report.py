@@ -110,7 +110,21 @@ def dynamics_summary(rows: Rows, dyn: RowDynamics) -> dict:
             "max_shift_from_quasistatic_m": finite_or_none(float(np.nanmax(np.linalg.norm(
                 dyn.zmp[1:-1] - rows.array("zmp")[1:-1].astype(float), axis=1), initial=0.0))),
             "least_vertical_force_n": float(np.min(dyn.vertical_force_n[1:-1], initial=np.inf)),
+            **_grip(dyn),
             "paced_swings": [dict(p) for p in rows.paced]}
+
+
+def _grip(dyn: RowDynamics) -> dict:
+    """What the soles' friction must hold over the inner rows: the peak friction ratio and the peak yaw moment
+    about the ZMP, and that moment over the twist capacity of the sole (``physics.row_dynamics``)."""
+    if dyn.yaw_moment_nm is None or len(dyn.margin) < 3 or dyn.capacity_nm is None:
+        return {}
+    inner = slice(1, -1)
+    twist = np.abs(dyn.yaw_moment_nm[inner])
+    ratio = np.where(dyn.capacity_nm[inner] > 0, twist / np.maximum(dyn.capacity_nm[inner], 1e-12), np.inf)
+    return {"peak_friction_ratio": finite_or_none(float(np.nanmax(dyn.friction_ratio[inner], initial=0.0))),
+            "peak_yaw_moment_nm": finite_or_none(float(np.nanmax(twist, initial=0.0))),
+            "peak_yaw_moment_to_capacity": finite_or_none(float(np.nanmax(ratio, initial=0.0)))}
 
 
 def plan_summary(result: PlanResult) -> dict:
@@ -177,13 +191,10 @@ def plan_summary(result: PlanResult) -> dict:
         if shares is not None:
             robustness["tolerance_share"] = shares
         out["robustness"] = robustness
-        from jethr1_plan.control.swing_placement import PlacementGains, placement_law
-        from jethr1_plan.control.thrust_feedback import Gains, law
+        from jethr1_plan.control.feedback import controller_summary
 
         tol = sc.balance.tolerance
-        controller = law(Gains.of(result.robot), tol.thrust, tol.mass, sc.balance.thrust_max_n)
-        controller["swing_placement"] = placement_law(PlacementGains())  # (simulate --controller feedback)
-        out["controller"] = controller
+        out["controller"] = controller_summary(result.robot, tol.thrust, tol.mass, sc.balance.thrust_max_n)
         if "tau" in rows.columns:
             tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
             ratio = rows.analysis["ratio"]

@@ -23,13 +23,19 @@ from jethr1_plan.robot.schema import LEG_ROLES, read_robot_yaml
 from jethr1_plan.robot.urdf import UrdfJoint, check_urdf, geometry_boxes, quiet_stderr, urdf_joints
 
 __all__ = [
+    "LAW_SENSORS",
     "LEG_ROLES",
     "ROBOTS_DIR",
     "SOLE_FRICTION",
     "ControllerSettings",
+    "EncoderSpec",
     "Fan",
+    "ImuLawSettings",
+    "ImuSpec",
     "Leg",
     "RobotModel",
+    "Sensors",
+    "SoleSensorSpec",
     "TwinSettings",
     "UrdfJoint",
     "WalkingStructure",
@@ -143,19 +149,102 @@ class WalkingStructure:
 
 
 @dataclass(frozen=True)
+class ImuLawSettings:
+    """The robot YAML's ``controller.imu_tilt_pid``: the IMU thrust law's gains (SI units); None where the
+    YAML leaves the law's default (``control.imu_thrust.ImuGains``)."""
+
+    kp_n_per_rad: float | None = None  # proportional gain on the trunk's tilt towards the fan [N/rad]
+    ki_n_per_rad_s: float | None = None  # integral gain [N/(rad·s)]
+    kd_n_s_per_rad: float | None = None  # derivative gain, on the gyro's rate [N·s/rad]
+    leak_time_s: float | None = None  # the integral's decay time in double support [s]
+
+    def given(self) -> dict[str, float]:
+        """The settings the YAML gives."""
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
 class ControllerSettings:
-    """The robot YAML's ``controller:``: the thrust feedback law's settings (SI units); None where the
-    YAML leaves the law's default (``control.thrust_feedback.Gains``)."""
+    """The robot YAML's ``controller:``: which thrust feedback law the robot runs (``law``, None: the one
+    its sensors allow, :meth:`RobotModel.feedback_law`), the loop rate, the centre-of-pressure law's
+    settings (flat, as before the IMU law: ``control.thrust_feedback.Gains``) and the IMU law's
+    (``imu_tilt_pid``); None where the YAML leaves a default. SI units."""
 
     rate_hz: float | None = None  # loop rate [Hz]
     band_margin_m: float | None = None  # how close to the sole's edge the CoP may come [m]
     kp_n_per_m: float | None = None  # proportional gain [N/m]
     ki_n_per_m_s: float | None = None  # integral gain [N/(m·s)]
     leak_time_s: float | None = None  # the integral's decay time inside the band [s]
+    law: str | None = None  # imu_tilt_pid | cop_edge_pi
+    imu_tilt_pid: ImuLawSettings = ImuLawSettings()
 
     def given(self) -> dict[str, float]:
-        """The settings the YAML gives."""
-        return {k: v for k, v in asdict(self).items() if v is not None}
+        """The centre-of-pressure law's settings (and the rate) the YAML gives."""
+        return {k: v for k, v in asdict(self).items() if v is not None and k not in ("law", "imu_tilt_pid")}
+
+
+@dataclass(frozen=True)
+class ImuSpec:
+    """An IMU on the trunk (the robot YAML's ``sensors.imu``): what it measures is the trunk's attitude
+    (roll, pitch from gravity; yaw integrated from the gyro) and angular rate; SI units. Noise is white
+    (1 σ per sample); a bias is constant over a run, drawn within ± the bound by randomised trials."""
+
+    frame: str  # the frame it is fixed to (the trunk)
+    attitude_noise_rad: float = 0.0  # [rad] 1 σ on roll and pitch (and yaw)
+    attitude_bias_rad: float = 0.0  # [rad] bound of the roll and pitch bias
+    rate_noise_rad_s: float = 0.0  # [rad/s] 1 σ per axis
+    rate_bias_rad_s: float = 0.0  # [rad/s] bound of the gyro's bias per axis
+    yaw_drift_rad_s: float = 0.0  # [rad/s] bound of the heading's drift (the gyro's z bias, integrated)
+    delay_s: float = 0.0  # [s] from the motion to the reading
+
+
+@dataclass(frozen=True)
+class EncoderSpec:
+    """The joints' encoders (``sensors.encoders``): each servo's output angle; SI units."""
+
+    noise_rad: float = 0.0  # [rad] 1 σ per sample
+    resolution_rad: float = 0.0  # [rad] the reading is a multiple of this (0: continuous)
+    offset_rad: float = 0.0  # [rad] bound of each joint's zero offset (calibration), drawn by randomised trials
+    delay_s: float = 0.0  # [s]
+
+
+@dataclass(frozen=True)
+class SoleSensorSpec:
+    """Force sensors under each sole (``sensors.soles``): the normal force and its centre of pressure in the
+    sole's frame; SI units."""
+
+    force_noise_n: float = 0.0  # [N] 1 σ
+    cop_noise_m: float = 0.0  # [m] 1 σ per axis
+    delay_s: float = 0.0  # [s]
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """What the robot measures (the robot YAML's ``sensors:``): the twin's controllers see the robot only
+    through these (``sim.sensors``). ``perception_error_m``: how well the robot knows where the next
+    foothold lies relative to its support sole when it plans a step from where it stands (a person or a
+    camera measuring the cartons) [m], a bound."""
+
+    imu: ImuSpec | None = None
+    encoders: EncoderSpec | None = None
+    soles: SoleSensorSpec | None = None
+    perception_error_m: float = 0.0
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The sensors present, by name: ``imu``, ``encoders``, ``soles``."""
+        return tuple(n for n in ("imu", "encoders", "soles") if getattr(self, n) is not None)
+
+    def describe(self) -> dict:
+        """The declaration as ``summary.json`` and ``simulation.json`` state it (SI units)."""
+        return {"imu": None if self.imu is None else asdict(self.imu),
+                "encoders": None if self.encoders is None else asdict(self.encoders),
+                "soles": None if self.soles is None else asdict(self.soles),
+                "perception": {"landing_error_m": self.perception_error_m}}
+
+
+#: what each thrust law reads (``controller.law``): the sensors it needs
+LAW_SENSORS = {"imu_tilt_pid": ("imu", "encoders"), "cop_edge_pi": ("soles", "encoders")}
 
 
 @dataclass(frozen=True)
@@ -206,6 +295,19 @@ class RobotModel:
     controller: ControllerSettings  # the thrust feedback law's settings (control.thrust_feedback.Gains)
     twin: TwinSettings  # contact settings of the twin (sim.twin.TwinParams)
     walking: WalkingStructure = WalkingStructure()
+    sensors: Sensors = Sensors()  # what the robot measures (none declared: only feed-forward runs)
+    #: how far a landing executed step by step in the twin comes from its foothold (the YAML's
+    #: ``execution.landing_error_m``: measured, the 99th percentile over randomised trials) [m]; None: not measured
+    landing_error_m: float | None = None
+
+    @property
+    def feedback_law(self) -> str | None:
+        """The thrust feedback law the robot runs: the YAML's ``controller.law``, else the IMU law where
+        the robot has an IMU and encoders, else the CoP law where its soles are sensed, else None."""
+        if self.controller.law is not None:
+            return self.controller.law
+        have = set(self.sensors.names)
+        return next((law for law, need in LAW_SENSORS.items() if have >= set(need)), None)
 
     @property
     def leg_index(self) -> np.ndarray:
@@ -418,10 +520,52 @@ def _load(yaml_path: Path) -> RobotModel:
         servo_stiffness_nm_per_rad=servo_k,
         servo_damping_nms_per_rad=servo_k * derivative,
         armature_kgm2=float(servos.get("armature_kgm2", 0.003)),
-        controller=ControllerSettings(**{k: float(v) for k, v in doc.get("controller", {}).items()}),
+        controller=_controller(doc, src),
         twin=TwinSettings(**{k: float(v) for k, v in doc.get("twin", {}).items()}),
         walking=_walking(doc, names, frames, legs, src),
+        sensors=_sensors(doc, trunk, frames, src),
+        landing_error_m=(None if "landing_error_m" not in doc.get("execution", {})
+                         else float(doc["execution"]["landing_error_m"])),
     )
+
+
+def _controller(doc: dict, src: str) -> ControllerSettings:
+    """``controller:``: the law's name, the rate, the CoP law's flat settings and ``imu_tilt_pid``."""
+    block = dict(doc.get("controller", {}))
+    law = block.pop("law", None)
+    imu = ImuLawSettings(**{k: float(v) for k, v in block.pop("imu_tilt_pid", {}).items()})
+    out = ControllerSettings(**{k: float(v) for k, v in block.items()}, law=law, imu_tilt_pid=imu)
+    if law is not None:
+        have = set(_sensor_names(doc))
+        missing = [n for n in LAW_SENSORS[law] if n not in have]
+        if missing:
+            raise RobotModelError(src, "controller.law", f"{law} reads the {' and '.join(missing)}; sensors: declares "
+                                  f"{', '.join(sorted(have)) or 'none'}")
+    return out
+
+
+def _sensor_names(doc: dict) -> list[str]:
+    block = doc.get("sensors", {})
+    return [n for n in ("imu", "encoders", "soles") if block.get(n) is not None]
+
+
+def _sensors(doc: dict, trunk: str, frames: set[str], src: str) -> Sensors:
+    """``sensors:``: the IMU (on the trunk), the encoders, the soles' force sensors, the perception error."""
+    block = doc.get("sensors", {})
+    imu = block.get("imu")
+    if imu is not None:
+        imu = dict(imu)
+        frame = imu.pop("frame", trunk)
+        if frame != trunk:
+            raise RobotModelError(src, "sensors.imu.frame", f"{frame!r}: the IMU is modelled on the trunk ({trunk!r})"
+                                  if frame in frames else f"frame {frame!r} not in the URDF")
+        imu = ImuSpec(frame, **{k: float(v) for k, v in imu.items()})
+    enc = block.get("encoders")
+    soles = block.get("soles")
+    return Sensors(imu=imu,
+                   encoders=None if enc is None else EncoderSpec(**{k: float(v) for k, v in enc.items()}),
+                   soles=None if soles is None else SoleSensorSpec(**{k: float(v) for k, v in soles.items()}),
+                   perception_error_m=float(block.get("perception", {}).get("landing_error_m", 0.0)))
 
 
 def _walking(doc: dict, joints: tuple[str, ...], frames: set[str], legs: dict[str, Leg], src: str

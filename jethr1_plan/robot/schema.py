@@ -14,10 +14,12 @@ from pathlib import Path
 from jethr1_plan.errors import InputError, RobotModelError
 from jethr1_plan.io.yaml_input import read_document, read_text
 
-__all__ = ["LEG_ROLES", "MAX_ROBOT_BYTES", "SCHEMA", "read_robot_yaml"]
+__all__ = ["LAWS", "LEG_ROLES", "MAX_ROBOT_BYTES", "SCHEMA", "read_robot_yaml"]
 
 #: a leg's six joints by role, hip to ankle: the closed-form IK's structure (kinematics.closed_form)
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+#: the thrust feedback laws a robot YAML may name (``controller.law``): on the trunk's IMU, on the soles' CoP
+LAWS = ("imu_tilt_pid", "cop_edge_pi")
 MAX_ROBOT_BYTES = 1_000_000  # a robot YAML is a few kilobytes
 MAX_VALUES = 20_000  # values in the document, aliases expanded (Jet-HR1's has about 150)
 
@@ -70,12 +72,43 @@ SCHEMA = _obj({
             "gear_ratio": _num(0, 1e4, lo_open=True)}, ("servos", "gear_ratio"))},
     }, ("stall_torque_nm", "joints")),
     "controller": _obj({
+        "law": {"enum": list(LAWS)},
         "rate_hz": _num(0, 1e4, lo_open=True),
         "band_margin_m": _num(0, 0.5),
         "kp_n_per_m": _num(0, 1e7),
         "ki_n_per_m_s": _num(0, 1e8),
         "leak_time_s": _num(0, 1e3, lo_open=True),
+        "imu_tilt_pid": _obj({
+            "kp_n_per_rad": _num(0, 1e6),
+            "ki_n_per_rad_s": _num(0, 1e7),
+            "kd_n_s_per_rad": _num(0, 1e5),
+            "leak_time_s": _num(0, 1e3, lo_open=True),
+        }),
     }),
+    "sensors": _obj({
+        "imu": {"type": ["object", "null"], "properties": {
+            "frame": _name,
+            "attitude_noise_rad": _num(0, 0.5),
+            "attitude_bias_rad": _num(0, 0.5),
+            "rate_noise_rad_s": _num(0, 10),
+            "rate_bias_rad_s": _num(0, 10),
+            "yaw_drift_rad_s": _num(0, 1),
+            "delay_s": _num(0, 1),
+        }, "additionalProperties": False},
+        "encoders": {"type": ["object", "null"], "properties": {
+            "noise_rad": _num(0, 0.5),
+            "resolution_rad": _num(0, 0.5),
+            "offset_rad": _num(0, 0.5),
+            "delay_s": _num(0, 1),
+        }, "additionalProperties": False},
+        "soles": {"type": ["object", "null"], "properties": {
+            "force_noise_n": _num(0, 1e4),
+            "cop_noise_m": _num(0, 0.5),
+            "delay_s": _num(0, 1),
+        }, "additionalProperties": False},
+        "perception": _obj({"landing_error_m": _num(0, 0.5)}),
+    }),
+    "execution": _obj({"landing_error_m": _num(0, 0.5)}),
     "twin": _obj({
         "timestep_s": _num(0, 0.01, lo_open=True),
         "sole_friction": _num(0, 10, lo_open=True),

@@ -40,4 +40,7 @@ def robot_summary(model: RobotModel) -> dict:
         "stance_width_m": model.stance_width_m,
         "sole": {"length_m": model.sole_length_m, "width_m": model.sole_width_m},
         "weight_n": model.mass_kg * GRAVITY,
+        "sensors": model.sensors.describe(),
+        "feedback_law": model.feedback_law,
+        "landing_error_m": model.landing_error_m,
     }

@@ -140,7 +140,9 @@ def route_scenario_text(terrain: Terrain, holds: Footholds, steps: list[RouteSte
     for k, st in enumerate(steps):
         land = [float(v) for v in holds.xyz[st.to]]
         step = {"swing": st.swing, "landing_m": land,
-                "path": {"kind": "arc", "clearance_m": float(st.edge.clearance_m), "samples": int(opt.samples)}}
+                "path": {"kind": "arc", "clearance_m": float(st.edge.clearance_m), "samples": int(opt.samples),
+                         **({"lift_m": float(opt.lift_m)} if opt.lift_m > 0 else {}),
+                         **({"descent_m": float(opt.descent_m)} if opt.descent_m > 0 else {})}}
         lines.append(f"  - {_flow(step)}  # {k + 1}: onto {names[holds.carton[st.to]]}; map: peak "
                      f"{st.edge.peak_n:.2f} N, mean {st.edge.mean_n:.2f} N, margin {1000 * st.edge.margin_m:.0f} mm")
     text = "\n".join(lines) + "\n"

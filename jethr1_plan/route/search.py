@@ -1,8 +1,9 @@
 """The footstep search over carton tops, on the balance space.
 
 **Footholds.** Candidate sole centres on every carton top: a grid ``foothold_spacing_m`` apart,
-symmetric about the top's centre, every sole (flat, yaw 0) inside the top by ``edge_margin_m``; the
-start soles are footholds too.
+symmetric about the top's centre, and the sole as far to each side as the margin lets it where the grid
+stops short of that, every sole (flat, yaw 0) inside the top by ``edge_margin_m`` (by default the
+robot's measured landing error); the start soles are footholds too.
 
 **States and steps.** A state is where both soles stand (two footholds) and which foot swung last;
 either foot may swing next, so a route may step twice with the same foot (Paper A's trial does). A step
@@ -95,7 +96,10 @@ def footholds(terrain: Terrain) -> Footholds:
         for size, sole in ((c.size_m[0], L), (c.size_m[1], W)):
             half = (size - sole) / 2 - opt.edge_margin_m
             n = math.floor(half / s + 1e-9) if half >= 0 else -1
-            axes.append(np.arange(-n, n + 1) * s if n >= 0 else np.zeros(0))
+            axis = np.arange(-n, n + 1) * s if n >= 0 else np.zeros(0)
+            if n >= 0 and half - n * s > 1e-6:  # the sole as far to each side as the margin lets it
+                axis = np.concatenate([[-half], axis, [half]])
+            axes.append(axis)
         for dx in axes[0]:
             for dy in axes[1]:
                 p = np.array([round(cx + dx, 6), round(cy + dy, 6), cz])
@@ -227,7 +231,7 @@ class StepModel:
         for clearance in opt.clearances_m:
             # an arc at most a half circle (the sole never moves back), but for the lowest of the list
             tall = (clearance > chord / 2) & (clearance > lowest)
-            paths = arc_paths(self.holds.xyz[frm], ends, clearance, opt.samples)  # (K, N, 3)
+            paths = arc_paths(self.holds.xyz[frm], ends, clearance, opt.samples, opt.lift_m, opt.descent_m)  # (K, N, 3)
             rel = paths - sup
             ok, thrust, margin, reason, need = m.lookup(rel)
             far = np.any(np.linalg.norm(rel, axis=2) > self.span, axis=1)

@@ -65,6 +65,8 @@ TERRAIN_SCHEMA = {
             "clearances_m": {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.5},
                              "minItems": 1, "maxItems": 5},
             "samples": {"type": "integer", "minimum": 5, "maximum": 200},
+            "lift_m": {"type": "number", "minimum": 0, "maximum": 0.1},
+            "descent_m": {"type": "number", "minimum": 0, "maximum": 0.1},
             "map_resolution_m": {"type": "number", "minimum": 0.01, "maximum": 0.1},  # 1 cm: ~8 min once, cached
             "cost": {"type": "object", "additionalProperties": False, "properties": {
                 "step": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}, "peak_thrust": _weight,
@@ -91,15 +93,22 @@ class CostWeights:
     edge_m: float = 0.025
 
 
+#: candidate soles lie inside their carton's top by this, for a robot with no measured landing error [m]
+DEFAULT_EDGE_MARGIN_M = 0.005
+
+
 @dataclass(frozen=True)
 class RouteOptions:
     """``route:`` of a terrain."""
 
     foothold_spacing_m: float = 0.02  # candidate sole centres on a carton top, this far apart [m]
-    edge_margin_m: float = 0.005  # each candidate sole lies this far inside its carton's top [m] (the twin lands
-    #                               2 to 5 mm off a first foothold: docs/route.md)
+    #: each candidate sole lies this far inside its carton's top [m]; a terrain that does not say takes the robot's
+    #: measured landing error (its YAML's execution.landing_error_m: docs/route.md), else DEFAULT_EDGE_MARGIN_M
+    edge_margin_m: float = 0.005
     clearances_m: tuple[float, ...] = (0.1, 0.07, 0.05)  # the arcs tried for each step, in this order (sagitta) [m]
     samples: int = 25  # swing samples per step (route.yaml's arcs)
+    lift_m: float = 0.02  # each swing leaves its carton straight up by this, then its arc [m] (swing_path)
+    descent_m: float = 0.02  # and comes down on the next straight down from this high [m]
     map_resolution_m: float = 0.02  # the balance-space map's grid [m] (docs/route.md: measured)
     cost: CostWeights = field(default_factory=CostWeights)
 
@@ -180,6 +189,8 @@ def load_terrain_text(text: str, src: str) -> Terrain:
     cost = fill_dataclass(CostWeights(), opts.pop("cost", {}))
     if "clearances_m" in opts:
         opts["clearances_m"] = tuple(float(c) for c in opts["clearances_m"])
+    if "edge_margin_m" not in opts:
+        opts["edge_margin_m"] = robot.landing_error_m if robot.landing_error_m is not None else DEFAULT_EDGE_MARGIN_M
     options = fill_dataclass(RouteOptions(), opts, cost=cost)
     return Terrain(source=src, name=doc.get("name", Path(src).stem), doc=doc, base=base, names=names, goal=goal,
                    limits=limits, options=options, text=text)

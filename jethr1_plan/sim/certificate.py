@@ -24,6 +24,7 @@ import math
 
 import numpy as np
 
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.sim.rehearsal import Perturbation, RunResult
 
 __all__ = ["CONFIDENCE", "METHOD", "certificate", "clopper_pearson", "describe", "draws"]
@@ -47,15 +48,20 @@ def clopper_pearson(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[flo
     return lo, hi
 
 
-def draws(seed: int, n: int, randomisation: str = "default", tolerance: dict | None = None) -> list[Perturbation]:
-    """The ``n`` trials' model errors: trial k from ``default_rng([seed, k])``."""
+def draws(seed: int, n: int, randomisation: str = "default", tolerance: dict | None = None,
+          robot: RobotModel | None = None) -> list[Perturbation]:
+    """The ``n`` trials' model errors: trial k from ``default_rng([seed, k])``; with the ``robot``, each
+    trial's sensor errors too (after the model's, from the same generator: the model errors do not depend
+    on whether the sensors are drawn)."""
     if randomisation not in RANDOMISATIONS:
         raise ValueError(f"randomisation {randomisation!r} is not one of {RANDOMISATIONS}")
+    sensors, joints = (robot.sensors, len(robot.joint_names)) if robot is not None else (None, 0)
     if randomisation == "within_tolerance":
         if tolerance is None:
             raise ValueError("within_tolerance needs the plan's tolerance")
-        return [Perturbation.draw_within(np.random.default_rng([seed, k]), tolerance) for k in range(n)]
-    return [Perturbation.draw(np.random.default_rng([seed, k])) for k in range(n)]
+        return [Perturbation.draw_within(np.random.default_rng([seed, k]), tolerance, sensors, joints)
+                for k in range(n)]
+    return [Perturbation.draw(np.random.default_rng([seed, k]), sensors, joints) for k in range(n)]
 
 
 def _bound(k: int, n: int) -> dict:
@@ -67,7 +73,10 @@ def _bound(k: int, n: int) -> dict:
 
 def _why(r: RunResult) -> str:
     if r.fell:
-        return f"fell: {r.fell['reason']} at {r.fell['phase']} row {r.fell['row']}"
+        return f"fell: {r.fell['reason']} at {r.fell['phase']} row {r.fell['row']}" + (
+            f" of step {r.fell['step']}" if "run_time_s" in r.fell else "")
+    if r.stopped:
+        return f"stopped: {r.stopped}"
     return "off the cartons at the end"
 
 

@@ -239,9 +239,11 @@ def run_tasks(tasks: dict[str, Task], cache: Path, jobs: int = 1, executor: str 
     elif jobs == 1:
         collect(_in_process(todo))
     else:
-        from joblib import Parallel, delayed
+        from joblib import delayed
 
-        with Parallel(n_jobs=min(jobs, len(todo)), return_as="generator_unordered") as par:
+        from jethr1_plan.io.pool import parallel
+
+        with parallel(min(jobs, len(todo)), return_as="generator_unordered") as par:  # workers die with the command
             collect(par(delayed(judge_task)(t) for t in todo))
     return results, timings
 

@@ -1,130 +1,115 @@
-"""``jethr1 replan-steps``: a multi-step scenario executed as a robot does it, one step at a time, each
-planned from where the previous one really landed.
+"""A written multi-step plan (a scenario's or a route's) executed step by step in the twin, as the robot
+would (``jethr1 simulate`` of a plan of several steps; ``jethr1 replan-steps``, its alias, plans a
+scenario first): each step planned again from where the robot estimates its soles stand
+(:mod:`jethr1_plan.sim.stepwise`), in one continuous twin run; randomised trials of it; and the steps
+executed, written as a plan folder of their own (``PLAN_DIR/executed/``).
 
-What the robot does between steps: after each swing the plan ends with a double-support transfer and
-the robot stands still. There it measures where both soles are (in the twin: the soles' poses at the
-end of the rehearsal's hold), and the next step is planned afresh from those measured soles to the
-scenario's landing of that step, which stays where the scenario puts it on its carton (a world
-target, not a displacement). An arc path is drawn again from the measured sole; a path of points
-keeps its shape and is re-anchored (:func:`reanchor`). So a step's landing error is that step's
-own, and errors do not add up from step to step, as they do when every step is planned from where
-the previous one was supposed to land (the whole scenario planned at once and replayed feed-forward).
-
-Each one-step scenario is a scenario file of its own (the original with ``start`` and ``steps``
-replaced), validated like any other, planned and checked by :func:`pipeline.plan.plan_to_folder`
-into ``OUT/<name>/<name>_step<k>/``, and rehearsed in the MuJoCo twin (``sim.rehearsal``). The
-rehearsal of a step starts from that plan's first row (the robot standing on the measured soles)
-after the twin's settling time: what carries over from step to step is where the soles are, not the
-twin's internal state (servo sag, contact forces); the robot is standing still there.
+The steps' own optimised postures are the plan's: the plan folder's scenario is planned again here
+(``planning.plan``, its optimiser and seed from ``summary.json``), and its rows must be the folder's, or
+the folder is not the plan its scenario makes now (another version, other options): bad input.
 """
 
 from __future__ import annotations
 
-import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from jethr1_plan.geometry import SIDES
-from jethr1_plan.scenario import Scenario, load_scenario_text
+from jethr1_plan.errors import InputError
+from jethr1_plan.files.plan_folder import PLAN_FILES, plan_scenario, write_plan
+from jethr1_plan.files.plan_table import joint_matrix, plan_table
+from jethr1_plan.planning.plan import plan
+from jethr1_plan.planning.report import plan_summary
+from jethr1_plan.planning.results import StepResult
+from jethr1_plan.scenario import Scenario
+from jethr1_plan.sim.stepwise import Execution, execute, executed_plan
+from jethr1_plan.sim.track import Perturbation, PlanTrack
 
-__all__ = ["measured_soles", "reanchor", "replan_steps", "step_scenario"]
+__all__ = ["EXECUTED", "EXECUTED_FILES", "execution_record", "nominal_plan", "run_steps", "write_executed"]
 
-
-def reanchor(points_m: np.ndarray, start_m: np.ndarray) -> np.ndarray:
-    """A swing path (N, 3) [m] moved to begin at ``start_m``: the offset of its first point fades out
-    along the path's length (a smoothstep), so its last point, the landing, stays where it was."""
-    pts = np.asarray(points_m, dtype=float)
-    length = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    s = length / length[-1] if length[-1] > 0 else np.linspace(0.0, 1.0, len(pts))
-    fade = 1.0 - s * s * (3.0 - 2.0 * s)
-    out = pts + fade[:, None] * (np.asarray(start_m, dtype=float) - pts[0])
-    out[0], out[-1] = start_m, pts[-1]
-    return out
+EXECUTED = "executed"  # the executed steps' plan folder, inside the plan folder
+EXECUTED_FILES = PLAN_FILES | {"executed.yaml"}
 
 
-def step_scenario(scenario: Scenario, k: int, feet_m: dict[str, np.ndarray]) -> Scenario:
-    """Step ``k`` of ``scenario`` alone, from soles at ``feet_m`` [m] (side -> (3,)) to the scenario's
-    landing of that step, as a scenario file of its own (named ``<name>_step<k>``).
+def nominal_plan(folder: Path, summary: dict, track: PlanTrack) -> tuple[Scenario, list[StepResult]]:
+    """The plan folder's scenario (its policy as ``summary.json`` states it) and its steps as the planner
+    optimises them now.
 
     Raises:
-        InputError: the measured soles or the step from them break the scenario's rules (a sole off
-            its carton, a path into a carton).
+        InputError: no scenario to plan from, or its plan is not the folder's.
     """
-    doc = yaml.safe_load(scenario.text)
-    step = dict(doc["steps"][k])
-    path = dict(step.get("path", {"kind": "arc"}))
-    if path["kind"] == "points":
-        path["points_m"] = reanchor(np.array(path["points_m"], dtype=float), feet_m[step["swing"]]).tolist()
-        step["path"] = path
-    doc.update(name=f"{scenario.name}_step{k}", start={str(s): [float(v) for v in feet_m[s]] for s in SIDES},
-               steps=[step])
-    doc.pop("expect", None)
-    return load_scenario_text(yaml.safe_dump(doc, sort_keys=False), f"{scenario.name}_step{k}.yaml")
+    scenario = plan_scenario(folder, summary)
+    if scenario is None:
+        raise InputError(str(folder / "summary.json"), "scenario_yaml", "no scenario to plan each step from")
+    policy = (summary.get("balance") or {}).get("policy")
+    if policy in ("robust", "minimal") and policy != scenario.balance.policy:
+        scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
+    result = plan(scenario, method=summary.get("optimiser"), seed=summary.get("seed"))
+    assert result.rows is not None
+    again = joint_matrix(plan_table(result.robot, result.rows), result.robot)
+    if again.shape != track.q.shape or float(np.max(np.abs(again - track.q))) > 1e-9:
+        raise InputError(str(folder / "trajectory.csv"), "", "not the plan its scenario makes now (planned by another "
+                         "version or with other options): plan it again before simulating it step by step")
+    return scenario, result.steps
 
 
-def measured_soles(track, qpos: np.ndarray) -> dict[str, tuple[np.ndarray, float]]:
-    """Each sole's centre (3,) [m] and yaw [rad] in the twin for the state ``qpos`` (free joint
-    position, quaternion w, x, y, z, then the joints in the robot's order), by forward kinematics."""
-    import mujoco
+def _trial(folder: str, summary: dict, steps: list[StepResult], controller: str, p: Perturbation, seed: int,
+           record: bool) -> Execution:
+    scenario = plan_scenario(Path(folder), summary)
+    assert scenario is not None
+    policy = (summary.get("balance") or {}).get("policy")
+    if policy in ("robust", "minimal") and policy != scenario.balance.policy:
+        scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
+    return execute(scenario, steps, controller, p, seed, record, float(summary["thrust_max_n"]))
 
-    from jethr1_plan.sim.twin import build_twin
 
-    twin = build_twin(track.robot, track.cartons)
-    d = mujoco.MjData(twin.model)
-    d.qpos[:7] = qpos[:7]
-    d.qpos[twin.qpos_adr] = qpos[7:]
-    mujoco.mj_forward(twin.model, d)
-    out = {}
-    for s in SIDES:
-        b = twin.foot_bodies[s]
-        out[s] = (d.xpos[b].copy(), math.atan2(d.xmat[b][3], d.xmat[b][0]))
+def run_steps(folder: Path, summary: dict, scenario: Scenario, steps: list[StepResult], controller: str,
+              perturbations: list[Perturbation], jobs: int = 1, progress=None, seed: int = 0) -> list[Execution]:
+    """Every perturbation's step-by-step run (the first recorded), in order; the results do not depend on
+    ``jobs``."""
+    thrust_max = float(summary["thrust_max_n"])
+    if jobs <= 1 or len(perturbations) == 1:
+        out = []
+        for k, p in enumerate(perturbations):
+            out.append(execute(scenario, steps, controller, p, seed, k == 0, thrust_max))
+            if progress:
+                progress(f"run {k + 1}", k + 1, len(perturbations))
+        return out
+    from joblib import delayed
+
+    from jethr1_plan.io.pool import parallel
+
+    out = []
+    tasks = [delayed(_trial)(str(folder), summary, steps, controller, p, seed, k == 0)
+             for k, p in enumerate(perturbations)]
+    for k, r in enumerate(parallel(jobs, return_as="generator")(tasks)):
+        out.append(r)
+        if progress:
+            progress(f"run {k + 1}", k + 1, len(perturbations))
     return out
 
 
-def replan_steps(scenario: Scenario, outdir: Path, controller: str = "feedforward", progress=None) -> dict[str, Any]:
-    """Plan, rehearse and measure each step of ``scenario`` in turn, each planned from the soles the
-    previous rehearsal measured (the module docstring); the plans go to ``outdir/<name>_step<k>/``.
+def execution_record(ex: Execution) -> dict[str, Any]:
+    """A step-by-step run's own record for ``simulation.json``: per step how it was planned, the foothold,
+    the perceived one, where the sole landed and its error against the foothold, the judge's parts; the
+    step the robot could not plan."""
+    errors = [s["landing_error_m"] for s in ex.steps if "landing_error_m" in s]
+    return {"steps": ex.steps, "refused": ex.refused,
+            "max_landing_error_m": max(errors) if errors else None,
+            "re_anchored": sum(s["mode"] == "re-anchored" for s in ex.steps),
+            "optimised": sum(s["mode"] == "optimised" for s in ex.steps)}
 
-    Returns the report: per step, where the swing sole landed against the scenario's landing
-    (``landing_error_m``, xy), the support sole's drift from where it stood, the rehearsal's verdict,
-    tilt and slip; and the largest landing error.
-    """
-    from jethr1_plan.pipeline.plan import plan_to_folder
-    from jethr1_plan.sim.rehearsal import Perturbation, load_plan, simulate
 
-    feet = {s: np.asarray(scenario.start[s], dtype=float).copy() for s in SIDES}
-    targets = [st.landing_m for st in scenario.steps]
-    steps: list[dict[str, Any]] = []
-    for k, st in enumerate(scenario.steps):
-        one = step_scenario(scenario, k, feet)
-        result, summary, folder, _ = plan_to_folder(one, outdir)
-        run = simulate(folder, controller, [Perturbation()])[0]
-        assert run.record is not None  # the first run is recorded
-        soles = measured_soles(load_plan(folder), np.asarray(run.record["qpos"][-1], dtype=float))
-        landed, yaw = soles[st.swing]
-        err = landed[:2] - targets[k][:2]
-        support = soles[st.support][0]
-        drift = support[:2] - feet[st.support][:2]
-        steps.append({"step": k, "swing": st.swing, "folder": folder.name, "feasible": result.feasible,
-                      "max_thrust_n": summary["trajectory"]["max_thrust_n"],
-                      "start_m": {str(s): [float(v) for v in feet[s]] for s in SIDES},
-                      "landing_target_m": [float(v) for v in targets[k]],
-                      "landed_m": [float(v) for v in landed], "landed_yaw_rad": float(yaw),
-                      "landing_error_m": float(np.hypot(*err)), "landing_error_xy_m": [float(v) for v in err],
-                      "support_drift_m": float(np.hypot(*drift)), "survived": run.survived, "fell": run.fell,
-                      "max_trunk_tilt_deg": run.max_trunk_tilt_deg, "support_max_slip_m": run.support_max_slip_m,
-                      "least_cop_margin_m": run.least_cop_margin_m})
-        if progress:
-            progress(f"step {k}", k + 1, len(scenario.steps))
-        if not run.survived:
-            break
-        # the next step starts from the soles where they are (on their carton tops: z as planned)
-        feet = {s: np.array([soles[s][0][0], soles[s][0][1], (targets[k] if s == st.swing else feet[s])[2]])
-                for s in SIDES}
-    errors = [s["landing_error_m"] for s in steps]
-    return {"scenario": scenario.name, "controller": controller, "steps": steps,
-            "all_survived": len(steps) == len(scenario.steps) and all(s["survived"] for s in steps),
-            "max_landing_error_m": max(errors) if errors else None}
+def write_executed(folder: Path, scenario: Scenario, ex: Execution) -> tuple[Path, bool]:
+    """``folder/executed/``: the executed steps as a plan folder (:func:`~jethr1_plan.sim.stepwise.executed_plan`),
+    with its scenario ``executed.yaml`` where it is one; (the folder, whether its rows are all feasible)."""
+    target = Path(folder) / EXECUTED
+    result, text = executed_plan(scenario, ex, target)
+    summary = plan_summary(result)
+    summary["executed"] = {"from": str(Path(folder).resolve()), "steps": len(result.steps),
+                           "note": "the steps as executed step by step in the twin (docs/rehearsal.md)"}
+    write_plan(result, target, summary, folder=target, extra={"executed.yaml": text.encode()} if text else {},
+               own=EXECUTED_FILES)
+    return target, result.feasible

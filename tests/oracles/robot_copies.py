@@ -37,6 +37,9 @@ def renamed_jethr1(folder: Path, rename: Callable[[str], str], fan_names: dict[s
         fan["frame"], fan["mount"] = rename(fan["frame"]), rename(fan["mount"])
         if fan_names:
             fan["name"] = fan_names[fan["name"]]
+    imu = (doc.get("sensors") or {}).get("imu")
+    if imu and "frame" in imu:
+        imu["frame"] = rename(imu["frame"])
     path = folder / f"{folder.name}.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path

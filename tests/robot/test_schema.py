@@ -8,7 +8,7 @@ import yaml
 
 from jethr1_plan.cli import run
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.robot.model import ControllerSettings, TwinSettings, load_robot
+from jethr1_plan.robot.model import ControllerSettings, ImuLawSettings, TwinSettings, load_robot
 from tests.conftest import ROOT
 from tests.oracles.robot_copies import tampered_jethr1
 
@@ -35,6 +35,20 @@ CASES = {
     "a sole frame that does not exist": (lambda d: d["legs"]["right"].update(sole="nowhere"),
                                          r"legs\.right\.sole: frame 'nowhere' not in the URDF"),
     "a stance narrower than the soles": (lambda d: d.update(stance_width_m=0.05), "stance_width_m: 0.05 m: the soles"),
+    "an unknown law": (lambda d: d["controller"].update(law="magic"), r"controller\.law: .*magic"),
+    "the CoP law without sole sensors": (
+        lambda d: d["controller"].update(law="cop_edge_pi"),
+        r"controller\.law: cop_edge_pi reads the soles; sensors: declares encoders, imu"),
+    "the IMU law without an IMU": (lambda d: d["sensors"].update(imu=None),
+                                   r"controller\.law: imu_tilt_pid reads the imu; sensors: declares encoders"),
+    "a negative IMU noise": (lambda d: d["sensors"]["imu"].update(attitude_noise_rad=-0.001),
+                             r"sensors\.imu\.attitude_noise_rad: -0\.001 is below the smallest"),
+    "an unknown encoder setting": (lambda d: d["sensors"]["encoders"].update(backlash_rad=0.01),
+                                   r"sensors\.encoders\.backlash_rad: unknown key"),
+    "an IMU on a frame that does not exist": (lambda d: d["sensors"]["imu"].update(frame="nowhere"),
+                                              r"sensors\.imu\.frame: frame 'nowhere' not in the URDF"),
+    "an IMU off the trunk": (lambda d: d["sensors"]["imu"].update(frame="left_foot"),
+                             r"sensors\.imu\.frame: 'left_foot': the IMU is modelled on the trunk"),
 }
 
 
@@ -81,8 +95,28 @@ def test_every_command_says_the_same(tmp_path, capsys, command):
 
 def test_controller_and_twin_are_typed():
     robot = load_robot("jethr1")
+    doc = yaml.safe_load((ROOT / "robots" / "jethr1" / "jethr1.yaml").read_text())["controller"]
     assert robot.controller == ControllerSettings(rate_hz=500.0, band_margin_m=0.02, kp_n_per_m=600.0,
-                                                  ki_n_per_m_s=3000.0, leak_time_s=0.3)
+                                                  ki_n_per_m_s=3000.0, leak_time_s=0.3, law="imu_tilt_pid",
+                                                  imu_tilt_pid=ImuLawSettings(**doc["imu_tilt_pid"]))
+    assert robot.controller.given() == {"rate_hz": 500.0, "band_margin_m": 0.02, "kp_n_per_m": 600.0,
+                                        "ki_n_per_m_s": 3000.0, "leak_time_s": 0.3}
     assert robot.twin == TwinSettings(sole_friction=0.8, sole_thickness_m=0.01)
     assert robot.twin.given() == {"sole_friction": 0.8, "sole_thickness_m": 0.01}
     assert load_robot("dyros_jet_like").controller.given() == {}
+
+
+def test_sensors_are_typed_and_choose_the_law():
+    """Jet-HR1 as published: a trunk IMU and encoders, no sole sensors, the IMU law; the variant with sensed
+    soles runs the CoP law on the same URDF; a robot that declares none runs feed-forward only."""
+    robot = load_robot("jethr1")
+    doc = yaml.safe_load((ROOT / "robots" / "jethr1" / "jethr1.yaml").read_text())["sensors"]
+    assert robot.sensors.names == ("imu", "encoders") and robot.feedback_law == "imu_tilt_pid"
+    assert robot.sensors.imu.frame == robot.trunk
+    assert robot.sensors.imu.attitude_bias_rad == doc["imu"]["attitude_bias_rad"]
+    assert robot.sensors.encoders.resolution_rad == doc["encoders"]["resolution_rad"]
+    assert robot.sensors.perception_error_m == doc["perception"]["landing_error_m"]
+    ft = load_robot("jethr1_ft")
+    assert ft.sensors.names == ("imu", "encoders", "soles") and ft.feedback_law == "cop_edge_pi"
+    assert ft.urdf_path == robot.urdf_path and ft.mass_kg == robot.mass_kg
+    assert load_robot("dyros_jet_like").feedback_law is None and load_robot("dyros_jet_like").sensors.names == ()

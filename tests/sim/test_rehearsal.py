@@ -1,10 +1,11 @@
 """`jethr1 simulate`: the MuJoCo twin (an engine independent of the planner's PlaCo model) and the
-thrust feedback law."""
+thrust feedback laws (Jet-HR1's IMU law; the CoP law of the variant with sensed soles)."""
 
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from jethr1_plan.cli import run
 from jethr1_plan.control import thrust_feedback as ctl
 from jethr1_plan.files.mcap import read_mcap
 from jethr1_plan.files.simulation import SIMULATION_TOPICS
+from jethr1_plan.robot.model import load_robot
 from jethr1_plan.sim.certificate import clopper_pearson
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.twin import build_twin
@@ -110,13 +112,16 @@ def test_a_robust_plan_survives_and_a_minimal_one_falls(plans, capsys):
     assert not r["survived"] and "tilted" in r["fell"]["reason"] and r["fell"]["phase"] == "swing"
 
 
-def test_the_feedback_law_saves_a_weak_fan(plans, capsys):
-    """At 60 % of the planned thrust (beyond the plan's ±10 %) the plan alone falls; the law, adding
-    thrust as the centre of pressure nears the sole's edge, keeps the robot up."""
-    track = load_plan(plans / "side_step")
+@pytest.mark.parametrize("robot", ["jethr1", "jethr1_ft"])
+def test_the_feedback_law_saves_a_weak_fan(plans, robot):
+    """At 60 % of the planned thrust (beyond the plan's ±10 %) the plan alone falls; the robot's law keeps
+    it up, adding thrust: Jet-HR1's IMU law as the trunk leans towards the fan, the sensed-soles variant's
+    CoP law as the centre of pressure nears the sole's edge."""
+    track = replace(load_plan(plans / "side_step"), robot=load_robot(robot))
     weak = Perturbation(thrust_gain=0.6)
     ff, fb = rehearse(track, "feedforward", weak), rehearse(track, "feedback", weak)
     assert ff.fell is not None and not ff.survived
+    assert fb.law == {"jethr1": "imu_tilt_pid", "jethr1_ft": "cop_edge_pi"}[robot]
     assert fb.survived and fb.max_thrust_n > track.thrust_cmd.max() + 1.0
 
 
@@ -128,10 +133,11 @@ def test_the_law_uses_the_whole_thrust_on_a_plan_at_its_limit(tmp_path):
     plan's window never left it (at most 20.85 N, 0.08 N below the row's bound)."""
     assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(tmp_path), "--policy", "minimal",
                 "--no-progress"]) == 0
-    track = load_plan(tmp_path / "side_step")
+    track = replace(load_plan(tmp_path / "side_step"), robot=load_robot("jethr1_ft"))  # the CoP law's sensors
     assert track.tolerance["thrust_error"] == 0.0
     gain = 0.7
     r = rehearse(track, "feedback", Perturbation(thrust_gain=gain), record=True)
+    assert r.law == "cop_edge_pi"
     assert r.survived
     assert r.least_cop_margin_m is not None and r.least_cop_margin_m < ctl.Gains.of(track.robot).band_margin_m
     assert r.max_thrust_n == pytest.approx(track.thrust_max_n) and track.thrust_max_n == 23.0

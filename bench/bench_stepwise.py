@@ -1,0 +1,127 @@
+"""Certificates of plans of several steps executed step by step, as Jet-HR1 would with its own sensors (a
+pelvis IMU and joint encoders: its IMU law), under the default randomisation (thrust gain 0.8..1.1, mass
+±5 %, CoM 5 mm, fan lag 30..80 ms, servo stiffness 0.8..1.25) extended by the sensors' biases, offsets and
+delays and the perception error: ``configs/scattered_steps.yaml`` and the routes of seeded terrains
+(``jethr1 terrain random --seed S``, S = 0, 1, ... until --routes have a route). Each plan: N trials (trial
+k from ``default_rng([0, k])``, as ``jethr1 simulate PLAN --controller feedback --trials N``), the
+survivors and their 95 % Clopper–Pearson interval, the failures with their draws, and the landings'
+distance to their footholds over all trials (the route's edge margin, robots/jethr1/jethr1.yaml
+``execution.landing_error_m``, is its 99th percentile). docs/rehearsal.md quotes it.
+
+Resumable: a plan whose certificate is in --json already is not run again.
+
+    .venv/bin/python bench/bench_stepwise.py [--trials 200] [--routes 20] [-j 2] [--json out/bench_stepwise.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from jethr1_plan.cli import run  # noqa: E402
+from jethr1_plan.io.json_text import json_text  # noqa: E402
+from jethr1_plan.sim.certificate import certificate, draws  # noqa: E402
+from jethr1_plan.sim.rehearsal import load_plan  # noqa: E402
+from jethr1_plan.studies.step_by_step import nominal_plan, run_steps  # noqa: E402
+
+SEED = 0  # simulate's default seed
+
+
+def certify(folder: Path, trials: int, jobs: int) -> dict:
+    track = load_plan(folder)
+    summary = json.loads((folder / "summary.json").read_text())
+    scenario, nominal = nominal_plan(folder, summary, track)
+    ps = draws(SEED, trials, "default", track.tolerance, track.robot)
+    t0 = time.perf_counter()
+    execs = run_steps(folder, summary, scenario, nominal, "feedback", ps, jobs, None, SEED)
+    wall = time.perf_counter() - t0
+    runs = [ex.run for ex in execs]
+    cert = certificate(runs, ps, track.tolerance, "default")
+    cert.pop("inside")
+    landings = [s["landing_error_m"] for ex in execs for s in ex.steps if "landing_error_m" in s]
+    slips = [s["judge"]["support_slip_m"] for ex in execs for s in ex.steps if "judge" in s]
+    turns = [abs(s["judge"]["support_turn_rad"]) for ex in execs for s in ex.steps if "judge" in s]
+    simulated = sum(r.simulated_s for r in runs)
+    return {"steps": len(scenario.steps), "certificate": cert,
+            "refused": [{"trial": k, **ex.refused} for k, ex in enumerate(execs) if ex.refused],
+            "modes": {"re-anchored": sum(s["mode"] == "re-anchored" for ex in execs for s in ex.steps),
+                      "optimised": sum(s["mode"] == "optimised" for ex in execs for s in ex.steps)},
+            "landing_error_m": _stats(landings), "support_slip_m": _stats(slips), "support_turn_rad": _stats(turns),
+            "simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}
+
+
+def _stats(x: list[float]) -> dict:
+    if not x:
+        return {}
+    a = np.asarray(x)
+    return {"n": len(a), "mean": float(a.mean()), "p50": float(np.percentile(a, 50)),
+            "p95": float(np.percentile(a, 95)), "p99": float(np.percentile(a, 99)), "max": float(a.max())}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--trials", type=int, default=200)
+    ap.add_argument("--routes", type=int, default=20, help="seeded terrains with a route")
+    ap.add_argument("--first", type=int, default=0, help="the first terrain seed")
+    ap.add_argument("-j", "--jobs", type=int, default=2)
+    ap.add_argument("--json", default=str(ROOT / "out" / "bench_stepwise.json"))
+    ap.add_argument("--work", default=None, help="where the plans go (default: a temporary folder)")
+    args = ap.parse_args()
+    out = Path(args.json)
+    doc = json.loads(out.read_text()) if out.exists() else {"trials": args.trials, "plans": {}}
+    if doc.get("trials") != args.trials:
+        doc = {"trials": args.trials, "plans": {}}
+    work = Path(args.work) if args.work else Path(tempfile.mkdtemp(prefix="bench-stepwise-"))
+    work.mkdir(parents=True, exist_ok=True)
+    folders: dict[str, Path] = {}
+    assert run(["plan", str(ROOT / "configs" / "scattered_steps.yaml"), "-o", str(work), "--no-progress"]) == 0
+    folders["scattered_steps"] = work / "scattered_steps"
+    seed, found = args.first, 0
+    while found < args.routes and seed < args.first + 200:
+        path = work / f"random_{seed}.yaml"
+        if not (work / path.stem / "trajectory.csv").exists():
+            assert run(["terrain", "random", "--seed", str(seed), "-o", str(path)]) == 0
+            code = run(["route", str(path), "-o", str(work), "--no-progress"])
+        else:
+            code = 0
+        if code == 0:
+            folders[path.stem] = work / path.stem
+            found += 1
+        seed += 1
+    print(f"{len(folders)} plans, {args.trials} trials each, feedback (Jet-HR1's IMU law), step by step, "
+          f"-j {args.jobs}", flush=True)
+    for name, folder in folders.items():
+        if name in doc["plans"]:
+            continue
+        rec = certify(folder, args.trials, args.jobs)
+        doc["plans"][name] = rec
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json_text(doc))
+        c, e = rec["certificate"], rec["landing_error_m"]
+        print(f"{name:18s} {rec['steps']} steps  {c['survived']:4d}/{c['trials']:<4d} lower bound "
+              f"{c['lower_bound']:.4f}  landing p50 {1000 * e.get('p50', np.nan):.1f} p99 "
+              f"{1000 * e.get('p99', np.nan):.1f} max {1000 * e.get('max', np.nan):.1f} mm  {rec['wall_s']:.0f} s "
+              f"({rec['realtime_factor']:.1f}x)", flush=True)
+        for f in c["failures"]:
+            p = f["perturbation"]
+            print(f"    trial {f['trial']}: {f['why']}; thrust x{p['thrust_gain']:.3f} mass x{p['mass_scale']:.3f} "
+                  f"lag {1000 * p['fan_lag_s']:.0f} ms stiffness x{p['servo_stiffness_scale']:.2f}", flush=True)
+    plans = doc["plans"]
+    landings = [v for r in plans.values() for v in [r["landing_error_m"].get("p99")] if v is not None]
+    passed = sum(r["certificate"]["lower_bound"] >= 0.95 for r in plans.values())
+    print(f"\n{passed} of {len(plans)} plans reach a 95 % lower bound of 0.95; the landings' 99th percentile per plan: "
+          f"at most {1000 * max(landings):.1f} mm" if landings else "")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
