@@ -20,7 +20,8 @@ from jethr1_plan.io.yaml_input import fill_dataclass, read_text
 from jethr1_plan.optimisers import METHODS, OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
-from jethr1_plan.robot.model import RobotModel, build_with_robot
+from jethr1_plan.robot.load import build_with_robot
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_carton
 
 __all__ = [

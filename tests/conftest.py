@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Jet-HR1's joints as its URDF names them (docs/robots.md), left leg then right, hip yaw to ankle roll

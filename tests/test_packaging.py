@@ -37,7 +37,7 @@ def test_a_wheel_plans_from_another_directory(tmp_path):
     elsewhere.mkdir()
     (elsewhere / "side_step.yaml").write_text((ROOT / "configs" / "side_step.yaml").read_text())
     env = {**os.environ, "PYTHONPATH": str(target)}
-    code = ("import sys, jethr1_plan, jethr1_plan.robot.model as rm; from jethr1_plan.cli import run; "
+    code = ("import sys, jethr1_plan, jethr1_plan.robot.load as rm; from jethr1_plan.cli import run; "
             "assert jethr1_plan.__file__.startswith(sys.argv[1]), jethr1_plan.__file__; "
             "assert str(rm.load_robot('jethr1').urdf_path).startswith(sys.argv[1]); "
             "sys.exit(run(['plan', 'side_step.yaml', '-o', 'out', '--no-progress', '--optimiser', 'sqp']))")

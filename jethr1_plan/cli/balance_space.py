@@ -85,7 +85,7 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.io.forked import ForkedFile, fork_available
     from jethr1_plan.io.pool import pool_config
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
 
     if executor is None:
         executor = "fork" if fork_available() else "loky"

@@ -37,7 +37,7 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     timings.json and the best variants as robot folders (OUTDIR/robots/)."""
     from jethr1_plan.io.atomic import check_writable, staged_directory
     from jethr1_plan.io.json_text import json_text
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.studies.design import check_first, default_cache, make_tasks, run_tasks
     from jethr1_plan.studies.design_report import (
         OWN_FILES,

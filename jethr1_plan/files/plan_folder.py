@@ -27,7 +27,8 @@ from jethr1_plan.io.json_text import MAX_JSON_BYTES, json_document, json_text
 from jethr1_plan.io.json_text import read_json as read_json_document
 from jethr1_plan.io.yaml_input import check_schema
 from jethr1_plan.planning.results import PlanResult
-from jethr1_plan.robot.model import RobotModel, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.scenario import MAX_FILE_BYTES, MAX_ROWS, POLICIES, Scenario, load_scenario, load_scenario_text
 from jethr1_plan.swing_path import Carton
 

@@ -25,7 +25,8 @@ from jethr1_plan.optimisers.search import DIRECTIONS
 from jethr1_plan.physics.balance import edge_angle_error, least_thrust, thrust_window
 from jethr1_plan.physics.compiled.sample import sample_terms
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import LEG_ROLES, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.schema import LEG_ROLES
 
 __all__ = ["FD_STEP", "GRID", "MARGIN", "TRUST_M", "AnalyticSample", "compass", "grid_starts", "limit_mask"]
 

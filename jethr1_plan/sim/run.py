@@ -30,7 +30,8 @@ from jethr1_plan.control.measurement import Measurement, Reference
 from jethr1_plan.control.swing_placement import PlacementGains, yaw_of
 from jethr1_plan.errors import InputError
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
-from jethr1_plan.robot.model import LAW_SENSORS, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.sensors import LAW_SENSORS
 from jethr1_plan.sim.sensors import OwnKinematics, SensorDraw, SensorModel
 from jethr1_plan.sim.track import Perturbation, PlanTrack, plan_kinematics
 from jethr1_plan.sim.twin import Twin, TwinParams, build_twin

@@ -40,7 +40,8 @@ from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
-from jethr1_plan.robot.model import RobotModel, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
 from jethr1_plan.verify.commands import WALK_SAG_FILTER_S, servo_commands
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk

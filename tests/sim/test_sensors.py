@@ -12,7 +12,8 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.control.measurement import Measurement
-from jethr1_plan.robot.model import EncoderSpec, ImuSpec, Sensors, SoleSensorSpec, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.sensors import EncoderSpec, ImuSpec, Sensors, SoleSensorSpec
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.sensors import OwnKinematics, SensorDraw, SensorModel, rotation_vector
 from jethr1_plan.sim.twin import build_twin
