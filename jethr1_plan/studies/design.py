@@ -1,7 +1,7 @@
 """``jethr1 design``: robot variants judged by the ditch curve, on one machine or a Dask cluster.
 
 **A variant** (``studies.design_spec``) is written as a robot folder (``robot.variant``) and loaded through the
-checks every robot passes (``robot.model.load_robot``), then judged (``studies.design_judge``: its widest ditch
+checks every robot passes (``robot.load.load_robot``), then judged (``studies.design_judge``: its widest ditch
 crossed with the whole tolerance, with half of it and at all). A variant's plans are one task; the tasks run in
 this process (``-j 1``), in worker processes (loky) or on a Dask cluster, and their results do not depend on which.
 
