@@ -119,7 +119,7 @@ def rewritten(folder: Path) -> Path:
     import hashlib
     import json
 
-    from jethr1_plan.io.atomic import RECORD
+    from jethr1_plan.io.record import RECORD
 
     summary = json.loads((folder / "summary.json").read_text())
     summary["files"] = {name: {"sha256": hashlib.sha256((folder / name).read_bytes()).hexdigest(),

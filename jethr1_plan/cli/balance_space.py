@@ -82,9 +82,10 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
     from jethr1_plan.balance_space.workers import ForkedSweep
     from jethr1_plan.files.balance_space import balance_space_mcap, balance_space_png, write_balance_space_csv
-    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.io.forked import ForkedFile, fork_available
     from jethr1_plan.io.pool import pool_config
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.robot.load import load_robot
 
     if executor is None:

@@ -64,7 +64,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
                     f"{', and the exhaustive reference' if reference else ''})",
                     extra_s=len(modes) * samples * REFERENCE_SAMPLE_S if reference and not pareto else 0.0)
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
 
     check_writable(outdir, writes=PARETO_FILES if pareto else COMPARE_FILES)
     jobs = cap_jobs(jobs)

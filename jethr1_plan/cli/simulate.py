@@ -90,7 +90,8 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
     from jethr1_plan.control.feedback import controller_summary
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
     from jethr1_plan.files.simulation import simulation_mcap
-    from jethr1_plan.io.atomic import check_writable, file_sha256, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.io.record import check_writable, file_sha256
     from jethr1_plan.sim.certificate import certificate, describe, draws
     from jethr1_plan.sim.rehearsal import Perturbation, law_of, load_plan, simulate
 

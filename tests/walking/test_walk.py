@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT
 
 DYROS_WALK = ROOT / "configs" / "walks" / "dyros_walk.yaml"
