@@ -49,7 +49,8 @@ from jethr1_plan.planning.plan import Sequence, add_analysis, plan, row_solver
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.scenario import Scenario, Step, load_scenario_text
-from jethr1_plan.sim.run import HOLD_S, SETTLE_S, RunResult, TwinRun
+from jethr1_plan.sim.judge import RunResult
+from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun
 from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
 from jethr1_plan.swing_path import Carton, path_length

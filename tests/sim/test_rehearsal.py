@@ -79,7 +79,7 @@ def test_the_soles_push_where_the_plan_puts_the_zmp(plans, robot):
     d.qpos[twin.qpos_adr] = track.q[i]
     d.ctrl[:] = track.q[i]
     body = twin.fan_bodies["left_fan"]
-    from jethr1_plan.sim.rehearsal import _sole_loads
+    from jethr1_plan.sim.judge import sole_loads as _sole_loads
 
     cops = []
     for k in range(800):

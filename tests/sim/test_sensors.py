@@ -51,7 +51,7 @@ def test_without_errors_the_sensors_read_the_truth():
     np.testing.assert_allclose(m.trunk_rate_rad_s, d.qvel[3:6], atol=1e-12)
     # the soles: each one's normal force and its centre of pressure in the sole's frame (the floor under the
     # lower sole pushes it)
-    from jethr1_plan.sim.run import _sole_loads
+    from jethr1_plan.sim.judge import sole_loads as _sole_loads
 
     loads = _sole_loads(twin, d, np.zeros(6))
     assert max(f for f, _ in loads.values()) > 1.0
