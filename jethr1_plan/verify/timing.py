@@ -28,10 +28,13 @@ import math
 import numpy as np
 
 from jethr1_plan.geometry import SIDES, convex_hull, sole_polygon
-from jethr1_plan.verify.plan_checks import check
+from jethr1_plan.verify.checks import RowCheck, registrar
 from jethr1_plan.verify.plan_rows import RowData
 
-__all__ = ["DYNAMIC_TOL", "fastest_settings"]
+__all__ = ["CHECKS", "DYNAMIC_TOL", "fastest_settings"]
+
+CHECKS: list[RowCheck] = []  # in the order they run
+check = registrar(CHECKS)
 
 TORSION_RADIUS_M = 0.02  # the yaw moment a sole's friction resists: μ·f_z times this [m] (docs/physics.md)
 DYNAMIC_TOL = 1e-4  # [N·m, N]: the written rows' rounding and the forward kinematics' 1e-9 m

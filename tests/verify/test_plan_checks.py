@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from jethr1_plan.verify.plan_checks import CHECKS
+from jethr1_plan.verify.plan import CHECKS
 from tests.conftest import ROOT
 
 
