@@ -21,7 +21,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("physics",),  # balance with thrust, statics, the compiled per-candidate physics
     ("kinematics",),  # P_body and yaw to joints and CoM
     ("optimisers",),  # P_body along a swing path; the P_body search of one cell
-    ("scenario", "swing_path"),  # what a user asks for
+    ("scenario", "scenario_schema", "swing_path"),  # what a user asks for
     ("control",),  # what is sent to the robot and the loops that run on it
     ("planning", "walking", "balance_space"),  # Paper A's plan, Paper B's walk, the balance space
     ("files",),  # every file format, written and read

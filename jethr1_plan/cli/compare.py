@@ -49,7 +49,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
         raise InputError("--methods", ",".join(unknown), f"unknown optimiser (known: {', '.join(METHODS)})")
     if not names or len(set(names)) != len(names):
         raise InputError("--methods", repr(methods), f"expected distinct optimisers among {', '.join(METHODS)}")
-    from jethr1_plan.scenario import YAW_MODES
+    from jethr1_plan.scenario_schema import YAW_MODES
 
     modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
     if not modes or any(m not in YAW_MODES for m in modes) or len(set(modes)) != len(modes):

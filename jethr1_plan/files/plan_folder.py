@@ -30,7 +30,8 @@ from jethr1_plan.io.yaml_input import check_schema
 from jethr1_plan.planning.results import PlanResult
 from jethr1_plan.robot.load import load_robot
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.scenario import MAX_FILE_BYTES, MAX_ROWS, POLICIES, Scenario, load_scenario, load_scenario_text
+from jethr1_plan.scenario import Scenario, load_scenario, load_scenario_text
+from jethr1_plan.scenario_schema import MAX_FILE_BYTES, MAX_ROWS, POLICIES
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["PLAN_FILES", "PLAN_WRITES", "SIMULATION_FILES", "SUMMARY_SCHEMA", "PlanFolder", "check_belongs",
