@@ -25,7 +25,7 @@ def test_a_wheel_plans_from_another_directory(tmp_path):
     wheel = next(wheels.glob("jethr1_plan-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
     assert {"jethr1_plan/robots/jethr1/jethr1.urdf", "jethr1_plan/robots/jethr1/jethr1.yaml",
-            "jethr1_plan/sim/twin.py", "jethr1_plan/viewer.py", "jethr1_plan/foxglove_layout.json",
+            "jethr1_plan/sim/twin.py", "jethr1_plan/viewer/show.py", "jethr1_plan/foxglove_layout.json",
             "jethr1_plan/foxglove_walk_layout.json", "jethr1_plan/foxglove_balance_space_layout.json",
             "jethr1_plan/foxglove_route_layout.json"} <= names
     packages = {str(p.relative_to(ROOT)) for p in (ROOT / "jethr1_plan").rglob("__init__.py")}

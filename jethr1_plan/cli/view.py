@@ -23,7 +23,8 @@ def view_cmd(path: Path, save: Path | None) -> None:
     display and --save.
     """
     from jethr1_plan.errors import InputError
-    from jethr1_plan.viewer import ViewerMissing, view
+    from jethr1_plan.viewer.show import view
+    from jethr1_plan.viewer.topics import ViewerMissing
 
     if save is not None and save.suffix != ".rrd":
         raise InputError(str(save), "--save", "expected a .rrd file name")
