@@ -38,9 +38,10 @@ __all__ = ["MAX_ESTIMATED_S", "REFERENCE_SAMPLE_S", "ROBUST_DEFAULT", "BalanceCo
            "Timing", "check_fastest", "check_plan_time", "load_scenario", "load_scenario_text", "plan_seconds"]
 
 MAX_ESTIMATED_S = 3600.0  # a request estimated to take longer on this machine is refused before it starts [s]
-GA_EVALUATION_S = 50e-6  # the least time one GA candidate takes (a posture and its balance; measured 0.1-0.2 ms) [s]
-SQP_SAMPLE_S = 0.01  # the least time sqp takes for one swing sample (measured 0.02-0.05 s) [s]
-REFERENCE_SAMPLE_S = 0.3  # the least time the exhaustive reference takes a sample (compare --reference: ~1 s) [s]
+# the least times (below what docs/benchmarks.md measures, so that no request that would finish is refused) [s]
+GA_EVALUATION_S = 50e-6  # one GA candidate: a posture and its balance
+SQP_SAMPLE_S = 0.01  # sqp, one swing sample
+REFERENCE_SAMPLE_S = 0.3  # the exhaustive reference (compare --reference), one swing sample
 
 
 @dataclass(frozen=True)
