@@ -1,8 +1,7 @@
 """The ``jethr1`` command line: thin shells around the planner, one module per command.
 
 Exit codes: :data:`jethr1_plan.errors.EXIT_CODES` (docs/contract.md lists them). Progress and messages go to
-stderr; ``--json`` prints one
-JSON document on stdout.
+stderr; ``--json`` prints one JSON document on stdout.
 """
 
 from __future__ import annotations
@@ -67,6 +66,9 @@ def main() -> None:
 
 def run(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map expected failures to exit codes (no traceback)."""
+    from jethr1_plan.io.input_file import forget_inputs
+
+    forget_inputs()  # this command's inputs are the files it reads
     try:
         rv = main.main(args=argv, prog_name="jethr1", standalone_mode=False)
         sys.stdout.flush()

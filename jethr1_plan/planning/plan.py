@@ -27,7 +27,7 @@ from jethr1_plan.planning.fast_timing import FastTiming, time_phase
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import describe_infeasible, finite_or_none, plan_summary
 from jethr1_plan.planning.results import PlanResult, StepResult
-from jethr1_plan.planning.sequence import FanThrust, Rows, SequenceBuilder, pace_swing, rows_dynamics
+from jethr1_plan.planning.sequence import GRIP_SAFETY, FanThrust, Rows, SequenceBuilder, pace_swing, rows_dynamics
 from jethr1_plan.reasons import message
 from jethr1_plan.robot.model import RobotModel, reach_centre
 from jethr1_plan.scenario import Scenario
@@ -46,7 +46,6 @@ __all__ = [
 ]
 
 STANDING_HEIGHT_FRACTION = 0.9  # standing pelvis height over the soles, as a fraction of the leg length
-GRIP_SAFETY = 2.0  # the rows' motion may need at most μ / this of friction
 
 Progress = Callable[[str, int, int], None]  # progress(label, done, total)
 
