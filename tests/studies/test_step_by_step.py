@@ -63,6 +63,8 @@ def test_a_folder_its_scenario_does_not_plan_is_exit_2(folder, tmp_path, capsys)
 
     copy = tmp_path / "changed"
     shutil.copytree(folder, copy)
+    for name in ("simulation.json", "simulation.mcap", "executed"):  # (the module's earlier tests rehearsed it)
+        shutil.rmtree(copy / name) if (copy / name).is_dir() else (copy / name).unlink(missing_ok=True)
     # a row's knee moved by a microradian: no longer the plan the scenario makes
     lines = (copy / "trajectory.csv").read_text().splitlines()
     header = lines[0].split(",")
