@@ -25,6 +25,8 @@ lint: install
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python tools/check_imports.py
+	$(BIN)/python tools/check_size.py
+	$(BIN)/python tools/architecture.py --check
 
 test: install lint
 	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)

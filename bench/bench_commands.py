@@ -41,7 +41,7 @@ def bare_evaluations_seconds(n: int = EVALUATIONS, iterations: int = IK_ITERATIO
     """(wall [s], CPU [s]) of ``n`` bare PlaCo evaluations (trunk pose, warm IK, CoM) of Jet-HR1."""
     import placo
 
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
 
     model = load_robot("jethr1")
     robot = model.wrapper()

@@ -23,7 +23,7 @@ from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.optimisers.problem import evaluate_candidates
 from jethr1_plan.physics.balance import body_yaw_eq4
 from jethr1_plan.planning.problems import sample_problem
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

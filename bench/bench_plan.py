@@ -30,7 +30,7 @@ from jethr1_plan.kinematics.placo import PlacoPostureSolver
 from jethr1_plan.pipeline.plan import self_check
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

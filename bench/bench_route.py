@@ -29,8 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.io.json_text import json_text
+from jethr1_plan.route.footholds import footholds
 from jethr1_plan.route.planner import NoRoute, find_route, route_maps, write_route
-from jethr1_plan.route.search import StepModel, astar, exhaustive, footholds
+from jethr1_plan.route.search import astar, exhaustive
+from jethr1_plan.route.steps import StepModel
 from jethr1_plan.route.terrain import CostWeights, load_terrain, load_terrain_text, random_terrain
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT))
 from jethr1_plan.cli import run  # noqa: E402
 from jethr1_plan.control.imu_thrust import ImuGains  # noqa: E402
 from jethr1_plan.control.thrust_feedback import Gains  # noqa: E402
-from jethr1_plan.robot.model import load_robot  # noqa: E402
+from jethr1_plan.robot.load import load_robot  # noqa: E402
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse  # noqa: E402
 
 #: (folder name, config, extra `jethr1 plan` arguments)

@@ -1,11 +1,29 @@
 """jethr1-plan: thrust-assisted quasistatic stepping over ditches for the Jet-HR1 biped (Paper A) and
 walking with pelvic rotation (Paper B).
 
-The package is layered, lowest first (``tools/check_imports.py`` holds the layers; docs/architecture.md
-explains them): the shared words (:mod:`.errors`, :mod:`.reasons`, :mod:`.geometry`), :mod:`.io`,
-:mod:`.robot`, :mod:`.physics`, :mod:`.kinematics`, :mod:`.optimisers`, :mod:`.scenario` and
-:mod:`.swing_path`, :mod:`.control`, :mod:`.planning` / :mod:`.walking` / :mod:`.balance_space`,
-:mod:`.files`, :mod:`.sim`, :mod:`.verify`, :mod:`.pipeline`, :mod:`.studies`, :mod:`.viewer`, :mod:`.cli`.
+The package is layered, lowest first; a layer imports only its own and the layers below
+(``tools/check_imports.py`` holds them, ``make lint`` checks them, docs/architecture.md explains them):
+
+0. :mod:`.errors` — the exception tree; :mod:`.reasons` — why things fail; :mod:`.geometry` — the words
+   everything uses
+1. :mod:`.io` — YAML, JSON, CSV tables, atomic writes
+2. :mod:`.robot` — the robot as data
+3. :mod:`.physics` — the balance model with thrust
+4. :mod:`.kinematics` — P_body and body yaw to joints and CoM
+5. :mod:`.optimisers` — the optimisers of P_body along a swing path
+6. :mod:`.scenario` — what a user asks for; :mod:`.scenario_schema` — the scenario file's schema;
+   :mod:`.swing_path` — the swing foot's path
+7. :mod:`.control` — what is sent to the robot and the loops that run on it
+8. :mod:`.planning` — Paper A's plan; :mod:`.walking` — Paper B's walk; :mod:`.balance_space` — Paper A's
+   balance space
+9. :mod:`.files` — every file format, written and read in one place
+10. :mod:`.sim` — the MuJoCo twin and rehearsals
+11. :mod:`.verify` — independent re-checks of written files
+12. :mod:`.pipeline` — input file to checked output folder
+13. :mod:`.route` — footholds chosen on the balance space, then planned (``jethr1 route``)
+14. :mod:`.studies` — comparisons, curves, sweeps, batches
+15. :mod:`.viewer` — written folders shown in Rerun (``jethr1 view``)
+16. :mod:`.cli` — the command line
 """
 
 __version__ = "0.1.0"

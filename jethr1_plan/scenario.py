@@ -17,137 +17,31 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.geometry import GRAVITY, other_side
 from jethr1_plan.io.yaml_input import fill_dataclass, read_text
-from jethr1_plan.optimisers import METHODS, OptimiserConfig
+from jethr1_plan.optimisers import OptimiserConfig
 from jethr1_plan.optimisers.problem import FitnessConstants
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
-from jethr1_plan.robot.model import RobotModel, build_with_robot
+from jethr1_plan.robot.load import build_with_robot
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.scenario_schema import (
+    DEFAULT_CARTON_M,
+    F3_UNITS,
+    MAX_FILE_BYTES,
+    MAX_ROWS,
+    MAX_VALUES,
+    MIN_PHASE_ROWS,
+    SCHEMA,
+    TOLERANCE_KEYS,
+)
 from jethr1_plan.swing_path import Carton, arc_path, first_collision, sole_on_carton
 
-__all__ = [
-    "DEFAULT_CARTON_M",
-    "F3_UNITS",
-    "MAX_ESTIMATED_S",
-    "MAX_FILE_BYTES",
-    "MAX_ROWS",
-    "MAX_SAMPLES",
-    "MAX_VALUES",
-    "MIN_PHASE_ROWS",
-    "MIN_RATE_HZ",
-    "POLICIES",
-    "REFERENCE_SAMPLE_S",
-    "ROBUST_DEFAULT",
-    "SCHEMA",
-    "TIMING_MODES",
-    "YAW_MODES",
-    "BalanceConfig",
-    "Scenario",
-    "Step",
-    "Timing",
-    "check_plan_time",
-    "load_scenario",
-    "load_scenario_text",
-    "plan_seconds",
-]
+__all__ = ["MAX_ESTIMATED_S", "REFERENCE_SAMPLE_S", "ROBUST_DEFAULT", "BalanceConfig", "BodyYaw", "Scenario", "Step",
+           "Timing", "check_fastest", "check_plan_time", "load_scenario", "load_scenario_text", "plan_seconds"]
 
-DEFAULT_CARTON_M = (0.21, 0.11, 0.14)
-F3_UNITS = {"mm": 0.001, "m": 1.0}
-YAW_MODES = ("eq4", "mpc", "forward_axis", "fixed")
-POLICIES = ("robust", "minimal")
-TIMING_MODES = ("fixed", "fastest")
-
-# Bounds say what the machine can hold and what a scenario means: every number is bounded, so that a
-# typo (samples: 1e8, rate_hz: 1e9) is a one-line error, not an hour of work or a full memory.
-MAX_FILE_BYTES = 1_000_000  # a scenario is a few kilobytes
-MAX_VALUES = 100_000  # values in the document, aliases expanded (a scenario has a few hundred)
-MAX_ROWS = 200_000  # output rows of a plan (rate × duration): ~200 MB of CSV and MCAP
-MAX_SAMPLES = 1000  # swing samples per step (each one is optimised)
-MIN_RATE_HZ = 10.0  # the servos and fans are commanded at least this often: a fan's lag is ~50 ms (0.1 s a row at most)
-MIN_PHASE_ROWS = 5  # rows in every swing and every transfer: a phase of fewer is not a motion the rows describe
 MAX_ESTIMATED_S = 3600.0  # a request estimated to take longer on this machine is refused before it starts [s]
-GA_EVALUATION_S = 50e-6  # the least time one GA candidate takes (a posture and its balance; measured 0.1-0.2 ms) [s]
-SQP_SAMPLE_S = 0.01  # the least time sqp takes for one swing sample (measured 0.02-0.05 s) [s]
-REFERENCE_SAMPLE_S = 0.3  # the least time the exhaustive reference takes a sample (compare --reference: ~1 s) [s]
-_num = {"type": "number", "minimum": -1e9, "maximum": 1e9}
-_pos = {"type": "number", "exclusiveMinimum": 0, "maximum": 1e9}
-_prob = {"type": "number", "minimum": 0, "maximum": 1}
-_coord = {"type": "number", "minimum": -100, "maximum": 100}  # [m]
-_vec3 = {"type": "array", "items": _coord, "minItems": 3, "maxItems": 3}
-_size3 = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 10}, "minItems": 3,
-          "maxItems": 3}
-_duration = {"type": "number", "exclusiveMinimum": 0, "maximum": 300}  # [s]
-
-
-def _obj(props: dict, required: tuple = ()) -> dict:
-    return {"type": "object", "properties": props, "required": list(required), "additionalProperties": False}
-
-
-_phase = _obj({"population": {"type": "integer", "minimum": 2, "maximum": 10000},
-               "generations": {"type": "integer", "minimum": 1, "maximum": 10000},
-               "half_range_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1}, "crossover": _prob,
-               "mutation": _prob})
-
-SCHEMA = _obj({
-    "name": {"type": "string", "minLength": 1, "maxLength": 100, "pattern": r"^(?!\.\.?$)[^/\\\x00-\x1f]+$",
-             "description": "a plain name: it names folders (replan-steps' OUTDIR/<name>/), so no '/', not '.' or "
-                            "'..', no control characters"},
-    "description": {"type": "string", "maxLength": 5000},
-    "robot": {"type": "string", "minLength": 1, "maxLength": 1000},
-    "seed": {"type": "integer", "minimum": 0, "maximum": 2**63 - 1},
-    "start": _obj({"left": _vec3, "right": _vec3}, ("left", "right")),
-    "terrain": _obj({
-        "carton_size_m": _size3,
-        "cartons": {"type": "array", "maxItems": 200, "items": _obj({"top_centre_m": _vec3, "size_m": _size3},
-                                                                    ("top_centre_m",))},
-    }),
-    "steps": {"type": "array", "minItems": 1, "maxItems": 50, "items": _obj({
-        "swing": {"enum": ["left", "right"]},
-        "landing_m": _vec3,
-        "path": {"oneOf": [
-            _obj({"kind": {"const": "arc"}, "clearance_m": {"type": "number", "minimum": 0, "maximum": 2},
-                  "samples": {"type": "integer", "minimum": 2, "maximum": MAX_SAMPLES},
-                  "lift_m": {"type": "number", "minimum": 0, "maximum": 0.2},
-                  "descent_m": {"type": "number", "minimum": 0, "maximum": 0.2}}, ("kind",)),
-            _obj({"kind": {"const": "points"},
-                  "points_m": {"type": "array", "items": _vec3, "minItems": 2, "maxItems": MAX_SAMPLES}},
-                 ("kind", "points_m")),
-        ]},
-    }, ("swing",))},
-    "optimiser": _obj({
-        "method": {"enum": list(METHODS)},
-        "initial": _phase,
-        "intermediate": _phase,
-        "bits": {"type": "integer", "minimum": 2, "maximum": 20},
-        "fitness": _obj({"c1": _num, "c2": _num, "c4_1": _num, "c4_2": _num,
-                         "omega": {"type": "number", "minimum": 0, "maximum": 1e9},
-                         "f3_unit": {"enum": list(F3_UNITS)}, "graded": {"type": "boolean"}}),
-        "gaex": _obj({"half_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 0.05},
-                      "step_m": {"type": "number", "minimum": 0.0005, "maximum": 0.05}}),
-        "sqp": _obj({"smoothness_n_per_m2": {"type": "number", "minimum": 0, "maximum": 1e9}}),
-        "nominal_height_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
-    }),
-    "balance": _obj({"thrust_max_n": {"type": "number", "minimum": 0, "maximum": 1e4},
-                     "rho_rad": {"type": "number", "minimum": 0, "maximum": 1.5707963267948966},
-                     "sole_margin_m": {"type": "number", "minimum": 0, "maximum": 0.1},
-                     "policy": {"enum": list(POLICIES)},
-                     "robust": _obj({"thrust_error": {"type": "number", "minimum": 0, "maximum": 0.9},
-                                     "mass_error": {"type": "number", "minimum": 0, "maximum": 0.9},
-                                     "com_error_m": {"type": "number", "minimum": 0, "maximum": 0.1},
-                                     "min_share": _prob})}),
-    "body_yaw": _obj({"mode": {"enum": list(YAW_MODES)}, "fixed_rad": {"type": "number", "minimum": -7, "maximum": 7},
-                      "horizon_s": {"type": "number", "exclusiveMinimum": 0, "maximum": 10},
-                      "alpha": {"type": "number", "minimum": 0, "maximum": 1e9},
-                      "beta": {"type": "number", "minimum": 0, "maximum": 1e9}}),
-    "timing": _obj({"swing_s": _duration, "transfer_s": _duration,
-                    "rate_hz": {"type": "number", "minimum": MIN_RATE_HZ, "maximum": 1000},
-                    "mode": {"enum": list(TIMING_MODES)},
-                    "dynamic_share": {"type": "number", "minimum": 0, "maximum": 0.99},
-                    "safety_factor": {"type": "number", "minimum": 0.1, "maximum": 1},
-                    "spin_down_n": {"type": "number", "minimum": 0.01, "maximum": 100},
-                    "min_swing_s": {"type": "number", "minimum": 0, "maximum": 300},
-                    "min_transfer_s": {"type": "number", "minimum": 0, "maximum": 300},
-                    "max_swing_s": _duration, "max_transfer_s": _duration}),
-    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
-}, ("steps",))
+# the least times (below what docs/benchmarks.md measures, so that no request that would finish is refused) [s]
+GA_EVALUATION_S = 50e-6  # one GA candidate: a posture and its balance
+SQP_SAMPLE_S = 0.01  # sqp, one swing sample
+REFERENCE_SAMPLE_S = 0.3  # the exhaustive reference (compare --reference), one swing sample
 
 
 @dataclass(frozen=True)
@@ -279,72 +173,101 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     if not robot.fans:
         raise InputError(src, "robot", f"{robot.name} has no fans: a plan steps with thrust (Paper A); walks without "
                          "fans are jethr1 walk's")
-    sole_l, sole_w = robot.sole_length_m, robot.sole_width_m
     terrain = doc.get("terrain", {})
     size = tuple(terrain.get("carton_size_m", DEFAULT_CARTON_M))
     cartons = tuple(Carton(tuple(c["top_centre_m"]), tuple(c.get("size_m", size))) for c in terrain.get("cartons", []))
     _check_overlaps(cartons, src)
-
-    def on_terrain(p: np.ndarray) -> bool:
-        if not cartons:
-            return abs(p[2]) < 1e-9
-        return any(sole_on_carton(p, 0.0, sole_l, sole_w, c) for c in cartons)
-
+    ground = _Ground(cartons, robot.sole_length_m, robot.sole_width_m)
     start = ({side: np.array(doc["start"][side], dtype=float) for side in ("left", "right")} if "start" in doc
              else robot.start_feet())
     for side in ("left", "right"):
-        if not on_terrain(start[side]):
+        if not ground.holds(start[side]):
             raise InputError(src, f"start.{side}", "the sole does not lie fully on a carton top")
-    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < sole_w:
+    if np.linalg.norm(start["left"][:2] - start["right"][:2]) < robot.sole_width_m:
         raise InputError(src, "start", "the two soles overlap")
-
     feet = dict(start)
     steps = []
     for i, sd in enumerate(doc["steps"]):
-        key = f"steps[{i}]"
-        swing = sd["swing"]
-        path_doc = sd.get("path", {"kind": "arc"})
-        if path_doc["kind"] == "points":
-            pts = np.array(path_doc["points_m"], dtype=float)
-            if np.linalg.norm(pts[0] - feet[swing]) > 1e-6:
-                raise InputError(src, f"{key}.path.points_m[0]",
-                                 f"must be the {swing} sole's current position {feet[swing].tolist()}")
-            if "landing_m" in sd and np.linalg.norm(pts[-1] - np.array(sd["landing_m"])) > 1e-6:
-                raise InputError(src, f"{key}.path.points_m", "last point differs from landing_m")
-        else:
-            if "landing_m" not in sd:
-                raise InputError(src, f"{key}.landing_m", "missing")
-            try:
-                pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float),
-                               **{k: path_doc[k] for k in ("clearance_m", "samples", "lift_m", "descent_m")
-                                  if k in path_doc})
-            except ValueError as exc:
-                raise InputError(src, f"{key}.path.samples", str(exc)) from None
-        landing = pts[-1]
-        if not on_terrain(landing):
-            raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
-                             "not lie fully on a carton top")
-        other = feet[other_side(swing)]
-        if np.linalg.norm(landing[:2] - other[:2]) < sole_w:
-            raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
-        span = 2 * (robot.leg_length_m + robot.hip_offset_m)  # both legs straight, hips side by side
-        far = np.flatnonzero(np.linalg.norm(pts - other, axis=1) > span)
-        if len(far):
-            k = len(pts) - 1 if far[-1] == len(pts) - 1 else int(far[0])  # the landing first: that is what was typed
-            raise InputError(src, f"{key}.{'landing_m' if k == len(pts) - 1 else 'path'}", "out of reach: the swing "
-                             f"sole at {np.round(pts[k], 4).tolist()} m is {np.linalg.norm(pts[k] - other):.3f} m from "
-                             f"the support sole; {robot.name}'s legs span at most {span:.3f} m (2 x (leg "
-                             f"{robot.leg_length_m:g} m + hip offset {robot.hip_offset_m:g} m))")
-        hit = first_collision(pts, 0.0, sole_l, sole_w, list(cartons)) if cartons else None
-        if hit is not None:
-            seg, pos, k = hit
-            raise InputError(src, f"{key}.path", f"the swing sole enters carton {k} near {np.round(pos, 3).tolist()} m "
-                             f"(between samples {seg} and {seg + 1}): the path cannot clear its edge; "
-                             "raise clearance_m")
-        steps.append(Step(swing, pts))
-        feet[swing] = landing
-
+        step = _step(sd, f"steps[{i}]", feet, robot, ground, src)
+        steps.append(step)
+        feet[step.swing] = step.landing_m
     opt = doc.get("optimiser", {})
+    optimiser = _optimiser(opt, robot, src)
+    balance = _balance(dict(doc.get("balance", {})), robot, src)
+    timing = fill_dataclass(Timing(), doc.get("timing", {}))
+    _check_timing(timing, len(steps), doc.get("body_yaw", {}).get("mode", "eq4"), balance, src)
+    scenario = Scenario(
+        source=src, name=doc.get("name", Path(src).stem), robot=robot, seed=doc.get("seed", 0),
+        start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
+        body_yaw=fill_dataclass(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
+        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
+    check_plan_time(scenario, (optimiser.method,))
+    return scenario
+
+
+@dataclass(frozen=True)
+class _Ground:
+    """Where a sole may stand: fully on a carton top, or on the ground (z = 0) where there are no cartons."""
+
+    cartons: tuple[Carton, ...]
+    sole_l: float  # [m]
+    sole_w: float  # [m]
+
+    def holds(self, p: np.ndarray) -> bool:
+        if not self.cartons:
+            return abs(p[2]) < 1e-9
+        return any(sole_on_carton(p, 0.0, self.sole_l, self.sole_w, c) for c in self.cartons)
+
+
+def _step(sd: dict, key: str, feet: dict[str, np.ndarray], robot, ground: _Ground, src: str) -> Step:
+    """``steps[i]``: the swing path (explicit points or an arc to ``landing_m``) from where the soles stand
+    (``feet``), its landing on the terrain and off the support sole, every sample within the legs' span, and the
+    path clear of every carton."""
+    swing = sd["swing"]
+    path_doc = sd.get("path", {"kind": "arc"})
+    if path_doc["kind"] == "points":
+        pts = np.array(path_doc["points_m"], dtype=float)
+        if np.linalg.norm(pts[0] - feet[swing]) > 1e-6:
+            raise InputError(src, f"{key}.path.points_m[0]",
+                             f"must be the {swing} sole's current position {feet[swing].tolist()}")
+        if "landing_m" in sd and np.linalg.norm(pts[-1] - np.array(sd["landing_m"])) > 1e-6:
+            raise InputError(src, f"{key}.path.points_m", "last point differs from landing_m")
+    else:
+        if "landing_m" not in sd:
+            raise InputError(src, f"{key}.landing_m", "missing")
+        try:
+            pts = arc_path(feet[swing], np.array(sd["landing_m"], dtype=float),
+                           **{k: path_doc[k] for k in ("clearance_m", "samples", "lift_m", "descent_m")
+                              if k in path_doc})
+        except ValueError as exc:
+            raise InputError(src, f"{key}.path.samples", str(exc)) from None
+    landing = pts[-1]
+    if not ground.holds(landing):
+        raise InputError(src, f"{key}.landing_m", f"the landing sole at {np.round(landing, 4).tolist()} m does "
+                         "not lie fully on a carton top")
+    other = feet[other_side(swing)]
+    if np.linalg.norm(landing[:2] - other[:2]) < ground.sole_w:
+        raise InputError(src, f"{key}.landing_m", "the landing sole overlaps the support sole")
+    span = 2 * (robot.leg_length_m + robot.hip_offset_m)  # both legs straight, hips side by side
+    far = np.flatnonzero(np.linalg.norm(pts - other, axis=1) > span)
+    if len(far):
+        k = len(pts) - 1 if far[-1] == len(pts) - 1 else int(far[0])  # the landing first: that is what was typed
+        raise InputError(src, f"{key}.{'landing_m' if k == len(pts) - 1 else 'path'}", "out of reach: the swing "
+                         f"sole at {np.round(pts[k], 4).tolist()} m is {np.linalg.norm(pts[k] - other):.3f} m from "
+                         f"the support sole; {robot.name}'s legs span at most {span:.3f} m (2 x (leg "
+                         f"{robot.leg_length_m:g} m + hip offset {robot.hip_offset_m:g} m))")
+    cartons = ground.cartons
+    hit = first_collision(pts, 0.0, ground.sole_l, ground.sole_w, list(cartons)) if cartons else None
+    if hit is not None:
+        seg, pos, k = hit
+        raise InputError(src, f"{key}.path", f"the swing sole enters carton {k} near {np.round(pos, 3).tolist()} m "
+                         f"(between samples {seg} and {seg + 1}): the path cannot clear its edge; "
+                         "raise clearance_m")
+    return Step(swing, pts)
+
+
+def _optimiser(opt: dict, robot, src: str) -> OptimiserConfig:
+    """``optimiser:``: the method and its settings over the defaults; the fitness's constants (Paper A's)."""
     fit = dict(opt.get("fitness", {}))
     if "f3_unit" in fit:
         fit["f3_unit_m"] = F3_UNITS[fit.pop("f3_unit")]
@@ -360,7 +283,12 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     if optimiser.gaex_half_m / optimiser.gaex_step_m > 50:
         raise InputError(src, "optimiser.gaex", "more than 50 steps per half width (a cube of over 1 million postures "
                          "per sample)")
-    bal = dict(doc.get("balance", {}))
+    return optimiser
+
+
+def _balance(bal: dict, robot, src: str) -> BalanceConfig:
+    """``balance:``: the thrust limit (by default the robot's largest fan, never above it), the policy and its
+    tolerance, the sole margin (leaving a support polygon)."""
     fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)  # the limit caps every fan; by default none
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
@@ -370,27 +298,26 @@ def _build(doc: dict, src: str, robot) -> Scenario:
     robust = {TOLERANCE_KEYS[k]: v for k, v in robust_doc.items()}
     balance = fill_dataclass(BalanceConfig(thrust_max_n=fan_max), bal,
                              robust=fill_dataclass(BalanceConfig().robust, robust), min_share=min_share)
+    sole_l, sole_w = robot.sole_length_m, robot.sole_width_m
     if balance.sole_margin_m >= min(sole_l, sole_w) / 2:
         raise InputError(src, "balance.sole_margin_m", f"leaves no support polygon (sole {sole_l} x {sole_w} m)")
-    timing = fill_dataclass(Timing(), doc.get("timing", {}))
+    return balance
+
+
+def _check_timing(timing: Timing, n_steps: int, yaw_mode: str, balance: BalanceConfig, src: str) -> None:
+    """``timing:``: every phase at least :data:`MIN_PHASE_ROWS` rows, a fastest timing the planner can give, at
+    most :data:`MAX_ROWS` rows in all."""
     for key, seconds in (("swing_s", timing.swing_s), ("transfer_s", timing.transfer_s)):
         if seconds * timing.rate_hz < MIN_PHASE_ROWS - 1e-9:
             raise InputError(src, f"timing.{key}", f"{seconds:g} s at rate_hz {timing.rate_hz:g} is "
                              f"{seconds * timing.rate_hz:.3g} rows: every phase needs at least {MIN_PHASE_ROWS} rows "
                              "(raise rate_hz or the duration)")
     if timing.fastest:
-        check_fastest(timing, doc.get("body_yaw", {}).get("mode", "eq4"), balance, src)
-    rows = (len(steps) * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
+        check_fastest(timing, yaw_mode, balance, src)
+    rows = (n_steps * (timing.swing_s + timing.transfer_s) + timing.transfer_s) * timing.rate_hz
     if rows > MAX_ROWS:
         raise InputError(src, "timing", f"the trajectory would have {rows:,.0f} rows; at most {MAX_ROWS:,} "
                          "(lower rate_hz or the durations)")
-    scenario = Scenario(
-        source=src, name=doc.get("name", Path(src).stem), robot=robot, seed=doc.get("seed", 0),
-        start=start, cartons=cartons, steps=tuple(steps), optimiser=optimiser, balance=balance,
-        body_yaw=fill_dataclass(BodyYaw(), doc.get("body_yaw", {})), timing=timing,
-        nominal_height_m=opt.get("nominal_height_m"), expect=dict(doc.get("expect", {})))
-    check_plan_time(scenario, (optimiser.method,))
-    return scenario
 
 
 def plan_seconds(scenario: Scenario, method: str) -> float:
@@ -459,7 +386,3 @@ def _check_overlaps(cartons: tuple[Carton, ...], src: str) -> None:
         if len(clash):
             raise InputError(src, f"terrain.cartons[{k}]", f"overlaps carton {clash[0]} "
                              f"({1000 * float(np.min(depth[clash[0]])):.1f} mm deep): two cartons cannot share space")
-
-
-#: the YAML's names of a Tolerance's fields (``balance.robust``)
-TOLERANCE_KEYS = {"thrust_error": "thrust", "mass_error": "mass", "com_error_m": "com_m"}

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Jet-HR1's joints as its URDF names them (docs/robots.md), left leg then right, hip yaw to ankle roll
@@ -119,7 +119,7 @@ def rewritten(folder: Path) -> Path:
     import hashlib
     import json
 
-    from jethr1_plan.io.atomic import RECORD
+    from jethr1_plan.io.record import RECORD
 
     summary = json.loads((folder / "summary.json").read_text())
     summary["files"] = {name: {"sha256": hashlib.sha256((folder / name).read_bytes()).hexdigest(),

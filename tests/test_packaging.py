@@ -25,7 +25,7 @@ def test_a_wheel_plans_from_another_directory(tmp_path):
     wheel = next(wheels.glob("jethr1_plan-*.whl"))
     names = set(zipfile.ZipFile(wheel).namelist())
     assert {"jethr1_plan/robots/jethr1/jethr1.urdf", "jethr1_plan/robots/jethr1/jethr1.yaml",
-            "jethr1_plan/sim/twin.py", "jethr1_plan/viewer.py", "jethr1_plan/foxglove_layout.json",
+            "jethr1_plan/sim/twin.py", "jethr1_plan/viewer/show.py", "jethr1_plan/foxglove_layout.json",
             "jethr1_plan/foxglove_walk_layout.json", "jethr1_plan/foxglove_balance_space_layout.json",
             "jethr1_plan/foxglove_route_layout.json"} <= names
     packages = {str(p.relative_to(ROOT)) for p in (ROOT / "jethr1_plan").rglob("__init__.py")}
@@ -37,7 +37,7 @@ def test_a_wheel_plans_from_another_directory(tmp_path):
     elsewhere.mkdir()
     (elsewhere / "side_step.yaml").write_text((ROOT / "configs" / "side_step.yaml").read_text())
     env = {**os.environ, "PYTHONPATH": str(target)}
-    code = ("import sys, jethr1_plan, jethr1_plan.robot.model as rm; from jethr1_plan.cli import run; "
+    code = ("import sys, jethr1_plan, jethr1_plan.robot.load as rm; from jethr1_plan.cli import run; "
             "assert jethr1_plan.__file__.startswith(sys.argv[1]), jethr1_plan.__file__; "
             "assert str(rm.load_robot('jethr1').urdf_path).startswith(sys.argv[1]); "
             "sys.exit(run(['plan', 'side_step.yaml', '-o', 'out', '--no-progress', '--optimiser', 'sqp']))")

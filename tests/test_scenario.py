@@ -205,7 +205,8 @@ def test_schema_and_dataclasses_state_the_same_keys():
     from jethr1_plan.optimisers import GAPhase, OptimiserConfig
     from jethr1_plan.optimisers.problem import FitnessConstants
     from jethr1_plan.physics.balance import Tolerance
-    from jethr1_plan.scenario import SCHEMA, TOLERANCE_KEYS, BalanceConfig, BodyYaw, Timing
+    from jethr1_plan.scenario import BalanceConfig, BodyYaw, Timing
+    from jethr1_plan.scenario_schema import SCHEMA, TOLERANCE_KEYS
 
     def keys(*path):
         node = SCHEMA

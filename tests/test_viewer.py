@@ -13,8 +13,8 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.files.plan_folder import read_plan
-from jethr1_plan.robot.model import urdf_joints
-from jethr1_plan.viewer import VIEW_EXTRA
+from jethr1_plan.robot.urdf import urdf_joints
+from jethr1_plan.viewer.topics import VIEW_EXTRA
 
 rerun_chunk = pytest.importorskip("rerun.chunk")
 

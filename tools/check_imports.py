@@ -1,7 +1,8 @@
 """The import graph of ``jethr1_plan``, checked (``make lint``): no circle between modules or between
 packages, no layer importing a higher one, and no unit of :data:`ONLY` importing beyond its list.
 
-The layers, lowest first, are written down here once; the README and docs/architecture.md show them.
+The layers, lowest first, are written down here once, with what lives in each unit (:data:`WHAT`);
+``tools/architecture.py`` writes them into docs/architecture.md's layer table and the package's docstring.
 A unit is a subpackage or a top-level module of ``jethr1_plan``. A unit may import units of its own
 layer or below. Every import counts, at module level or inside a function; ``if TYPE_CHECKING:``
 imports too.
@@ -21,7 +22,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("physics",),  # balance with thrust, statics, the compiled per-candidate physics
     ("kinematics",),  # P_body and yaw to joints and CoM
     ("optimisers",),  # P_body along a swing path; the P_body search of one cell
-    ("scenario", "swing_path"),  # what a user asks for
+    ("scenario", "scenario_schema", "swing_path"),  # what a user asks for
     ("control",),  # what is sent to the robot and the loops that run on it
     ("planning", "walking", "balance_space"),  # Paper A's plan, Paper B's walk, the balance space
     ("files",),  # every file format, written and read
@@ -33,6 +34,69 @@ LAYERS: list[tuple[str, ...]] = [
     ("viewer",),  # written folders shown in Rerun (jethr1 view)
     ("cli",),  # the command line
 ]
+
+#: what lives in each unit: "<in a few words>: <in detail>" (the package docstring gives the few words,
+#: docs/architecture.md's layer table the whole; ``tools/architecture.py`` writes both). ``__init__`` is the
+#: package's own docstring, which the table does not list.
+WHAT: dict[str, str] = {
+    "__init__": "the package: its version and this map of the house",
+    "errors": "the exception tree: every expected failure carries its exit code (`InputError` 2, `InfeasiblePlan` "
+              "3, ...)",
+    "reasons": "why things fail: one vocabulary of why a posture, a sample or a cell fails (`Reason`, with "
+               "messages)",
+    "geometry": "the words everything uses: each stated once, `Side`/`other_side`, gravity, sole rectangles, convex "
+                "hull, polygon margins, quaternions and poses",
+    "io": "YAML, JSON, CSV tables, atomic writes: every input read as a regular file of bounded size "
+          "(`io/input_file.py`), YAML checked by a schema, JSON, wide CSV tables (the `csv` module), the one rule "
+          "of every output: staging and commit (`io/atomic.py`) and the record of the files jethr1 wrote with the "
+          "checks before a write (`io/record.py`), work forked to a child process (`io/forked.py`), worker pools "
+          "whose workers die with their command (`io/pool.py`), the Dask client",
+    "robot": "the robot as data: the typed `RobotModel` (`model.py`), the sensors it declares (`sensors.py`), "
+             "`load_robot` putting the URDF and the robot YAML together (`load.py`), the YAML's schema, the URDF "
+             "read and checked, `robot show`'s summary, a robot's design variants written as robot folders "
+             "(`variant.py`)",
+    "physics": "**the balance model** with thrust: ZMP, thrust window, least thrust of several fans, (A-4), (A-10) "
+               "(`balance.py`), the statics of a posture (`statics.py`), the compiled per-candidate physics every "
+               "search calls",
+    "kinematics": "P_body and body yaw to joints and CoM: the `PostureSolver` protocol, PlaCo's IK, the closed form",
+    "optimisers": "**the optimisers** of P_body along a swing path: one interface `optimise_path(PathRequest) -> "
+                  "PathResult` and a registry: GAS/GA/GAEx (`gas.py`), SLSQP (`sqp.py`, a sample's solves in "
+                  "`sqp_sample.py`, the price of smoothness in `sqp_smoothing.py`); the fitness (`problem.py`); the "
+                  "P_body search of one cell (`search.py`: compass and exhaustive)",
+    "scenario": "what a user asks for: the validating scenario loader",
+    "scenario_schema": "the scenario file's schema: every key known, every number bounded",
+    "swing_path": "the swing foot's path: arcs, explicit paths, cartons and clearance",
+    "control": "**what is sent to the robot and the loops that run on it**: servo and fan commands, the body-yaw "
+               "MPC, time laws; **the robot's loop** (`feedback.py`: a `Measurement` in, a `Command` out), the "
+               "thrust laws (`imu_thrust.py` on the IMU, `thrust_feedback.py` on the soles' CoP), the swing-foot "
+               "placement; the records between robot and loop (`measurement.py`)",
+    "planning": "Paper A's plan: a scenario's problems, their optimisation, the output-rate sequence, the fastest "
+                "timing, results and `summary.json`",
+    "walking": "Paper B's walk: footsteps in time, CoM MPC, yaw reference, QP IK with joint windows, arm swing, the "
+               "judge",
+    "balance_space": "Paper A's balance space: the sweep of swing-sole cells",
+    "files": "**every file format, written and read in one place**: the plan's column contract (`plan_table.py`), "
+             "`trajectory.csv`, `trajectory.mcap`, the plan folder (`plan_folder.py`: `write_plan`, `read_plan`), "
+             "the rehearsal's files, the walk folder, the balance-space files, the ROS 2 MCAP container and CDR "
+             "encoder",
+    "sim": "the MuJoCo twin and rehearsals: the twin (`twin.py`), the robot's sensors in it and its own kinematics "
+           "(`sensors.py`), the plan as the twin follows it and a run's model errors (`track.py`), a run "
+           "(`run.py`) and its judge (`judge.py`), rehearsals of plans and walks, step-by-step execution "
+           "(`stepwise.py`), and the certificates of randomised trials",
+    "verify": "independent re-checks of written files: plans and walks, by named checks (`checks.py`; the file and "
+              "the poses, the balance, the analysis, the timing) with their own forward kinematics and "
+              "differences, their own balance, motion and commands (`balance.py`, `motion.py`, `commands.py`)",
+    "pipeline": "input file to checked output folder: a scenario's plan, a walk",
+    "route": "footholds chosen on the balance space, then planned (`jethr1 route`): the terrain, the balance maps, "
+             "the footholds, a step judged on the map (`steps.py`), the search (A*), the planner",
+    "studies": "comparisons, curves, sweeps, batches: `compare`, `ditch-curve`, Paper B's reach, `batch`, "
+               "`walk-sweep`, a written plan of several steps executed step by step (`step_by_step.py`: `simulate`, "
+               "`replan-steps`), `design` (robot variants judged by the ditch curve: the design file, the judge, the "
+               "sweep and its cache, the files)",
+    "viewer": "written folders shown in Rerun (`jethr1 view`): what a path holds (`files.py`), the messages logged "
+              "(`topics.py`), the view (`show.py`)",
+    "cli": "the command line: the `jethr1` command, one thin module per command",
+}
 
 #: units that may import only these units, whatever their layer allows. ``verify`` re-checks what the planner
 #: wrote: it reads the files, the robot and the scenario, and restates the physics it holds them to

@@ -87,8 +87,8 @@ def files_section() -> list[str]:
     from jethr1_plan.files.route import ROUTE_FILES, ROUTE_TOPICS
     from jethr1_plan.files.simulation import SIMULATION_TOPICS
     from jethr1_plan.files.walk_folder import WALK_FILES, WALK_TOPICS, walk_columns
-    from jethr1_plan.io.atomic import RECORD
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.io.record import RECORD
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.studies.design_report import COLUMNS as DESIGN_COLUMNS
     from jethr1_plan.studies.design_report import OWN_FILES as DESIGN_FILES
 

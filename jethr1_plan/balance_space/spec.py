@@ -12,7 +12,8 @@ from jethr1_plan.geometry import other_side
 from jethr1_plan.optimisers.compass import POLL_CHUNK
 from jethr1_plan.optimisers.search import INTO_JOINT_LIMITS, INTO_ROLL_KNEE, SupportStance
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
-from jethr1_plan.robot.model import RobotModel, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["SearchSettings", "SweepSpec"]
 

@@ -2,17 +2,17 @@
 once and forks its worker processes from itself, so that they share those pages instead of each loading its own
 copy; the command holds the sweep's state and hands the workers one task at a time.
 
-Why (measured at 1 cm, ``bench/bench_balance_space.py timing``; docs/balance_space.md, "Memory"): a worker
-started afresh (a loky process, a Dask worker) imports numpy, PlaCo and numba and loads the kernels: ~116 MB of
-proportional set size (PSS) each before any task. A forked worker shares every page of its parent's until it
-writes one. The workers are forked from the command itself, not from a process of its own between them: such a
-host copied ~23 MB of the command's pages by writing them (Python's reference counts) while the command waited.
+Why (docs/balance_space.md, "Memory", measures it): a worker started afresh (a loky process, a Dask worker)
+imports numpy, PlaCo and numba and loads the kernels, each its own copy before any task. A forked worker shares
+every page of its parent's until it writes one. The workers are forked from the command itself, not from a
+process of its own between them: such a host copies the command's pages it writes (Python's reference counts)
+while the command waits.
 
 Forking is safe where no thread of the forking process holds a lock the child needs: the workers are forked when
 :class:`ForkedSweep` is made, which the command does before it starts its progress bar. Each worker has a pipe of
 its own and no thread stands between it and the command (:class:`ForkedWorkers`): a worker that dies is the end
 of its pipe, and a worker killed while it sends an answer leaves nothing waiting on the rest of it (a process
-pool's result thread did wait for good: a SIGTERM in 1 of 10 runs hung the command).
+pool's result thread can wait for good on a worker killed mid-answer).
 glibc's malloc in the command and workers gives freed arrays back to the system (``M_MMAP_THRESHOLD`` fixed at
 256 kB, trimmed beyond 1 MB): a task's arrays are freed when it ends, not kept for the next one.
 

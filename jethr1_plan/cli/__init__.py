@@ -1,8 +1,7 @@
 """The ``jethr1`` command line: thin shells around the planner, one module per command.
 
-Exit codes: 0 done, 1 a bug, 2 bad input, 3 infeasible plan, 4 a batch expectation failed, 5 a
-verify finding, 6 a rehearsal that fell. Progress and messages go to stderr; ``--json`` prints one
-JSON document on stdout.
+Exit codes: :data:`jethr1_plan.errors.EXIT_CODES` (docs/contract.md lists them). Progress and messages go to
+stderr; ``--json`` prints one JSON document on stdout.
 """
 
 from __future__ import annotations

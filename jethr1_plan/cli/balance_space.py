@@ -33,6 +33,32 @@ BALANCE_SPACE_FILES = ("balance_space.csv", "balance_space.mcap", "balance_space
 __all__ = ["balance_space"]
 
 
+def _sweep_spec(robot, support, support_position, ranges, resolution, thrust_max, sole_margin, tolerance, method,
+                pbody_resolution):
+    """The sweep the options ask for: the grid about the support sole (by default where the robot stands), every
+    fan's limit and the sole margin checked against the robot."""
+    from jethr1_plan.balance_space.sweep import SweepSpec
+
+    x_range, y_range, z_range = ranges
+    if support_position is None:
+        support_position = tuple(float(v) for v in robot.start_feet()[support])
+    fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)
+    if thrust_max is not None and thrust_max > fan_max:
+        raise InputError("--thrust-max", f"{thrust_max:g}", f"more than the robot's fans give ({fan_max:g} N)")
+    sx, sy, sz = support_position
+    sgn = 1.0 if support == "right" else -1.0  # the swing foot is on the +y side of a right support
+    spec = SweepSpec(robot=robot, support_side=support, support_xyz=tuple(support_position),
+                     x_range=x_range or (sx - 0.8, sx + 0.9),
+                     y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
+                     z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
+                     sole_margin_m=sole_margin, tolerance=tolerance, method=method,
+                     pbody_resolution_m=pbody_resolution)
+    if sole_margin >= min(robot.sole_length_m, robot.sole_width_m) / 2:
+        raise InputError("--sole-margin", f"{sole_margin:g}", "leaves no support polygon (sole "
+                         f"{robot.sole_length_m} x {robot.sole_width_m} m)")
+    return spec
+
+
 @click.command("balance-space")
 @click.option("--robot", "robot_name", default="jethr1", show_default=True, help="Robot name or path.")
 @click.option("--support", type=click.Choice(["left", "right"]), default="right", show_default=True,
@@ -79,13 +105,14 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
                   outdir, as_json, no_progress) -> None:
     """Sweep the swing sole over a grid: the balance space with and without thrust (Paper A, Fig. 5)."""
     from jethr1_plan.balance_space.spec import SearchSettings
-    from jethr1_plan.balance_space.sweep import SweepSpec, summary, sweep
+    from jethr1_plan.balance_space.sweep import summary, sweep
     from jethr1_plan.balance_space.workers import ForkedSweep
     from jethr1_plan.files.balance_space import balance_space_mcap, balance_space_png, write_balance_space_csv
-    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.io.forked import ForkedFile, fork_available
     from jethr1_plan.io.pool import pool_config
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.io.record import check_writable
+    from jethr1_plan.robot.load import load_robot
 
     if executor is None:
         executor = "fork" if fork_available() else "loky"
@@ -96,22 +123,8 @@ def balance_space(robot_name, support, support_position, x_range, y_range, z_ran
     robot = load_robot(robot_name)
     if not robot.fans:
         raise InputError("--robot", robot_name, f"{robot.name} has no fans: the balance space is swept with thrust")
-    if support_position is None:
-        support_position = tuple(float(v) for v in robot.start_feet()[support])
-    fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)
-    if thrust_max is not None and thrust_max > fan_max:
-        raise InputError("--thrust-max", f"{thrust_max:g}", f"more than the robot's fans give ({fan_max:g} N)")
-    sx, sy, sz = support_position
-    sgn = 1.0 if support == "right" else -1.0  # the swing foot is on the +y side of a right support
-    spec = SweepSpec(robot=robot, support_side=support, support_xyz=tuple(support_position),
-                     x_range=x_range or (sx - 0.8, sx + 0.9),
-                     y_range=y_range or ((sy - 0.7875, sy + 0.9125) if sgn > 0 else (sy - 0.9125, sy + 0.7875)),
-                     z_range=z_range or (sz, sz + 0.3), resolution_m=resolution, thrust_max_n=thrust_max,
-                     sole_margin_m=sole_margin, tolerance=tolerance, method=method,
-                     pbody_resolution_m=pbody_resolution)
-    if sole_margin >= min(robot.sole_length_m, robot.sole_width_m) / 2:
-        raise InputError("--sole-margin", f"{sole_margin:g}", "leaves no support polygon (sole "
-                         f"{robot.sole_length_m} x {robot.sole_width_m} m)")
+    spec = _sweep_spec(robot, support, support_position, (x_range, y_range, z_range), resolution, thrust_max,
+                       sole_margin, tolerance, method, pbody_resolution)
     cells = _check_grid(spec, (x_range, y_range, z_range))
     cell_s = CELL_CPU_S if method == "continuation" else EXHAUSTIVE_CELL_S * (0.01 / pbody_resolution) ** 3
     check_time(_grid_option(spec, (x_range, y_range, z_range)) if method == "continuation" or pbody_resolution >= 0.01

@@ -41,7 +41,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
         raise InputError("batch", "SCENARIOS", "two scenarios share a file name; their outputs would collide")
     require_dask(executor, scheduler)
     from jethr1_plan.files.plan_folder import PLAN_WRITES
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.scenario import load_scenario
 
     for path in paths:  # bad input is one line and nothing written: every scenario read before any is planned

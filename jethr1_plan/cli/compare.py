@@ -49,7 +49,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
         raise InputError("--methods", ",".join(unknown), f"unknown optimiser (known: {', '.join(METHODS)})")
     if not names or len(set(names)) != len(names):
         raise InputError("--methods", repr(methods), f"expected distinct optimisers among {', '.join(METHODS)}")
-    from jethr1_plan.scenario import YAW_MODES
+    from jethr1_plan.scenario_schema import YAW_MODES
 
     modes = tuple(m.strip() for m in yaw_modes.split(",") if m.strip())
     if not modes or any(m not in YAW_MODES for m in modes) or len(set(modes)) != len(modes):
@@ -64,7 +64,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
                     f"{', and the exhaustive reference' if reference else ''})",
                     extra_s=len(modes) * samples * REFERENCE_SAMPLE_S if reference and not pareto else 0.0)
     outdir = outdir or Path("out") / "compare" / Path(scenario.source).stem
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
 
     check_writable(outdir, writes=PARETO_FILES if pareto else COMPARE_FILES)
     jobs = cap_jobs(jobs)

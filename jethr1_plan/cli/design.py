@@ -35,9 +35,10 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     """Judge every variant of a base robot that SPEC.yaml describes by the widest ditch it crosses (Paper A's
     forward step: with the whole tolerance, half of it, at all), and write design.csv, design.json, design.png,
     timings.json and the best variants as robot folders (OUTDIR/robots/)."""
-    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.io.json_text import json_text
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.io.record import check_writable
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.studies.design import check_first, default_cache, make_tasks, run_tasks
     from jethr1_plan.studies.design_report import (
         OWN_FILES,

@@ -55,7 +55,7 @@ def ditch_curve_cmd(gaps, scales, base_path, optimiser, jobs, outdir, as_json, n
     if len(scale_values) > MAX_SCALES or len(set(scale_values)) != len(scale_values):
         raise InputError("--scales", scales[:60], f"{len(scale_values)} values: at most {MAX_SCALES}, each once (the "
                          "tolerance itself is known to ±25 %: finer steps of it mean nothing)")
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.scenario import check_plan_time
 
     base = load_scenario(base_path) if base_path else default_base()

@@ -47,7 +47,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
     from dataclasses import replace
 
     from jethr1_plan.files.plan_folder import PLAN_WRITES, plan_folder
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.pipeline.plan import plan_to_folder
     from jethr1_plan.scenario import check_plan_time, load_scenario
 

@@ -26,7 +26,7 @@ __all__ = ["reach_cmd"]
 @click.option("--json", "as_json", is_flag=True)
 def reach_cmd(robot_name, l_leg, z0, l_pel, w_step, theta_pel_deg, dyros_jet, as_json) -> None:
     """Paper B's step-length analysis (B-1..B-5), and the robot's numerical reach with PlaCo IK."""
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.studies.reach import DYROS_JET, ReachFigures, discrepancy_note, numerical_reach, step_lengths
 
     numeric = None

@@ -22,7 +22,7 @@ def robot() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print the model summary as JSON on stdout.")
 def robot_show(name: str, as_json: bool) -> None:
     """Mass, height, leg length, joints, fans and sole of robot NAME (a name, folder or YAML path)."""
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.robot.summary import robot_summary
 
     summary = robot_summary(load_robot(name))

@@ -35,7 +35,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     summary.json), route.mcap and route.png. Exit 3 when no route exists, naming the frontier reached.
     """
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.route.planner import (
         ROUTE_OWN,
         NoRoute,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -87,10 +88,9 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
                     progress: bool = True, single: tuple[float, float, float, float] = (1.0, 1.0, 0.05, 1.0)) -> bool:
     """``jethr1 simulate``'s work (also ``replan-steps``'): rehearse or execute the plan in ``plan_dir``, write
     its files, print the tables; whether every run succeeded."""
-    from jethr1_plan.control.feedback import controller_summary
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
     from jethr1_plan.files.simulation import simulation_mcap
-    from jethr1_plan.io.atomic import check_writable, file_sha256, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.sim.certificate import certificate, describe, draws
     from jethr1_plan.sim.rehearsal import Perturbation, law_of, load_plan, simulate
 
@@ -100,11 +100,7 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
     law_of(track.robot, controller)
     steps = len(np.unique(track.step[track.phase == "swing"]))
     stepwise = steps >= 2 and not whole
-    check_writable(plan_dir, need_bytes=len(track) * (1200 if stepwise else 600), writes=sorted(SIMULATION_FILES))
-    if trials is not None:
-        check_memory("--trials", str(trials), trials * TRIAL_BYTES, f"{trials} trials' results")
-        check_time(("--trials", str(trials)), trials * float(track.time_s[-1]) / REALTIME_FACTOR / min(jobs, cores()),
-                   f"{trials} rehearsals of {float(track.time_s[-1]):.1f} s")
+    _check_room(plan_dir, track, stepwise, trials, jobs)
     jobs = cap_jobs(jobs)
     randomisation = "within_tolerance" if within_tolerance else "default"
     if trials is None:
@@ -137,28 +133,14 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
         for doc_r, ex in zip(run_docs, executions, strict=True):
             doc_r["step_by_step"] = execution_record(ex)
     cert = certificate(runs, perturbations, track.tolerance, randomisation) if trials is not None else None
-    doc: dict = {"plan": str(plan_dir), "plan_files": track.plan_files, "mode": "step_by_step" if stepwise else "whole",
-           "controller": controller, "law": law, "compensated": not raw, "sensors": track.robot.sensors.describe(),
-           "loop": controller_summary(track.robot, track.tolerance["thrust_error"], track.tolerance["mass_error"],
-                                      track.thrust_max_n) if law is not None else None,
-           "trials": trials, "seed": seed if trials else None, "runs": run_docs,
-           "succeeded": ok, "total": len(runs), "success_rate": ok / len(runs),
-           "certificate": cert,
-           "timing": {"simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}}
-    def still_the_plan() -> None:  # under the folder's lock: a rehearsal is committed only beside the plan it is of
-        try:
-            now = file_sha256(plan_dir / "summary.json")
-        except OSError:
-            now = ""
-        if now != track.summary_sha256:
-            raise InputError(str(plan_dir), "", "planned again while it was rehearsed: this rehearsal is of a plan "
-                             "no longer there; nothing written (simulate it again)")
-
+    doc = _simulation_doc(plan_dir, track, stepwise, controller, law, raw, trials, seed, run_docs, ok, cert,
+                          (simulated, wall))
     if executions is not None:
         executed, feasible = write_executed(Path(plan_dir), scenario, executions[0])
         doc["executed"] = {"folder": str(executed), "feasible": feasible}
     written = ["simulation.json"]
-    with staged_directory(plan_dir, SIMULATION_FILES, precondition=still_the_plan) as staging:  # both or neither
+    precondition = _still_the_plan(plan_dir, track.summary_sha256)
+    with staged_directory(plan_dir, SIMULATION_FILES, precondition=precondition) as staging:  # both or neither
         (staging.path / "simulation.json").write_text(json_text(doc))
         if runs[0].record is not None:
             (staging.path / "simulation.mcap").write_bytes(simulation_mcap(track.robot, runs[0].record,
@@ -177,6 +159,54 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
             + (f" and {doc['executed']['folder']}/" if executions is not None else ""))
     err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
     return ok == len(runs)
+
+
+def _still_the_plan(plan_dir: Path, summary_sha256: str) -> Callable[[], None]:
+    """The commit's precondition, checked under the folder's lock: a rehearsal is committed only beside the plan it
+    is of (its summary.json unchanged)."""
+    from jethr1_plan.io.record import file_sha256
+
+    def check() -> None:
+        try:
+            now = file_sha256(plan_dir / "summary.json")
+        except OSError:
+            now = ""
+        if now != summary_sha256:
+            raise InputError(str(plan_dir), "", "planned again while it was rehearsed: this rehearsal is of a plan "
+                             "no longer there; nothing written (simulate it again)")
+    return check
+
+
+def _check_room(plan_dir: Path, track, stepwise: bool, trials: int | None, jobs: int) -> None:
+    """Refuse, before any run, a folder that cannot take the files (about 600 bytes a row, twice step by step),
+    trials whose results would not fit in memory, or trials estimated to take too long."""
+    from jethr1_plan.files.plan_folder import SIMULATION_FILES
+    from jethr1_plan.io.record import check_writable
+
+    check_writable(plan_dir, need_bytes=len(track) * (1200 if stepwise else 600), writes=sorted(SIMULATION_FILES))
+    if trials is not None:
+        check_memory("--trials", str(trials), trials * TRIAL_BYTES, f"{trials} trials' results")
+        check_time(("--trials", str(trials)), trials * float(track.time_s[-1]) / REALTIME_FACTOR / min(jobs, cores()),
+                   f"{trials} rehearsals of {float(track.time_s[-1]):.1f} s")
+
+
+def _simulation_doc(plan_dir: Path, track, stepwise: bool, controller: str, law: str | None, raw: bool,
+                    trials: int | None, seed: int, run_docs: list[dict], ok: int, cert: dict | None,
+                    times: tuple[float, float]) -> dict:
+    """simulation.json: the plan and its files, the mode, the controller and its law's loop, the sensors, the
+    runs and their certificate, the simulated and wall times [s]."""
+    from jethr1_plan.control.feedback import controller_summary
+
+    simulated, wall = times
+    return {"plan": str(plan_dir), "plan_files": track.plan_files, "mode": "step_by_step" if stepwise else "whole",
+            "controller": controller, "law": law, "compensated": not raw, "sensors": track.robot.sensors.describe(),
+            "loop": controller_summary(track.robot, track.tolerance["thrust_error"], track.tolerance["mass_error"],
+                                       track.thrust_max_n) if law is not None else None,
+            "trials": trials, "seed": seed if trials else None, "runs": run_docs,
+            "succeeded": ok, "total": len(run_docs), "success_rate": ok / len(run_docs),
+            "certificate": cert,
+            "timing": {"simulated_s": simulated, "wall_s": wall,
+                       "realtime_factor": simulated / wall if wall else None}}
 
 
 def _table(plan_dir, controller, runs, perturbations, track, executions) -> None:

@@ -47,7 +47,8 @@ def _gaps(text: str) -> tuple[float, float]:
 def random_cmd(seed: int, cartons: int, gaps: str, heights: float, side: float, policy: str, sole_margin: float,
                output: Path | None) -> None:
     """A seeded random carton field: rows of cartons across ditches, with side offsets and height changes."""
-    from jethr1_plan.io.atomic import check_writable, write_text_atomic
+    from jethr1_plan.io.atomic import write_text_atomic
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.route.terrain import random_terrain
 
     text = random_terrain(seed, cartons, _gaps(gaps), heights, side, policy, sole_margin_m=sole_margin)

@@ -23,7 +23,8 @@ def view_cmd(path: Path, save: Path | None) -> None:
     display and --save.
     """
     from jethr1_plan.errors import InputError
-    from jethr1_plan.viewer import ViewerMissing, view
+    from jethr1_plan.viewer.show import view
+    from jethr1_plan.viewer.topics import ViewerMissing
 
     if save is not None and save.suffix != ".rrd":
         raise InputError(str(save), "--save", "expected a .rrd file name")
@@ -31,7 +32,8 @@ def view_cmd(path: Path, save: Path | None) -> None:
         if save is None:
             message = view(path, None)
         else:  # written as every output is (io.atomic): staged, then committed; a folder made where missing
-            from jethr1_plan.io.atomic import check_writable, staged_directory
+            from jethr1_plan.io.atomic import staged_directory
+            from jethr1_plan.io.record import check_writable
 
             check_writable(save.parent, writes=(save.name,))
             with staged_directory(save.parent, frozenset({save.name})) as staging:

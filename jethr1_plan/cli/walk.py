@@ -42,7 +42,7 @@ def walk_cmd(walk_path: Path, outdir: Path, as_json: bool, rehearse: bool | None
     """Walk WALK.yaml (Paper B): CoM by MPC, pelvic rotation by look-ahead MPC, QP IK, arm swing; write
     trajectory.csv, trajectory.mcap, summary.json and the yaw, momentum and κ figures."""
     from jethr1_plan.files.walk_folder import WALK_FILES, walk_folder, write_walk_outputs
-    from jethr1_plan.io.atomic import check_writable
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.pipeline.walk import run_walk
     from jethr1_plan.walking.result import walk_summary
 
@@ -110,7 +110,8 @@ def walk_sweep_cmd(walk_path: Path, steps_m: str, rotation: str, jobs: int, rehe
                    outdir: Path | None, as_json: bool, no_progress: bool) -> None:
     """Walk WALK.yaml at every step length with and without pelvic rotation: the longest step each
     mode reaches, E_con over two steps, peak κ, yaw and yaw momentum (walk_sweep.json, .csv, .png)."""
-    from jethr1_plan.io.atomic import check_writable, staged_directory
+    from jethr1_plan.io.atomic import staged_directory
+    from jethr1_plan.io.record import check_writable
     from jethr1_plan.studies.walk_sweep import sweep, sweep_png
     from jethr1_plan.walking.spec import ROTATION_MODES, check_walk
 

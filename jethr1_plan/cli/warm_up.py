@@ -34,7 +34,7 @@ timing: {start_s: 0.5, single_support_s: 0.8, double_support_s: 0.4, end_s: 0.5,
 def exercises(tmp: Path) -> list[list[list[str]]]:
     """The commands each warm-up process runs, in turn (argument lists of ``jethr1``), their inputs written into
     ``tmp``: the balance-space sweeps in one process, the plans, their verification and a walk in the other."""
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.studies.design_report import scenario_text
 
     judge = {"seed": 1, "optimiser": "sqp", "tolerance": {"thrust_error": 0.1, "mass_error": 0.05, "com_error_m": 0.01}}

@@ -30,7 +30,8 @@ from jethr1_plan.control.imu_thrust import ImuGains, ImuThrust, imu_law, tilt_er
 from jethr1_plan.control.measurement import Command, Kinematics, Measurement, Reference
 from jethr1_plan.control.swing_placement import PlacementGains, SwingPlacement, placement_law, yaw_of
 from jethr1_plan.geometry import GRAVITY, SIDES, other_side, sole_polygon
-from jethr1_plan.robot.model import LAW_SENSORS, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.sensors import LAW_SENSORS
 
 __all__ = ["UNLOADED", "Controller", "Diagnostics", "controller_summary"]
 

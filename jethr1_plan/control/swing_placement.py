@@ -2,26 +2,24 @@
 slipped by, measured through the robot's own sensors, so that the swing sole lands where the plan
 puts it in the world.
 
-Why (measured on the twin, docs/rehearsal.md "Why the landing missed its carton"): the support sole
-pivots a little in yaw on its carton while the other leg swings (0.0 to 1.6 degrees over the two
-swings of ``jet_hr1_trial_robust``), and the joint commands place the swing sole relative to the
-support sole: a yaw ψ of the support sole moves a landing d ahead of it sideways by d·ψ (14 mm at
-d = 0.515 m and ψ = 1.6 degrees), enough to put the sole's edge off a carton only 10 mm wider than
-the sole on each side.
+Why (docs/rehearsal.md, "Why the landing missed its carton", measures it on the twin): the support sole
+pivots a little in yaw on its carton while the other leg swings, and the joint commands place the swing
+sole relative to the support sole: a yaw ψ of the support sole moves a landing d ahead of it sideways by
+d·ψ, which a carton only a little wider than the sole does not forgive.
 
 What a robot of this kind measures, and what the law uses:
 
 * the joint encoders (the servos' output angles): forward kinematics gives the swing sole's pose
   relative to the support sole, sag included;
-* the IMU's orientation of the trunk (its yaw integrated from the gyro: the drift of a MEMS gyro,
-  degrees per hour, is well below a tenth of a degree over a 30 s plan): with the encoders, the
+* the IMU's orientation of the trunk (its yaw integrated from the gyro, whose drift over a plan's
+  duration the robot YAML bounds: ``sensors.imu.yaw_drift_rad_s``): with the encoders, the
   support sole's orientation in the world, so its yaw slip;
 * not the support sole's slip along the ground (no sensor sees it): the estimate assumes the support
   sole's centre stays where the plan put it.
 
 A loop that drove the estimated swing sole pose (from the support sole through encoders and IMU)
 to the planned one with an integrator oscillated in x on the twin and fell (the trunk pitches with
-the leg it moves, time constants 0.1 s and 0.5 s); the law corrects instead only what is measured
+the leg it moves); the law corrects instead only what is measured
 to have moved: the support sole's yaw. With ψ the measured yaw of the support sole, ψ_plan its
 planned yaw and δψ = ψ − ψ_plan (low-passed over ``filter_s``), the plan's landing seen from the
 pivoted support sole lies turned by δψ about the support sole's centre s, so the swing sole is

@@ -19,17 +19,15 @@ plan's ``thrust_max_n``, each fan's own limit). The error is signed by the neare
 about to cross: more thrust when the edge lies on the fan's side, less when beyond, and at a
 corner the compromise between both (the edges the thrust cannot help are weighed with those it can).
 Inside the band (every edge at least m away) the planned thrust is left alone: the plan is robust
-there, and a loop that chased the planned ZMP would fight the servos' sag instead (measured on the
-twin: it drove the thrust below the plan as the swing leg moved out). The integral removes a steady
+there, and a loop that chased the planned ZMP would fight the servos' sag instead (it drives the thrust
+below the plan as the swing leg moves out: docs/rehearsal.md). The integral removes a steady
 error (a weak fan, a heavier robot) and leaks away once the CoP is back inside the band.
 
-Why the error and the saturation are these (measured on the twin, docs/rehearsal.md): the earlier
-law measured the CoP only along the fixed ray from the fan through the planned ZMP and clipped the
-command to the row's thrust window widened by the plan's tolerance. On Paper A's minimal 450 mm
-plan (tolerance 0) that window is the planner's own: it held the command at 20.57 N, the row's
-upper bound, from swing row 439 until the trunk tipped past 10° at row 446, 2.43 N of the fan
-unused; and its ray error read "13 mm more thrust" with the CoP 0.4–2.1 mm from the outer edge that
-more thrust moves it towards (this law's error: −1.2 to −1.5 mm, the corner's compromise).
+Why the error and the saturation are these (docs/rehearsal.md measures both on the twin): a law that
+reads the CoP only along the fixed ray from the fan through the planned ZMP asks for more thrust where
+more thrust moves the CoP towards another edge (at a corner), and one clipped to the row's thrust
+window widened by the plan's tolerance holds a minimal plan (tolerance 0) at the planner's own bound
+while the fan has thrust left: hence the nearest edge's signed error, the corner's compromise and F_top.
 
 Signals a robot of this kind has: the CoP of the soles (force-sensing resistors under each sole, or
 an ankle force-torque sensor; in double support the CoP of both), the fan's position from the joint

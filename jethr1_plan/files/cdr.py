@@ -12,10 +12,8 @@ every message: :meth:`CdrEncoder.encode`) or, for
 a sequence of numbers, an array of shape ``(k,)`` (the same) or ``(n, k)`` (per message) or a list of
 ``n`` arrays (per message, of any length); a string field may also take ``n`` strings. Fields left
 out take their defaults (0, the ``.msg`` default value, empty). Messages whose strings and
-sequences have the same lengths share one byte layout and are filled together by numpy. Measured on
-the reference trial: its 1,201 ``/tf`` messages (13 transforms each) are built and encoded in 4 ms,
-against 0.3 s message by message with ``mcap_ros2``'s serialiser; its 8,412 messages in 12 ms,
-against 94 ms with ``rosbags``' and 265 ms with ``mcap_ros2``'s (the same bytes).
+sequences have the same lengths share one byte layout and are filled together by numpy, the bytes
+those of ``rosbags`` and ``mcap_ros2`` (docs/benchmarks.md measures the speed).
 """
 
 from __future__ import annotations

@@ -28,7 +28,8 @@ import numpy as np
 from jethr1_plan.files.cdr import CdrEncoder, parse_schema
 from jethr1_plan.files.ros2_msgs import MSGDEFS, schema_text
 from jethr1_plan.geometry import quat_rpy
-from jethr1_plan.robot.model import RobotModel, urdf_joints
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.urdf import urdf_joints
 
 __all__ = [
     "EPOCH_NS",

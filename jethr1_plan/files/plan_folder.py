@@ -20,15 +20,18 @@ from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_csv import read_trajectory_csv, table_csv
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES, read_trajectory_mcap, trajectory_mcap
 from jethr1_plan.files.plan_table import columns, plan_table
-from jethr1_plan.io.atomic import RECORD, file_sha256, read_record, staged_directory
+from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import describe_kind, read_input
 from jethr1_plan.io.json_text import MAX_JSON_BYTES, json_document, json_text
 from jethr1_plan.io.json_text import read_json as read_json_document
+from jethr1_plan.io.record import RECORD, file_sha256, read_record
 from jethr1_plan.io.yaml_input import check_schema
 from jethr1_plan.planning.results import PlanResult
-from jethr1_plan.robot.model import RobotModel, load_robot
-from jethr1_plan.scenario import MAX_FILE_BYTES, MAX_ROWS, POLICIES, Scenario, load_scenario, load_scenario_text
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.scenario import Scenario, load_scenario, load_scenario_text
+from jethr1_plan.scenario_schema import MAX_FILE_BYTES, MAX_ROWS, POLICIES
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["PLAN_FILES", "PLAN_WRITES", "SIMULATION_FILES", "SUMMARY_SCHEMA", "PlanFolder", "check_belongs",
@@ -40,7 +43,7 @@ SIMULATION_FILES = frozenset({"simulation.json", "simulation.mcap"})
 #: the files ``jethr1`` writes into a plan folder (any other file there is the user's and is kept)
 PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json"}) | SIMULATION_FILES
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.mcap")
-#: the files ``jethr1 plan`` writes (checked before the work: :func:`~jethr1_plan.io.atomic.check_writable`)
+#: the files ``jethr1 plan`` writes (checked before the work: :func:`~jethr1_plan.io.record.check_writable`)
 PLAN_WRITES = (*TRAJECTORY_FILES, "summary.json")
 #: the key of summary.json that records the trajectory files' digests: name → {"sha256", "bytes"}
 DIGESTS_KEY = "files"

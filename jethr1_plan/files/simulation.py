@@ -50,7 +50,7 @@ SIMULATION_TOPICS: dict[str, Topic] = {
 def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
     """The MCAP bytes of a rehearsal's ``record`` (``t`` [s], ``qpos`` (N, 7 + J): position, w-x-y-z
     quaternion and joints, ``thrust`` (N, F) [N], ``com`` (N, 3) [m], ``cop`` per sample (3,) [m] or
-    None; ``steps``: per landing the judge's record, ``sim.run.StepJudge``, with ``foothold_m`` and
+    None; ``steps``: per landing the judge's record, ``sim.judge.StepJudge``, with ``foothold_m`` and
     ``foothold_error_m`` where the foothold is not the plan's landing)."""
     out = Ros2Mcap(SIMULATION_TOPICS)
     out.write("/sim/robot_description", 0.0, urdf_message(robot, PREFIX))

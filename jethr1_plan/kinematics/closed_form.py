@@ -27,7 +27,8 @@ from jethr1_plan.geometry import SIDES, halfplanes, other_side
 from jethr1_plan.kinematics.base import PostureBatch, Stance
 from jethr1_plan.physics.balance import NOMINAL, Tolerance
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import RobotModel, urdf_joints
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.urdf import urdf_joints
 
 __all__ = [
     "AXES",

@@ -42,176 +42,39 @@ Each chosen P_body is finally evaluated with the planner's posture solver (PlaCo
 sample that fails there falls back to GAS's initial phase around it.
 """
 
+
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 
 from jethr1_plan.optimisers.base import PathRequest, PathResult, SampleResult
 from jethr1_plan.optimisers.gas import initial_phase
 from jethr1_plan.optimisers.problem import SampleProblem, evaluate_candidates, fitness
-from jethr1_plan.optimisers.sqp_sample import TRUST_M, AnalyticSample, compass, grid_starts
+from jethr1_plan.optimisers.sqp_sample import (
+    ACCEPT_N,
+    TRUST_M,
+    AnalyticSample,
+    Found,
+    follow_box,
+    solve_from_grid,
+    solve_from_neighbour,
+)
 from jethr1_plan.optimisers.sqp_share import max_share, scaled
+from jethr1_plan.optimisers.sqp_smoothing import PASS_EPS, lower_peaks, smooth_path
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = [
-    "AnalyticSample",
-    "Found",
-    "compass",
-    "follow_box",
-    "grid_starts",
-    "infeasible_between",
-    "lower_peaks",
-    "optimise_path",
-    "smooth_path",
-    "solve_from_grid",
-    "solve_from_neighbour",
-]
+__all__ = ["infeasible_between", "optimise_path"]
 
-ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
-BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
-SMOOTH_N = 0.03  # the smoothing sweeps may raise a sample's thrust by this much [N]
-SMOOTH_SWEEPS = 4
-PASS_EPS = 10.0  # the tie-break weight: at most this, smoothness is not priced [N/m²]
-PEAK_ROUNDS = 20  # lower_peaks: re-solves at most
-PRICED_SWEEPS = 10  # the smoothing sweeps where smoothness is priced (ε > PASS_EPS)
 BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
 SHARE_BACKOFF = (0.002, 0.01, 0.03, 0.1)  # δ: stage 2 solves at s* − δ, the first of these it solves
 SHARE_STEP = 0.01  # where a segment's check fails at a sample's share, the sample gives up this much of it
 SHARE_GAIN = 1e-3  # a share found again (from another posture) is kept when it is this much larger
 SHARE_ROUNDS = 3  # stage 1 and 2 alternate at most this many times at one sample
 BETWEEN_ROUNDS = 12  # rounds of wider margins (×2 each) for segments that fail (the robust trial needs 7); more
-# while the first failing segment moves on along the path (a repair can push the failure to the next segment: the
-# (A-10) cone turns with the swing foot), at most one per sample
-
-
-class Found(NamedTuple):
-    """A sample's chosen P_body [m], its exact minimal thrust [N], and whether SLSQP settled inside
-    its trust box (the box did not hold it back)."""
-
-    p: np.ndarray
-    thrust: float
-    settled: bool
-
-
-def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
-    return [(float(c) - half, float(c) + half) for c in centre]
-
-
-def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.ndarray | None = None
-                         ) -> Found | None:
-    """SLSQP inside the trust box around the neighbour's P_body ``centre``, from ``guess`` and then,
-    if that fails, from the centre; the compass search from the centre where both end infeasible.
-
-    Returns None where nothing feasible was found.
-    """
-    box = _box(centre, TRUST_M)
-    starts = [centre.copy()]
-    if guess is not None:
-        starts.insert(0, np.clip(guess, centre - TRUST_M, centre + TRUST_M))
-    for start in starts:
-        x, f, ok = sample.solve(start, box)
-        if ok:
-            return Found(x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4)))
-    x = compass(sample, centre)
-    ok, f = sample.feasible(x)
-    return Found(x, f, False) if ok else None
-
-
-def follow_box(sample: AnalyticSample, r: Found | None) -> Found | None:
-    """Where the trust box held ``r`` back (not settled inside it), move the box there and solve again,
-    up to ``BOX_MOVES`` times, while the thrust falls by more than ``ACCEPT_N``."""
-    for _ in range(BOX_MOVES):
-        if r is None or r.settled:
-            break
-        r2 = solve_from_neighbour(sample, r.p)
-        if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
-            break
-        r = r2
-    return r
-
-
-def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> Found | None:
-    """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
-    best = None
-    for x0 in grid_starts(sample, centre, half):
-        x, f, ok = sample.solve(x0, _box(centre, half))
-        if not ok:
-            x = compass(sample, x0, step=0.016)
-            ok, f = sample.feasible(x)
-        if ok and (best is None or f < best.thrust - 1e-9):
-            best = Found(x, f, False)
-    return best
-
-
-def smooth_path(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
-                smoothness_n_per_m2: float = 0.0, sweeps: int = SMOOTH_SWEEPS) -> None:
-    """Gauss–Seidel sweeps that move each P_body towards the midpoint of its neighbours (full, half or
-    quarter way, the first accepted) while every constraint holds and the path's largest thrust does
-    not rise. A move is accepted when the sample's thrust rises by at most ``SMOOTH_N`` above what the
-    passes found (the jitter a local optimum leaves where the thrust is flat goes), or by at most
-    ε·(the fall of ‖P − P_prev‖² + ‖P − P_next‖²), ε = ``smoothness_n_per_m2``: the same price as the
-    passes' term, so every such move lowers Σ thrust + ε·Σ‖ΔP_body‖² and the sweeps end on the
-    trade-off that ε asks for. Up to ``sweeps`` sweeps (more while moves are still being accepted
-    under the price: at most ``PRICED_SWEEPS``). Updates ``found`` and ``evals`` in place."""
-    n = len(found)
-    base = [np.inf if f is None else f.thrust for f in found]  # the thrusts the optimiser found
-    peak = max((t for t in base if np.isfinite(t)), default=0.0)
-    samples: dict[int, AnalyticSample] = {}
-    limit = PRICED_SWEEPS if smoothness_n_per_m2 > PASS_EPS else sweeps
-    for _ in range(limit):
-        moved = 0
-        for i in range(1, n - 1):
-            a, b, cur = found[i - 1], found[i + 1], found[i]
-            if a is None or b is None or cur is None:
-                continue
-            mid = 0.5 * (a.p + b.p)
-            gap = float(np.sum((mid - cur.p) ** 2))
-            if gap < 1e-10:
-                continue
-            sample = samples.get(i)
-            if sample is None:
-                sample = samples[i] = AnalyticSample(robot, problems[i], None)
-            sample.evaluations = 0
-            for alpha in (1.0, 0.5, 0.25):
-                p = cur.p + alpha * (mid - cur.p)
-                ok, t = sample.feasible(p)
-                # ‖p − a‖² + ‖p − b‖² = 2‖p − mid‖² + const: its fall is 2·gap·(1 − (1 − α)²)
-                price = smoothness_n_per_m2 * 2.0 * gap * (1.0 - (1.0 - alpha) ** 2)
-                if ok and t <= peak and (t <= base[i] + SMOOTH_N or t - cur.thrust <= price):
-                    found[i] = Found(p, t, cur.settled)
-                    moved += 1
-                    break
-            evals[i] += sample.evaluations
-        if not moved:
-            break
-
-
-def lower_peaks(robot: RobotModel, problems: list[SampleProblem], found: list[Found | None], evals: np.ndarray,
-                rounds: int = PEAK_ROUNDS) -> None:
-    """Where the smoothness price held the path's largest thrust above what its sample needs, that
-    sample is solved again for its least thrust (tie-break weight ``PASS_EPS``, from where it is),
-    and so on for the next largest, until the largest is a sample's least thrust (or ``rounds``
-    re-solves): the price trades thrust for smoothness, never the path's maximum. Updates ``found``
-    and ``evals`` in place."""
-    for _ in range(rounds):
-        thrusts = np.array([np.inf if f is None else f.thrust for f in found])
-        finite = np.isfinite(thrusts)
-        if not finite.any():
-            return
-        i = int(np.argmax(np.where(finite, thrusts, -np.inf)))
-        cur = found[i]
-        assert cur is not None
-        prev = found[i - 1] if i else None
-        sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, PASS_EPS)
-        r = follow_box(sample, solve_from_neighbour(sample, cur.p))
-        evals[i] += sample.evaluations
-        if r is None or r.thrust >= cur.thrust - ACCEPT_N:
-            return
-        found[i] = r
 
 
 def infeasible_between(robot: RobotModel, found: list[Found | None], between: Callable[[int, float], SampleProblem],
@@ -288,6 +151,23 @@ def _share_solve(robot: RobotModel, problem: SampleProblem, centre: np.ndarray, 
     return best
 
 
+@dataclass
+class _Path:
+    """The state of one path's solve, sample by sample: the chosen P_body (``found``), the share of the tolerance
+    each holds, the evaluations it took, the phase that found it, whether it is robust."""
+
+    robot: RobotModel
+    problems: list[SampleProblem]
+    nominals: np.ndarray  # (N, 3) each sample's nominal P_body [m]
+    eps: float  # the smoothness price [N/m²]
+    half: float  # the grid's half range [m]
+    found: list[Found | None]
+    shares: np.ndarray
+    evals: np.ndarray
+    phase: list[str]
+    robust: list[bool]
+
+
 def optimise_path(request: PathRequest) -> PathResult:
     """P_body at every sample of one swing path (see the module docstring).
 
@@ -302,18 +182,28 @@ def optimise_path(request: PathRequest) -> PathResult:
     smoothing, the checks between samples, at shares interpolated as the rows are) holds each
     sample to its share. The shares are in the results (``SampleResult.share``).
     """
-    robot, solver, problems, nominals = request.robot, request.solver, request.problems, request.nominals
-    cfg, rngs, between, row_positions = request.config, request.rngs, request.between, request.row_positions
+    problems = request.problems
     n = len(problems)
-    half = cfg.initial.half_range_m
-    eps = cfg.sqp_smoothness_n_per_m2
-    found: list[Found | None] = [None] * n
-    shares = np.ones(n)
-    evals = np.zeros(n, dtype=np.int64)
-    phase = ["sqp"] * n
-    robust = [pr.tolerance != NOMINAL for pr in problems]
-    # forward pass
-    for i in range(n):
+    path = _Path(request.robot, problems, request.nominals, request.config.sqp_smoothness_n_per_m2,
+                 request.config.initial.half_range_m, [None] * n, np.ones(n), np.zeros(n, dtype=np.int64),
+                 ["sqp"] * n, [pr.tolerance != NOMINAL for pr in problems])
+    _forward(path)
+    _backward(path)
+    held = [scaled(pr, s) for pr, s in zip(problems, path.shares, strict=True)]  # each sample at its share
+    if path.eps > PASS_EPS:
+        lower_peaks(path.robot, held, path.found, path.evals)
+    smooth_path(path.robot, held, path.found, path.evals, path.eps)
+    if request.between is not None:
+        _repair_between(path, held, request.between, request.row_positions)
+    return _evaluated(path, held, request)
+
+
+def _forward(path: _Path) -> None:
+    """The forward pass: each sample from the previous one's P_body (kept where it needs no thrust; else a
+    predictor, the last move repeated, then the previous P_body), else from a coarse grid; a robust sample that
+    reaches no posture takes the largest share of its tolerance it can."""
+    robot, problems, nominals, eps, found = path.robot, path.problems, path.nominals, path.eps, path.found
+    for i in range(len(problems)):
         prev = found[i - 1] if i else None
         sample = AnalyticSample(robot, problems[i], None if prev is None else prev.p, eps)
         r = None
@@ -329,23 +219,29 @@ def optimise_path(request: PathRequest) -> PathResult:
                     r = solve_from_neighbour(sample, guess)
                 r = follow_box(sample, r)
         if r is None:
-            r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, half)
-            phase[i] = "sqp-grid"
-        evals[i] += sample.evaluations
-        if r is None and robust[i]:
+            r = solve_from_grid(sample, nominals[i] if prev is None else prev.p, path.half)
+            path.phase[i] = "sqp-grid"
+        path.evals[i] += sample.evaluations
+        if r is None and path.robust[i]:
             got = _share_solve(robot, problems[i], nominals[i] if prev is None else prev.p,
-                               None if prev is None else prev.p, eps, half, evals, i)
+                               None if prev is None else prev.p, eps, path.half, path.evals, i)
             if got is not None:
-                r, shares[i] = got
-                phase[i] = "sqp-share"
+                r, path.shares[i] = got
+                path.phase[i] = "sqp-share"
         found[i] = r
-    # backward pass
-    for i in range(n - 2, -1, -1):
+
+
+def _backward(path: _Path) -> None:
+    """The backward pass: each sample again from the next one's P_body (a share-limited sample first for a larger
+    share), kept where its thrust is no higher than the forward pass's (within ``ACCEPT_N``)."""
+    robot, problems, eps, found, shares, evals = path.robot, path.problems, path.eps, path.found, path.shares, \
+        path.evals
+    for i in range(len(problems) - 2, -1, -1):
         nxt, cur = found[i + 1], found[i]
         if nxt is None:
             continue
-        if robust[i] and shares[i] < 1.0:  # the largest share again, from the next posture
-            got = _share_solve(robot, problems[i], nxt.p, nxt.p, eps, half, evals, i)
+        if path.robust[i] and shares[i] < 1.0:  # the largest share again, from the next posture
+            got = _share_solve(robot, problems[i], nxt.p, nxt.p, eps, path.half, evals, i)
             if got is not None and got[1] > shares[i] + SHARE_GAIN:
                 found[i], shares[i] = got
                 continue
@@ -361,10 +257,17 @@ def optimise_path(request: PathRequest) -> PathResult:
         evals[i] += sample.evaluations
         if r is not None and (cur is None or r.thrust <= cur.thrust + ACCEPT_N):
             found[i] = r
-    held = [scaled(pr, s) for pr, s in zip(problems, shares, strict=True)]  # each sample at its share
-    if eps > PASS_EPS:
-        lower_peaks(robot, held, found, evals)
-    smooth_path(robot, held, found, evals, eps)
+
+
+def _repair_between(path: _Path, held: list[SampleProblem], between: Callable[[int, float], SampleProblem],
+                    row_positions: np.ndarray | None) -> None:
+    """The segments whose rows (at ``row_positions``, the share interpolated as the rows' is) break a constraint:
+    their two samples solved again with margins twice as wide, round after round (``BETWEEN_ROUNDS``, more while
+    the first failing segment moves on); where a robust sample finds no room, a little less of its tolerance
+    (``SHARE_STEP``) at the usual margins. ``held`` follows the shares."""
+    robot, problems, eps, found, shares, evals = path.robot, path.problems, path.eps, path.found, path.shares, \
+        path.evals
+    n = len(problems)
     scale = np.ones(n)
     fractions: dict[int, list[float]] | None = None
     if row_positions is not None:
@@ -379,7 +282,7 @@ def optimise_path(request: PathRequest) -> PathResult:
 
     kept: dict[tuple[int, float], AnalyticSample] = {}
     first_bad = -1
-    for round_ in range(BETWEEN_ROUNDS + n if between is not None else 0):
+    for round_ in range(BETWEEN_ROUNDS + n):
         bad = infeasible_between(robot, found, held_between, evals, fractions, kept)
         if not bad or (round_ >= BETWEEN_ROUNDS and bad[0] <= first_bad):
             break
@@ -393,7 +296,7 @@ def optimise_path(request: PathRequest) -> PathResult:
                                     margin_scale=scale[j])
             r = solve_from_neighbour(sample, here.p)
             evals[j] += sample.evaluations
-            if r is None and robust[j] and shares[j] > 0.0:
+            if r is None and path.robust[j] and shares[j] > 0.0:
                 # no room for wider margins at this share (a share-limited sample, or one that just
                 # reaches the whole tolerance): a little less of the tolerance, at the usual margins
                 share = max(0.0, shares[j] - SHARE_STEP)
@@ -406,20 +309,25 @@ def optimise_path(request: PathRequest) -> PathResult:
                         del kept[key]
             if r is not None:
                 found[j] = r
-    # the chosen postures, evaluated with the planner's solver
+
+
+def _evaluated(path: _Path, held: list[SampleProblem], request: PathRequest) -> PathResult:
+    """The chosen postures evaluated with the planner's solver; a sample that fails there falls back on GAS's
+    initial phase around it."""
+    solver, cfg = request.solver, request.config
     out = []
     for i, pr in enumerate(held):
-        chosen = found[i]
-        p = chosen.p if chosen is not None else nominals[i]
+        chosen = path.found[i]
+        p = chosen.p if chosen is not None else path.nominals[i]
         cand = evaluate_candidates(solver, pr, p[None])
-        evals[i] += 1
+        path.evals[i] += 1
         if not cand.feasible[0]:
-            p, _, m = initial_phase(solver, pr, cfg, rngs[i], p)
+            p, _, m = initial_phase(solver, pr, cfg, request.rngs[i], p)
             cand = evaluate_candidates(solver, pr, p[None])
-            evals[i] += m + 1
-            phase[i] = "restart"
+            path.evals[i] += m + 1
+            path.phase[i] = "restart"
         f = float(fitness(cand, cfg.constants)[0])
-        out.append(SampleResult(cand, f, int(evals[i]), phase[i], float(shares[i])))
+        out.append(SampleResult(cand, f, int(path.evals[i]), path.phase[i], float(path.shares[i])))
         if request.progress:
             request.progress(i + 1)
     return PathResult(out)

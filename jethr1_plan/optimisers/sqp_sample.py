@@ -14,6 +14,7 @@ inside the (A-10) cone, 0.002 rad inside the joint limits, the knees bent by at 
 from __future__ import annotations
 
 import functools
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import minimize
@@ -25,9 +26,11 @@ from jethr1_plan.optimisers.search import DIRECTIONS
 from jethr1_plan.physics.balance import edge_angle_error, least_thrust, thrust_window
 from jethr1_plan.physics.compiled.sample import sample_terms
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import LEG_ROLES, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.schema import LEG_ROLES
 
-__all__ = ["FD_STEP", "GRID", "MARGIN", "TRUST_M", "AnalyticSample", "compass", "grid_starts", "limit_mask"]
+__all__ = ["ACCEPT_N", "BOX_MOVES", "FD_STEP", "GRID", "MARGIN", "TRUST_M", "AnalyticSample", "Found", "compass",
+           "follow_box", "grid_starts", "limit_mask", "solve_from_grid", "solve_from_neighbour"]
 
 TRUST_M = 0.02  # half-width of the box around the neighbour's P_body [m]
 MARGIN = 1e-5  # SLSQP may end this far outside a constraint (rad or m²); the margins below cover it
@@ -39,6 +42,8 @@ FD_STEP = 1e-7  # forward-difference step [m]
 MAX_ITER = 25  # SLSQP iterations per solve
 RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside the constraints
 GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
+ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
+BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
 
 
 @functools.cache
@@ -281,3 +286,66 @@ def grid_starts(sample: AnalyticSample, centre: np.ndarray, half: float, k: int 
     violation = np.sum(np.minimum(cons, 0.0) ** 2, axis=1) + np.where(np.isfinite(thrust), 0.0, 1.0)
     order = np.lexsort((np.where(np.isfinite(thrust), thrust, np.inf), violation))
     return [grid[i] for i in order[:k]]
+
+
+# while the first failing segment moves on along the path (a repair can push the failure to the next segment: the
+# (A-10) cone turns with the swing foot), at most one per sample
+
+
+class Found(NamedTuple):
+    """A sample's chosen P_body [m], its exact minimal thrust [N], and whether SLSQP settled inside
+    its trust box (the box did not hold it back)."""
+
+    p: np.ndarray
+    thrust: float
+    settled: bool
+
+
+def _box(centre: np.ndarray, half: float) -> list[tuple[float, float]]:
+    return [(float(c) - half, float(c) + half) for c in centre]
+
+
+def solve_from_neighbour(sample: AnalyticSample, centre: np.ndarray, guess: np.ndarray | None = None
+                         ) -> Found | None:
+    """SLSQP inside the trust box around the neighbour's P_body ``centre``, from ``guess`` and then,
+    if that fails, from the centre; the compass search from the centre where both end infeasible.
+
+    Returns None where nothing feasible was found.
+    """
+    box = _box(centre, TRUST_M)
+    starts = [centre.copy()]
+    if guess is not None:
+        starts.insert(0, np.clip(guess, centre - TRUST_M, centre + TRUST_M))
+    for start in starts:
+        x, f, ok = sample.solve(start, box)
+        if ok:
+            return Found(x, f, bool(np.all(np.abs(x - centre) < TRUST_M - 1e-4)))
+    x = compass(sample, centre)
+    ok, f = sample.feasible(x)
+    return Found(x, f, False) if ok else None
+
+
+def follow_box(sample: AnalyticSample, r: Found | None) -> Found | None:
+    """Where the trust box held ``r`` back (not settled inside it), move the box there and solve again,
+    up to ``BOX_MOVES`` times, while the thrust falls by more than ``ACCEPT_N``."""
+    for _ in range(BOX_MOVES):
+        if r is None or r.settled:
+            break
+        r2 = solve_from_neighbour(sample, r.p)
+        if r2 is None or r2.thrust >= r.thrust - ACCEPT_N:
+            break
+        r = r2
+    return r
+
+
+def solve_from_grid(sample: AnalyticSample, centre: np.ndarray, half: float) -> Found | None:
+    """SLSQP from the three best points of a coarse grid over ``centre`` ± ``half``; the best feasible."""
+    best = None
+    for x0 in grid_starts(sample, centre, half):
+        x, f, ok = sample.solve(x0, _box(centre, half))
+        if not ok:
+            x = compass(sample, x0, step=0.016)
+            ok, f = sample.feasible(x)
+        if ok and (best is None or f < best.thrust - 1e-9):
+            best = Found(x, f, False)
+    return best

@@ -12,9 +12,8 @@ derivatives ∂g/∂u_i = a_ik − s·X·|a_ik| and ∂g/∂s = −X·Σ_i u_i·
 exact, and ∂g/∂P by forward differences as the sample's own rows. Maximising s under these rows and
 the sample's P-only constraints (reach, joint limits, (A-10)), with 0 ≤ u_i ≤ u_max,i and s ∈ [0, 1],
 is stage 1 (:func:`max_share`); stage 2 is the sample's usual least-thrust solve at s* − δ
-(``sqp.optimise_path``). Measured on forward_ditch_450: 1–90 ms per stage-1 solve, where the bisection
-of a tolerance scale over full solves took 0.35–0.9 s and stopped lower (0.961 against 0.996 at
-sample 51).
+(``sqp.optimise_path``): one solve where a bisection of a tolerance scale over full solves needs many
+(docs/benchmarks.md compares them).
 """
 
 from __future__ import annotations

@@ -196,17 +196,7 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     grid = (np.linspace(0.0, span, GRID_PER_SAMPLE * round(span) + 1) if swing
             else np.linspace(0.0, 1.0, TRANSFER_GRID))
     start = snap[0]
-    seq.linear_segments = set()
-    for _ in range(4):  # the smooth trunk kept off the segments where its postures fail (reach, limits)
-        seq.restore(snap)
-        build(grid, True)
-        failed = np.flatnonzero(~np.asarray(seq.rows.columns["feasible"][start:], dtype=bool))
-        if not (swing and seq.smooth_trunk and len(failed)):
-            break
-        seg = np.floor(grid[failed]).astype(int)
-        seq.linear_segments |= {int(k) for k in np.concatenate([seg - 1, seg, seg + 1])}
-    tab = _grid_table(seq, start)
-    seq.restore(snap)
+    tab = _phase_table(seq, snap, build, grid, swing)
     dq, ddq, dF = _path_derivatives(tab["base"], tab["q"], tab["thrust"], grid,
                                     SWING_STENCIL if swing else TRANSFER_STENCIL)
     polygon = _polygon(seq, feet, supports, fast.dynamic_share * seq.margin)
@@ -223,19 +213,7 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     rounds = 0
     worst = xb = np.zeros(0)
     for rounds in range(ROUNDS + 1):
-        law = fastest_law(grid, a, b, c, x_max)
-        for _ in range(CORNER_PASSES if corner is not None else 0):
-            if law is None:
-                break
-            # the corners' one-row spike α·ṡ, bounded above by its tangent at the last law's ṡ (√x is concave)
-            # (at most where it leaves half the row's slack at rest, so that rest stays feasible)
-            assert corner is not None
-            spread = _spread(corner, grid, law.sd * seq.dt)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                room = np.where(spread > 0, -c / spread, np.inf)
-            root = np.clip(np.minimum(np.sqrt(np.maximum(law.sd**2, CORNER_X_FLOOR))[:, None], room), 1e-9, None)
-            alpha = np.where(c < 0, spread, 0.0)
-            law = fastest_law(grid, a, b + alpha / (2 * root), c + alpha * root / 2, x_max)
+        law = _fastest_with_corners(grid, a, b, c, x_max, corner, seq.dt)
         if law is None:
             break
         duration = max(law.duration_s, floor)
@@ -252,38 +230,86 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
         bad = np.flatnonzero((worst > 0.0) | (xb < 1.0))
         if not len(bad) or rounds == ROUNDS or np.all((rest[bad] >= 0.0) & (worst[bad] > 0.0)):
             break
-        # slow down around each such row by what it needs: its motion's part scales with ṡ² (ṡ at a corner)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            need = np.where(worst > 0, (-rest / (worst - rest)) ** 2, xb)
-        need = np.clip(np.nan_to_num(need, nan=SLOW), 0.05, SLOW)
-        rows_at = positions[np.minimum(bad, len(positions) - 1)]
-        reach = np.abs(np.gradient(positions))[np.minimum(bad, len(positions) - 1)] + (
-            0.5 if swing else TRANSFER_STENCIL)
-        factor = np.ones(len(grid))
-        for u, r, f in zip(rows_at, reach, need[bad], strict=True):
-            factor = np.where(np.abs(grid - u) <= r, np.minimum(factor, f), factor)
-        x_max = np.where(factor < 1.0, np.minimum(x_max, law.sd**2) * factor, x_max)
+        x_max = _slowed(x_max, law, grid, positions, bad, worst, xb, rest, swing)
     phase = {"step": int(seq.rows.columns["step"][start]) if len(seq.rows) > start else None, "phase": kind,
              "rows": len(seq.rows) - start, "fixed_duration_s": fixed_s, "rounds": rounds}
     if swing:
         phase["trunk"] = ("linear between samples" if not seq.smooth_trunk else "monotone cubic through the samples"
                           + (f", linear on segments {sorted(seq.linear_segments)}" if seq.linear_segments else ""))
-    if law is None:
+    if law is None or law.duration_s > cap:
         seq.restore(snap)
         build(np.linspace(0.0, span if swing else 1.0, max(1, round(fixed_s / seq.dt)) + int(include_end)),
               include_end)
-        reason = f"no timing of this {kind} keeps its rows' dynamics within the limits, even at rest"
-        _mark_all(seq, start, reason)
-        return {**phase, "rows": len(seq.rows) - start, "duration_s": None, "binding": []}
-    duration = (len(seq.rows) - start - int(include_end)) * seq.dt
-    if law.duration_s > cap:
-        seq.restore(snap)
-        build(np.linspace(0.0, span if swing else 1.0, max(1, round(fixed_s / seq.dt)) + int(include_end)),
-              include_end)
+        if law is None:
+            _mark_all(seq, start, f"no timing of this {kind} keeps its rows' dynamics within the limits, even at rest")
+            return {**phase, "rows": len(seq.rows) - start, "duration_s": None, "binding": []}
         _mark_all(seq, start, f"the fastest {kind} its limits allow takes {law.duration_s:.2f} s, above "
                   f"timing.max_{kind}_s {cap:g} s")
         return {**phase, "rows": len(seq.rows) - start, "duration_s": None, "fastest_s": law.duration_s,
                 "binding": []}
+    return {**phase, **_timed(seq, start, kind, law, (a, b, c, x_max), con, worst, xb, include_end, floor, cap,
+                              fixed_s)}
+
+
+def _phase_table(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], grid: np.ndarray, swing: bool) -> dict:
+    """The phase's rows written at the grid's places (the smooth trunk kept off the segments where its postures
+    fail: reach, limits), read back as a table; the sequence restored to ``snap``."""
+    start = snap[0]
+    seq.linear_segments = set()
+    for _ in range(4):
+        seq.restore(snap)
+        build(grid, True)
+        failed = np.flatnonzero(~np.asarray(seq.rows.columns["feasible"][start:], dtype=bool))
+        if not (swing and seq.smooth_trunk and len(failed)):
+            break
+        seg = np.floor(grid[failed]).astype(int)
+        seq.linear_segments |= {int(k) for k in np.concatenate([seg - 1, seg, seg + 1])}
+    tab = _grid_table(seq, start)
+    seq.restore(snap)
+    return tab
+
+
+def _fastest_with_corners(grid: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, x_max: np.ndarray,
+                          corner: np.ndarray | None, dt: float) -> TimeLaw | None:
+    """The fastest law within the constraints a·s̈ + b·ṡ² + c ≤ 0, ṡ² ≤ x_max; at a swing's corners (``corner``)
+    their one-row spike α·ṡ bounded above by its tangent at the last law's ṡ (√x is concave), at most where it
+    leaves half the row's slack at rest (so that rest stays feasible), over ``CORNER_PASSES``."""
+    law = fastest_law(grid, a, b, c, x_max)
+    for _ in range(CORNER_PASSES if corner is not None else 0):
+        if law is None:
+            break
+        assert corner is not None
+        spread = _spread(corner, grid, law.sd * dt)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(spread > 0, -c / spread, np.inf)
+        root = np.clip(np.minimum(np.sqrt(np.maximum(law.sd**2, CORNER_X_FLOOR))[:, None], room), 1e-9, None)
+        alpha = np.where(c < 0, spread, 0.0)
+        law = fastest_law(grid, a, b + alpha / (2 * root), c + alpha * root / 2, x_max)
+    return law
+
+
+def _slowed(x_max: np.ndarray, law: TimeLaw, grid: np.ndarray, positions: np.ndarray, bad: np.ndarray,
+            worst: np.ndarray, xb: np.ndarray, rest: np.ndarray, swing: bool) -> np.ndarray:
+    """``x_max`` (ṡ² bounds) lowered around each row that broke a constraint by what it needs: its motion's part
+    scales with ṡ² (ṡ at a corner)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.where(worst > 0, (-rest / (worst - rest)) ** 2, xb)
+    need = np.clip(np.nan_to_num(need, nan=SLOW), 0.05, SLOW)
+    rows_at = positions[np.minimum(bad, len(positions) - 1)]
+    reach = np.abs(np.gradient(positions))[np.minimum(bad, len(positions) - 1)] + (
+        0.5 if swing else TRANSFER_STENCIL)
+    factor = np.ones(len(grid))
+    for u, r, f in zip(rows_at, reach, need[bad], strict=True):
+        factor = np.where(np.abs(grid - u) <= r, np.minimum(factor, f), factor)
+    return np.where(factor < 1.0, np.minimum(x_max, law.sd**2) * factor, x_max)
+
+
+def _timed(seq, start: int, kind: str, law: TimeLaw, terms: tuple, con, worst: np.ndarray, xb: np.ndarray,
+           include_end: bool, floor: float, cap: float, fixed_s: float) -> dict:
+    """A phase timed fastest: its duration, the constraints that bind it and for how much of the time; rows still
+    breaking a constraint, or a phase over its cap in whole rows, marked infeasible."""
+    a, b, c, x_max = terms
+    duration = (len(seq.rows) - start - int(include_end)) * seq.dt
     names = binding_constraints(law, a, b, c, x_max, con.names, con.x_name)
     dt = np.diff(law.times)
     shares: dict[str, float] = {}
@@ -298,9 +324,9 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
     if duration > cap + 1e-9:
         _mark_all(seq, start, f"the fastest {kind} its limits allow takes {duration:.2f} s (whole rows), above "
                   f"timing.max_{kind}_s {cap:g} s")
-    return {**phase, "duration_s": duration, "fastest_s": law.duration_s,
-            "speed_up": fixed_s / duration if duration > 0 else None,
-            "floor_applied": bool(law.duration_s < floor), "binding": binding,
+    return {"duration_s": duration, "fastest_s": law.duration_s,
+            "speed_up": fixed_s / duration if duration > 0 else None, "floor_applied": bool(law.duration_s < floor),
+            "binding": binding,
             "least_dynamic_slack": float(-np.max(worst)) if len(worst) else None}
 
 

@@ -2,7 +2,9 @@
 
 * :mod:`.schema` — the robot YAML's schema (every key known, every number bounded);
 * :mod:`.urdf` — the URDF's XML read and checked before PlaCo parses it;
-* :mod:`.model` — the typed dataclasses and :func:`~.model.load_robot`, which puts the two together;
+* :mod:`.model` — the typed dataclasses (:class:`~.model.RobotModel`, its legs, fans and settings);
+* :mod:`.sensors` — what the robot measures, as its YAML declares it;
+* :mod:`.load` — :func:`~.load.load_robot`, which puts the URDF and the YAML together;
 * :mod:`.summary` — what ``jethr1 robot show`` reports.
 """
 

@@ -4,7 +4,7 @@ The file is read as scenarios are (:func:`jethr1_plan.io.yaml_input.read_documen
 duplicate keys, aliases bounded, NaN and infinities refused), then checked against :data:`SCHEMA`;
 each problem is one :class:`~jethr1_plan.errors.RobotModelError` with the key's full path
 (``fans[0].max_thrust_n``). What the schema cannot say (frames and joints that exist in the URDF,
-the trunk being its root) is checked by :func:`jethr1_plan.robot.model.load_robot`.
+the trunk being its root) is checked by :func:`jethr1_plan.robot.load.load_robot`.
 """
 
 from __future__ import annotations

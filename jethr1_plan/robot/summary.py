@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from jethr1_plan.geometry import GRAVITY
-from jethr1_plan.robot.model import LEG_ROLES, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.schema import LEG_ROLES
 
 __all__ = ["robot_summary"]
 

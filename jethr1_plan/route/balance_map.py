@@ -266,7 +266,8 @@ def cached_map(robot: RobotModel, settings: MapSettings, cache: Path | str | Non
     Raises:
         InputError: the cache folder cannot be written (the map is computed but cannot be kept).
     """
-    from jethr1_plan.io.atomic import check_writable, write_bytes_atomic
+    from jethr1_plan.io.atomic import write_bytes_atomic
+    from jethr1_plan.io.record import check_writable
 
     key = map_key(robot, settings)
     folder = cache_dir(cache) / "balance_space"

@@ -29,9 +29,11 @@ from jethr1_plan.pipeline.plan import self_check
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.planning.results import PlanResult
-from jethr1_plan.robot.model import ROBOTS_DIR
+from jethr1_plan.robot.load import ROBOTS_DIR
 from jethr1_plan.route.balance_map import BalanceMap, MapSettings, cached_map
-from jethr1_plan.route.search import Footholds, Frontier, RouteStep, SearchResult, StepModel, astar, footholds
+from jethr1_plan.route.footholds import Footholds, footholds
+from jethr1_plan.route.search import Frontier, RouteStep, SearchResult, astar
+from jethr1_plan.route.steps import StepModel
 from jethr1_plan.route.terrain import Terrain, dump_yaml
 from jethr1_plan.scenario import Scenario, load_scenario_text
 

@@ -26,8 +26,9 @@ import yaml
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.yaml_input import fill_dataclass, read_document, read_text
-from jethr1_plan.robot.model import load_robot
-from jethr1_plan.scenario import DEFAULT_CARTON_M, MAX_FILE_BYTES, MAX_VALUES, SCHEMA, Scenario, load_scenario_text
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.scenario import Scenario, load_scenario_text
+from jethr1_plan.scenario_schema import DEFAULT_CARTON_M, MAX_FILE_BYTES, MAX_VALUES, SCHEMA
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["TERRAIN_SCHEMA", "CostWeights", "Goal", "Limits", "RouteOptions", "Terrain", "dump_yaml", "load_terrain",

@@ -18,16 +18,8 @@ from pathlib import Path
 from jethr1_plan.control import thrust_feedback as ctl
 from jethr1_plan.control.imu_thrust import ImuGains
 from jethr1_plan.control.swing_placement import PlacementGains
-from jethr1_plan.sim.run import (
-    FALL_DROP_M,
-    FALL_TILT_DEG,
-    HOLD_S,
-    SETTLE_S,
-    RunResult,
-    TwinRun,
-    law_of,
-)
-from jethr1_plan.sim.run import _sole_loads as _sole_loads
+from jethr1_plan.sim.judge import FALL_DROP_M, FALL_TILT_DEG, RunResult
+from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun, law_of
 from jethr1_plan.sim.track import Perturbation, PlanTrack, held_tolerance, load_plan, plan_kinematics
 from jethr1_plan.sim.twin import TwinParams
 

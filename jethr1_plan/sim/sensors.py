@@ -33,7 +33,8 @@ import numpy as np
 
 from jethr1_plan.control.measurement import Measurement, SoleReading
 from jethr1_plan.geometry import SIDES
-from jethr1_plan.robot.model import RobotModel, Sensors
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.sensors import Sensors
 from jethr1_plan.sim.twin import Twin, build_twin
 
 __all__ = ["OwnKinematics", "SensorDraw", "SensorModel", "rotation_vector"]

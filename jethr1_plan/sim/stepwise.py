@@ -49,7 +49,8 @@ from jethr1_plan.planning.plan import Sequence, add_analysis, plan, row_solver
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.scenario import Scenario, Step, load_scenario_text
-from jethr1_plan.sim.run import HOLD_S, SETTLE_S, RunResult, TwinRun
+from jethr1_plan.sim.judge import RunResult
+from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun
 from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
 from jethr1_plan.swing_path import Carton, path_length
@@ -183,15 +184,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
             sup_true, yaw_true = start[sup] + np.array([placed_m[0], placed_m[1], 0.0]), 0.0
             yaw_est = 0.0
         else:
-            m = run.measure()
-            assert m.joints_rad is not None and m.trunk_rotation is not None  # the IMU and encoders (checked above)
-            kin.update(m.joints_rad, m.trunk_rotation)
-            p_sup, r_sup = kin.sole(sup)
-            p_sw, _ = kin.sole(sw)
-            yaw_est = yaw_of(r_sup)
-            c, s = math.cos(-yaw_est), math.sin(-yaw_est)
-            d = p_sw - p_sup
-            start = {sup: s_frame.copy(), sw: s_frame + np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]])}
+            start, yaw_est = _estimated_start(run, kin, sup, sw, s_frame)
             sup_true, yaw_true = run.pose(sup)
         radius = robot.sensors.perception_error_m * math.sqrt(float(perception.uniform()))
         angle = float(perception.uniform(0.0, 2 * math.pi))
@@ -217,20 +210,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         seg = run.follow(moved(track, to_world), moved(track, to_imu), settle_s=SETTLE_S if k == 0 else 0.0,
                          hold_s=HOLD_S if k == n - 1 else STAND_S)
         out.plans.append(StepPlan(k, result.scenario, result, mode, to_world, start, target))
-        judged = seg.steps[0] if seg.steps else None
-        rec = {"step": k, "swing": sw, "support": sup, "mode": mode,
-               "landing_m": [float(v) for v in st.landing_m],
-               "perceived_m": [float(v) for v in to_world.point(target)],
-               "perception_error_m": [float(v) for v in error],
-               "estimated_start_m": {s: [float(v) for v in to_world.point(start[s])] for s in SIDES},
-               "support_m": [float(v) for v in sup_true], "support_yaw_rad": float(yaw_true),
-               "survived_step": seg.fell is None}
-        if judged is not None:
-            landed = np.asarray(judged["landed_m"])
-            err = landed[:2] - np.asarray(st.landing_m)[:2]
-            rec.update(landed_m=judged["landed_m"], landing_error_m=float(np.hypot(*err)),
-                       landing_error_xy_m=[float(v) for v in err], judge=judged)
-        out.steps.append(rec)
+        out.steps.append(_step_record(k, st, mode, to_world, target, error, start, (sup_true, yaw_true), seg))
         if seg.fell is not None:
             break
     out.run = run.result()
@@ -243,6 +223,42 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
         out.run.stopped = f"step {out.refused['step']} could not be planned from where the robot stood"
     return out
 
+
+def _estimated_start(run: TwinRun, kin: OwnKinematics, sup: str, sw: str, s_frame: np.ndarray
+                     ) -> tuple[dict[str, np.ndarray], float]:
+    """Where the robot believes its soles stand before a step, in the step's frame (the support sole at
+    ``s_frame``): the swing sole relative to the support by its own kinematics from the IMU and the encoders,
+    turned by the support sole's estimated heading; and that heading [rad]."""
+    m = run.measure()
+    assert m.joints_rad is not None and m.trunk_rotation is not None  # the IMU and encoders (checked by execute)
+    kin.update(m.joints_rad, m.trunk_rotation)
+    p_sup, r_sup = kin.sole(sup)
+    p_sw, _ = kin.sole(sw)
+    yaw_est = yaw_of(r_sup)
+    c, s = math.cos(-yaw_est), math.sin(-yaw_est)
+    d = p_sw - p_sup
+    return {sup: s_frame.copy(), sw: s_frame + np.array([c * d[0] - s * d[1], s * d[0] + c * d[1], d[2]])}, yaw_est
+
+
+def _step_record(k: int, st, mode: str, to_world: Frame, target: np.ndarray, error: np.ndarray,
+                 start: dict[str, np.ndarray], support: tuple[np.ndarray, float], seg) -> dict:
+    """One executed step as simulation.json records it (SI units, in the twin's world): the foothold, as
+    perceived, where the robot believed it stood, the true support sole, and the judge's landing."""
+    sup_true, yaw_true = support
+    judged = seg.steps[0] if seg.steps else None
+    rec = {"step": k, "swing": st.swing, "support": st.support, "mode": mode,
+           "landing_m": [float(v) for v in st.landing_m],
+           "perceived_m": [float(v) for v in to_world.point(target)],
+           "perception_error_m": [float(v) for v in error],
+           "estimated_start_m": {s: [float(v) for v in to_world.point(start[s])] for s in SIDES},
+           "support_m": [float(v) for v in sup_true], "support_yaw_rad": float(yaw_true),
+           "survived_step": seg.fell is None}
+    if judged is not None:
+        landed = np.asarray(judged["landed_m"])
+        err = landed[:2] - np.asarray(st.landing_m)[:2]
+        rec.update(landed_m=judged["landed_m"], landing_error_m=float(np.hypot(*err)),
+                   landing_error_xy_m=[float(v) for v in err], judge=judged)
+    return rec
 
 
 def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tuple[PlanResult, str]:

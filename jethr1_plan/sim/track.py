@@ -21,7 +21,8 @@ from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
 from jethr1_plan.geometry import SIDES
 from jethr1_plan.io.input_file import input_folder
-from jethr1_plan.robot.model import RobotModel, Sensors
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.sensors import Sensors
 from jethr1_plan.sim.sensors import SensorDraw
 from jethr1_plan.sim.twin import Twin
 from jethr1_plan.swing_path import Carton

@@ -1,7 +1,7 @@
 """``jethr1 design``: robot variants judged by the ditch curve, on one machine or a Dask cluster.
 
 **A variant** (``studies.design_spec``) is written as a robot folder (``robot.variant``) and loaded through the
-checks every robot passes (``robot.model.load_robot``), then judged (``studies.design_judge``: its widest ditch
+checks every robot passes (``robot.load.load_robot``), then judged (``studies.design_judge``: its widest ditch
 crossed with the whole tolerance, with half of it and at all). A variant's plans are one task; the tasks run in
 this process (``-j 1``), in worker processes (loky) or on a Dask cluster, and their results do not depend on which.
 
@@ -81,7 +81,7 @@ class Task:
 def judge_task(task: Task) -> tuple[str, dict[str, Any], dict[str, float]]:
     """Judge one variant (in any process): its files written to a folder of their own, loaded through every
     check of a robot folder, judged, and the folder removed. Returns (key, result, {cpu_s, wall_s})."""
-    from jethr1_plan.robot.model import forget_robots, load_robot
+    from jethr1_plan.robot.load import forget_robots, load_robot
 
     w0, c0 = time.perf_counter(), time.process_time()
     with tempfile.TemporaryDirectory(prefix="jethr1-design-") as tmp:
@@ -109,7 +109,7 @@ def make_tasks(spec: DesignSpec, variants: list[Variant], code: bytes | None = N
     Raises:
         InputError: the base robot cannot be varied, or a variant's files do not pass the robot checks.
     """
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.robot.variant import variant_files
 
     try:
@@ -138,7 +138,7 @@ def check_first(spec: DesignSpec, task: Task) -> None:
     Raises:
         InputError: the checks' first problem, naming the design file.
     """
-    from jethr1_plan.robot.model import forget_robots, load_robot
+    from jethr1_plan.robot.load import forget_robots, load_robot
 
     with tempfile.TemporaryDirectory(prefix="jethr1-design-") as tmp:
         folder = Path(tmp) / JUDGED_NAME

@@ -254,7 +254,7 @@ def best_folders(spec: DesignSpec, best: list[dict[str, Any]], outdir: Path) -> 
     """The files of the best variants (relative path → bytes): their robot folders ``robots/<name>/`` (the URDF, the
     YAML, a README) and ``scenarios/<name>_ditch_whole.yaml`` (the crossing of the widest robust ditch), ``<name>``
     being ``<design name>_<variant>``."""
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.robot.variant import FanDesign, VariantDesign, variant_files
 
     base = load_robot(spec.base_robot)

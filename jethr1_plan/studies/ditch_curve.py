@@ -234,7 +234,7 @@ def default_base(robot: RobotModel | None = None) -> Scenario:
     """A scenario with every default (Paper A's timing; ``robot``, default jethr1), as the curve's base; F_max
     is the largest maximum of the fans that may thrust while the left foot swings over the ditch."""
     from jethr1_plan.optimisers import OptimiserConfig
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.scenario import BodyYaw
 
     robot = robot or load_robot("jethr1")

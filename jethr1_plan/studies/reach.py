@@ -87,7 +87,7 @@ def numerical_reach(robot_name: str, z0: float, w_step: float, trunk_yaw_rad: fl
     from jethr1_plan.kinematics.closed_form import solve_postures
     from jethr1_plan.kinematics.placo import PlacoPostureSolver
     from jethr1_plan.reasons import Reason
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
 
     robot = load_robot(robot_name)
     support = np.array([0.0, -w_step / 2, 0.0])

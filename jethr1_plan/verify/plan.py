@@ -29,10 +29,15 @@ import numpy as np
 
 from jethr1_plan.files.plan_folder import PlanFolder
 from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.verify import analysis_checks, balance_checks, plan_checks, timing
+from jethr1_plan.verify.checks import RowCheck
 from jethr1_plan.verify.common import Failure
-from jethr1_plan.verify.plan_checks import CHECKS, RowData
+from jethr1_plan.verify.plan_rows import RowData
 
-__all__ = ["verify_plan", "verify_rows"]
+__all__ = ["CHECKS", "verify_plan", "verify_rows"]
+
+#: every check of a plan's rows, in the order they run (a row's failures are listed in this order)
+CHECKS: list[RowCheck] = [*plan_checks.CHECKS, *balance_checks.CHECKS, *analysis_checks.CHECKS, *timing.CHECKS]
 
 
 def verify_plan(plan: PlanFolder) -> tuple[int, list[Failure]]:
@@ -119,7 +124,7 @@ def verify_rows(c: dict[str, np.ndarray], robot: RobotModel, swing_paths: list[n
                 start_feet: dict[str, np.ndarray] | None = None, max_failures: int = 50,
                 balance: dict | None = None, summary: dict | None = None, scenario=None,
                 torque_limits: bool = True) -> tuple[int, list[Failure]]:
-    """Run every check of :data:`~jethr1_plan.verify.plan_checks.CHECKS` on the rows; return (rows
+    """Run every check of :data:`CHECKS` on the rows; return (rows
     checked, failures sorted by row, a row's in the checks' order).
 
     Args:

@@ -28,10 +28,13 @@ import math
 import numpy as np
 
 from jethr1_plan.geometry import SIDES, convex_hull, sole_polygon
-from jethr1_plan.verify.plan_checks import check
+from jethr1_plan.verify.checks import RowCheck, registrar
 from jethr1_plan.verify.plan_rows import RowData
 
-__all__ = ["DYNAMIC_TOL", "fastest_settings"]
+__all__ = ["CHECKS", "DYNAMIC_TOL", "fastest_settings"]
+
+CHECKS: list[RowCheck] = []  # in the order they run
+check = registrar(CHECKS)
 
 TORSION_RADIUS_M = 0.02  # the yaw moment a sole's friction resists: μ·f_z times this [m] (docs/physics.md)
 DYNAMIC_TOL = 1e-4  # [N·m, N]: the written rows' rounding and the forward kinematics' 1e-9 m
@@ -133,6 +136,30 @@ def _edges(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return normals, np.einsum("ij,ij->i", normals, polygon)
 
 
+def _rate_findings(x: RowData, v: np.ndarray, Fd: np.ndarray, vmax: np.ndarray, lag: np.ndarray, safety: float,
+                   spin_down_n: float) -> tuple[list[tuple[int, str]], list[tuple[int, str]]]:
+    """Every row's joints within ``safety`` of their velocity limits ``vmax`` [rad/s] (v: the rows' generalised
+    velocities), and every fan's lead command F + lag·Ḟ within [−``spin_down_n``, F_max] [N]: (speed, fan)
+    findings."""
+    r, F, fmax = x.robot, x.thrust, x.fmax
+    speed: list[tuple[int, str]] = []
+    fan: list[tuple[int, str]] = []
+    for i in range(x.n):
+        fast = np.abs(v[i, 6:]) > safety * vmax + RATE_TOL
+        if fast.any():
+            j = int(np.argmax(np.abs(v[i, 6:]) / vmax))
+            speed.append((i, f"{r.joint_names[j]} turns at {abs(v[i, 6 + j]):.3f} rad/s; the plan was timed to "
+                          f"{safety:g} x its limit {vmax[j]:g} rad/s"))
+        lead = F[i] + lag * Fd[i]
+        off = (lead < -spin_down_n - RATE_TOL) | (lead > fmax + RATE_TOL)
+        if off.any():
+            k = int(np.argmax(off))
+            fan.append((i, f"{r.fans[k].name} fan changes its thrust at {Fd[i, k]:+.2f} N/s from "
+                        f"{F[i, k]:.3f} N: its lag ({lag[k]:.3f} s with the plan's safety factor) asks a "
+                        f"command of {lead[k]:.3f} N, outside [{-spin_down_n:g}, {fmax[k]:g}] N"))
+    return speed, fan
+
+
 def _dynamic_findings(x: RowData) -> dict[str, list[tuple[int, str]]]:
     """Every row's findings of the dynamic checks, by check (computed once per file)."""
     cached = getattr(x, "_fastest_findings", None)
@@ -155,22 +182,10 @@ def _dynamic_findings(x: RowData) -> dict[str, list[tuple[int, str]]]:
     vmax[~(vmax > 0) | (vmax > 1e30)] = np.inf
     mu = r.sole_friction * safety
     lag = np.array([f.lag_s for f in r.fans]) / safety
-    fmax = x.fmax
     T = _pose(x)
     F = x.thrust
+    out["speed"], out["fan"] = _rate_findings(x, v, Fd, vmax, lag, safety, s["spin_down_n"])
     for i in range(x.n):
-        fast = np.abs(v[i, 6:]) > safety * vmax + RATE_TOL
-        if fast.any():
-            j = int(np.argmax(np.abs(v[i, 6:]) / vmax))
-            out["speed"].append((i, f"{r.joint_names[j]} turns at {abs(v[i, 6 + j]):.3f} rad/s; the plan was timed to "
-                                 f"{safety:g} x its limit {vmax[j]:g} rad/s"))
-        lead = F[i] + lag * Fd[i]
-        off = (lead < -s["spin_down_n"] - RATE_TOL) | (lead > fmax + RATE_TOL)
-        if off.any():
-            k = int(np.argmax(off))
-            out["fan"].append((i, f"{r.fans[k].name} fan changes its thrust at {Fd[i, k]:+.2f} N/s from "
-                               f"{F[i, k]:.3f} N: its lag ({lag[k]:.3f} s with the plan's safety factor) asks a "
-                               f"command of {lead[k]:.3f} N, outside [{-s['spin_down_n']:g}, {fmax[k]:g}] N"))
         w.set_T_world_fbase(T[i])
         w.state.q[7:] = x.q[i]
         w.state.qd = v[i]

@@ -40,7 +40,8 @@ from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
-from jethr1_plan.robot.model import RobotModel, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
 from jethr1_plan.verify.commands import WALK_SAG_FILTER_S, servo_commands
 from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
@@ -202,22 +203,33 @@ def _knee_bend(w, robot: RobotModel, side: str) -> float:
     return float(np.arccos(np.clip(a @ b / (np.linalg.norm(a) * np.linalg.norm(b)), -1.0, 1.0)))
 
 
-def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, criteria: dict[str, float],
-                acc_limit: float, fail) -> None:
-    """The pose, motion and balance checks, from one inverse-dynamics pass over the written rows."""
+@dataclass
+class _Dynamics:
+    """What one inverse-dynamics pass over the written rows gives (SI units): the CoM, the ZMP, the ground force's
+    sideways ratio, the joints' torques, the knees' bends, the soles' poses, the generalised accelerations."""
+
+    com: np.ndarray  # (n, 3) [m]
+    zmp: np.ndarray  # (n, 2) [m]
+    friction: np.ndarray  # (n,)
+    tau: np.ndarray  # (n, J) [N·m]
+    bend: np.ndarray  # (n, 2) [rad]
+    sole: dict[str, np.ndarray]  # side -> (n, 4, 4)
+    acc: np.ndarray  # (n, 6 + J)
+
+
+def _inverse_dynamics(c, robot: RobotModel, q, quat, rate: float) -> _Dynamics:
+    """Forward kinematics and inverse dynamics of every written row (the motion by central differences,
+    ``row_motion``): the ground's wrench about its origin gives the ZMP; the torques split the generalised forces
+    over the soles down (as the written support says)."""
     n = len(q)
-    t = c["time_s"]
-    dt = 1.0 / rate
     unit = quat / np.linalg.norm(quat, axis=1)[:, None]
     T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
                   for i in range(n)])
     pos = np.column_stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]])
-    v, acc = row_motion(pos, unit, q, dt)
+    v, acc = row_motion(pos, unit, q, 1.0 / rate)
     w = robot.wrapper()
-    com, zmp, friction = np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n)
-    tau, bend = np.zeros_like(q), np.zeros((n, 2))
-    sole = {s: np.zeros((n, 4, 4)) for s in SIDES}
-    support = tl.support(t)
+    d = _Dynamics(np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n), np.zeros_like(q), np.zeros((n, 2)),
+                  {s: np.zeros((n, 4, 4)) for s in SIDES}, acc)
     for i in range(n):
         w.state.q[:3] = T[i][:3, 3]
         w.state.q[3:7] = unit[i]
@@ -225,19 +237,27 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
         w.state.qd = v[i]
         w.state.qdd = acc[i]
         w.update_kinematics()
-        com[i] = w.com_world()
+        d.com[i] = w.com_world()
         for k, s in enumerate(SIDES):
-            sole[s][i] = w.get_T_world_frame(robot.legs[s].sole)
-            bend[i, k] = _knee_bend(w, robot, s)
+            d.sole[s][i] = w.get_T_world_frame(robot.legs[s].sole)
+            d.bend[i, k] = _knee_bend(w, robot, s)
         gen = w.mass_matrix() @ acc[i] + w.non_linear_effects()  # the generalised forces the motion needs
         force, moment = base_wrench(T[i], gen)  # what the ground supplies, in the world, about its origin
-        zmp[i] = (-moment[1] / force[2], moment[0] / force[2])
-        friction[i] = float(np.linalg.norm(force[:2]) / force[2])
+        d.zmp[i] = (-moment[1] / force[2], moment[0] / force[2])
+        d.friction[i] = float(np.linalg.norm(force[:2]) / force[2])
         written_support = str(c["support"][i])  # as the footsteps say (checked below), either one at a boundary
         feet_down = SIDES if written_support not in SIDES else (written_support,)
         Jc = np.vstack([w.frame_jacobian(robot.legs[s].sole, "local") for s in feet_down])
         split = np.linalg.lstsq(Jc[:, :6].T, gen[:6], rcond=None)[0]
-        tau[i] = gen[6:] - Jc[:, 6:].T @ split
+        d.tau[i] = gen[6:] - Jc[:, 6:].T @ split
+    return d
+
+
+def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, criteria: dict[str, float],
+                acc_limit: float, fail) -> None:
+    """The pose, motion and balance checks, from one inverse-dynamics pass over the written rows."""
+    d = _inverse_dynamics(c, robot, q, quat, rate)
+    com, bend = d.com, d.bend
     written_com = np.column_stack([c[f"com_{a}_m"] for a in "xyz"])
     fail(np.flatnonzero(np.linalg.norm(com - written_com, axis=1) > TOL_M), "CoM",
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
@@ -253,11 +273,20 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
     fail(np.flatnonzero(np.max(np.abs(bend - written_bend), axis=1) > 1e-6), "knee",
          lambda i: f"knee bends written {np.round(written_bend[i], 6).tolist()} rad, forward kinematics "
                    f"{np.round(bend[i], 6).tolist()} rad")
+    _check_feet(c, tl, d.sole, criteria, fail)
+    _check_dynamics(c, robot, d, tl, criteria, acc_limit, fail)
+
+
+def _check_feet(c, tl: Footsteps, sole: dict[str, np.ndarray], criteria: dict[str, float], fail) -> None:
+    """Every row's support as the footsteps say (either phase on a boundary), each sole where it is written, a sole
+    bearing weight on its foothold and flat, a swinging one above the ground."""
+    t = c["time_s"]
+    support = tl.support(t)
     feet, air = tl.feet(t)
-    edge = np.zeros(n, dtype=bool)  # rows on a phase boundary (times written to 1e-9 s): either phase holds
+    edge = np.zeros(len(t), dtype=bool)  # rows on a phase boundary (times written to 1e-9 s): either phase holds
     for lift, land in zip(tl.lift_s, tl.land_s, strict=True):
         edge |= (np.abs(t - lift) < 1e-6) | (np.abs(t - land) < 1e-6)
-    for i in range(n):
+    for i in range(len(t)):
         written_support = str(c["support"][i])
         if written_support != support[i] and not (edge[i] and written_support in (*SIDES, "both")):
             fail([i], "support", f"written {written_support!r}, the footsteps say {support[i]!r}")
@@ -277,6 +306,16 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
                     fail([i], "feet", f"the {s} sole bears weight {tilt:.3f} rad off flat")
             elif p[2] < -TOL_M - criteria["foot_tolerance_m"]:
                 fail([i], "feet", f"the swinging {s} sole is {1000 * -p[2]:.1f} mm below the ground")
+
+
+def _check_dynamics(c, robot: RobotModel, d: _Dynamics, tl: Footsteps, criteria: dict[str, float], acc_limit: float,
+                    fail) -> None:
+    """Away from the ends (``EDGE_ROWS``, where the differences are one-sided): the written ZMP and torques the
+    inverse dynamics', torques within the servos' limits, the joints' accelerations, the ground's force within the
+    soles' friction, the ZMP inside the support by the walk's margin."""
+    n = len(d.zmp)
+    zmp, tau, friction = d.zmp, d.tau, d.friction
+    feet, air = tl.feet(c["time_s"])
     inner = np.arange(EDGE_ROWS, n - EDGE_ROWS)
     written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
     fail(inner[np.linalg.norm(zmp - written_zmp, axis=1)[inner] > TOL_ZMP_M], "ZMP",
@@ -287,7 +326,7 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
                    f"{np.max(np.abs(tau[i] - written_tau[i])):.2e} N·m")
     over = inner[np.any(np.abs(tau[inner]) > robot.servo_limit_nm, axis=1)]
     fail(over, "torque", lambda i: f"the rows need {_worst(robot, tau[i])}")
-    joint_acc = np.abs(acc[:, 6:])
+    joint_acc = np.abs(d.acc[:, 6:])
     fail(inner[np.max(joint_acc, axis=1)[inner] > acc_limit + ACCELERATION_TOL], "acceleration",
          lambda i: f"{robot.joint_names[int(np.argmax(joint_acc[i]))]} accelerates at {np.max(joint_acc[i]):.0f} "
                    f"rad/s² between its rows (limit {acc_limit:g} rad/s²)")

@@ -139,7 +139,6 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
     ik.stand({s: feet0[s][0] for s in SIDES}, np.array([*plan.pos[0], com.height_m]), 0.0)
     ik.walk(ik_settings)
     nj = len(robot.joint_names)
-    names = robot.joint_names
     out_q, out_base = np.zeros((n, nj)), np.zeros((n, 4, 4))
     out_com = np.zeros((n, 3))
     feet_pos, _ = timeline.feet(plan.t)
@@ -149,48 +148,18 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
     velocity = np.zeros((n, 6 + nj))
     bound = np.zeros((n, nj), dtype=bool)
     lo, hi = yaw_bounds(robot)
-    arm_idx = ik.arm_index
-    solved = ik.solved_index
-    swing_arms = arms.enabled and len(arm_idx) > 0
-    lower_cols = np.ones(6 + nj, dtype=bool)
-    lower_cols[6 + arm_idx] = False
-    arm_home = ik.home[arm_idx].astype(float)
+    period = _Period(ik, robot.joint_names, dt, arms, _Failures())
     yaw_state = np.zeros(2)
     per_update = round(com.dt_s / dt)
     horizons = []
-    infeasible: tuple[int, str] | None = None
     T_prev, q_prev = ik.base, ik.q
     rate_prev = np.zeros(nj)  # the joints' rates over the last period [rad/s]
-
-    def fail(row: int, reason: str) -> None:
-        nonlocal infeasible
-        if infeasible is None:
-            infeasible = (row, reason)
-
-    def solve(row: int, targets: dict, target_com: np.ndarray, yaw_now: float, arm_q: np.ndarray | None) -> None:
-        try:
-            ik.step(targets, target_com, yaw_now, arm_q)
-        except RuntimeError:  # PlaCo's "QPError: Infeasible QP": no posture keeps the CoM within the windows
-            fail(row, "no posture within the joints' rate windows keeps the CoM on the LIPM's")
-            ik.com.configure("com", "soft", COM_WEIGHT)
-            ik.step(targets, target_com, yaw_now, arm_q)
-            ik.com.configure("com", "hard", 1.0)
-
     for i in range(n):
         t = plan.t[i]
         if i % per_update == 0:
-            u = i // per_update
+            acc, ref = _yaw_update(plan, timeline, com, rotation, yaw_state, i // per_update, t, lo, hi)
             if rotation.mode == "paper_b":
-                steps = plan.predicted.shape[1]
-                future = np.minimum(t + com.dt_s * np.arange(1, steps + 1), timeline.duration_s)
-                f, _ = timeline.feet(future)
-                ref = reference_yaw(plan.predicted[u], f["left"][:, :2], f["right"][:, :2], rotation.k_pel)
-                keep = max(2, round(rotation.horizon_s / com.dt_s))
-                ref = ref[:keep] if len(ref) >= keep else np.concatenate([ref, np.full(keep - len(ref), ref[-1])])
-                acc, _, _ = yaw_mpc_step(yaw_state, ref, com.dt_s, rotation.alpha, rotation.beta, lo, hi)
                 horizons.append(ref)
-            else:
-                acc, ref = 0.0, np.zeros(1)
             yaw_acc, yaw_start, u_start = acc, yaw_state.copy(), t
             yaw_ref_now = float(ref[0])
             yaw_state = yaw_step_state(yaw_state, acc, com.dt_s)
@@ -201,38 +170,9 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
         if i == 0:  # the standing posture itself
             T, q, v = T_prev, q_prev, np.zeros(6 + nj)
         else:
-            w_lo, w_hi = ik.window(q_prev, rate_prev, solved)
-            empty = np.flatnonzero(w_lo > w_hi)
-            for k in empty[:1]:
-                j = int(solved[k])
-                fail(i, _describe_window(names[j], q_prev[j], rate_prev[j], w_lo[k], w_hi[k], ik.lower[j],
-                                         ik.upper[j]))
-            if len(empty):
-                w_lo[empty] = w_hi[empty] = 0.5 * (w_lo[empty] + w_hi[empty])
-            ik.set_window(q_prev, w_lo, w_hi)
-            solve(i, targets, target, float(yaw[i]), None)
-            if swing_arms:  # the arms cancel the lower body's yaw momentum of this very period
-                v = generalized_velocity(T_prev, ik.base, q_prev, ik.q, dt)
-                A_yaw = ik.wrapper.centroidal_map()[5]
-                a_lo, a_hi = ik.window(q_prev, rate_prev, arm_idx)
-                empty = np.flatnonzero(a_lo > a_hi)
-                for k in empty[:1]:
-                    j = int(arm_idx[k])
-                    fail(i, _describe_window(names[j], q_prev[j], rate_prev[j], a_lo[k], a_hi[k], ik.lower[j],
-                                             ik.upper[j]))
-                rates = arm_rates(float(A_yaw[lower_cols] @ v[lower_cols]), np.ascontiguousarray(A_yaw[6 + arm_idx]),
-                                  q_prev[arm_idx], arm_home, a_lo, a_hi, dt, arms.w1, arms.w2, arms.w3)
-                solve(i, targets, target, float(yaw[i]), q_prev[arm_idx] + dt * rates)
-            T, q = ik.base, ik.q
-            v = generalized_velocity(T_prev, T, q_prev, q, dt)
-            rate = (q - q_prev) / dt
-            at_lo = np.abs(rate[solved] - w_lo) < 1e-6
-            at_hi = np.abs(rate[solved] - w_hi) < 1e-6
-            bound[i, solved] = at_lo | at_hi
-            if swing_arms:
-                bound[i, arm_idx] = (np.abs(rate[arm_idx] - a_lo) < 1e-6) | (np.abs(rate[arm_idx] - a_hi) < 1e-6)
-            rate_prev = rate
+            T, q, v, rate_prev = period.step(i, T_prev, q_prev, rate_prev, targets, target, float(yaw[i]), bound[i])
         A_yaw = ik.wrapper.centroidal_map()[5]
+        lower_cols = period.lower_cols
         h_low[i] = float(A_yaw[lower_cols] @ v[lower_cols])
         h_up[i] = float(A_yaw[~lower_cols] @ v[~lower_cols])
         out_q[i], out_base[i], velocity[i] = q, T, v
@@ -244,4 +184,96 @@ def generate(robot: RobotModel, timeline: Timeline, com: CoMSettings, rotation: 
     return Walk(robot, timeline, plan, plan.t, support, step, out_q, out_base,
                 np.column_stack([plan.pos, np.full(n, com.height_m)]), out_com, plan.zmp_ref, plan.zmp,
                 yaw_ref, yaw, yaw_rate, feet_pos, feet_reached, h_low, h_up, velocity, horizons,
-                rotation.mode == "paper_b", ik_settings, bound, infeasible, time.perf_counter() - t_wall)
+                rotation.mode == "paper_b", ik_settings, bound, period.failures.first, time.perf_counter() - t_wall)
+
+
+def _yaw_update(plan, timeline: Timeline, com: CoMSettings, rotation: PelvisRotation, yaw_state: np.ndarray, u: int,
+                t: float, lo: float, hi: float) -> tuple[float, np.ndarray]:
+    """At the CoM plan's update ``u`` (time ``t`` [s]): the pelvis yaw's acceleration [rad/s²] and its reference over
+    the MPC's horizon [rad] (Paper B's pelvic rotation, (B-6)..(B-8)); none without it."""
+    if rotation.mode != "paper_b":
+        return 0.0, np.zeros(1)
+    steps = plan.predicted.shape[1]
+    future = np.minimum(t + com.dt_s * np.arange(1, steps + 1), timeline.duration_s)
+    f, _ = timeline.feet(future)
+    ref = reference_yaw(plan.predicted[u], f["left"][:, :2], f["right"][:, :2], rotation.k_pel)
+    keep = max(2, round(rotation.horizon_s / com.dt_s))
+    ref = ref[:keep] if len(ref) >= keep else np.concatenate([ref, np.full(keep - len(ref), ref[-1])])
+    acc, _, _ = yaw_mpc_step(yaw_state, ref, com.dt_s, rotation.alpha, rotation.beta, lo, hi)
+    return acc, ref
+
+
+class _Failures:
+    """The first row at which the walk became infeasible, and why."""
+
+    def __init__(self) -> None:
+        self.first: tuple[int, str] | None = None
+
+    def fail(self, row: int, reason: str) -> None:
+        if self.first is None:
+            self.first = (row, reason)
+
+
+class _Period:
+    """One control period of the walk after the first row: the lower body's QP IK within the joints' windows of
+    rates, then, with arms, their (B-43) rates and the IK again with the arms there."""
+
+    def __init__(self, ik: WalkIK, names: tuple[str, ...], dt: float, arms: ArmSwing, failures: _Failures) -> None:
+        self.ik, self.names, self.dt, self.arms, self.failures = ik, names, dt, arms, failures
+        self.arm_idx = ik.arm_index
+        self.solved = ik.solved_index
+        self.swing_arms = arms.enabled and len(self.arm_idx) > 0
+        self.lower_cols = np.ones(6 + len(names), dtype=bool)
+        self.lower_cols[6 + self.arm_idx] = False
+        self.arm_home = ik.home[self.arm_idx].astype(float)
+
+    def _solve(self, row: int, targets: dict, target_com: np.ndarray, yaw_now: float, arm_q: np.ndarray | None
+               ) -> None:
+        ik = self.ik
+        try:
+            ik.step(targets, target_com, yaw_now, arm_q)
+        except RuntimeError:  # PlaCo's "QPError: Infeasible QP": no posture keeps the CoM within the windows
+            self.failures.fail(row, "no posture within the joints' rate windows keeps the CoM on the LIPM's")
+            ik.com.configure("com", "soft", COM_WEIGHT)
+            ik.step(targets, target_com, yaw_now, arm_q)
+            ik.com.configure("com", "hard", 1.0)
+
+    def _window(self, i: int, q_prev: np.ndarray, rate_prev: np.ndarray, joints: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The window of rates of ``joints`` [rad/s] (lower, upper bounds) and where it is empty; the first empty
+        one is a failure of row ``i``."""
+        ik = self.ik
+        w_lo, w_hi = ik.window(q_prev, rate_prev, joints)
+        empty = np.flatnonzero(w_lo > w_hi)
+        for k in empty[:1]:
+            j = int(joints[k])
+            self.failures.fail(i, _describe_window(self.names[j], q_prev[j], rate_prev[j], w_lo[k], w_hi[k],
+                                                   ik.lower[j], ik.upper[j]))
+        return w_lo, w_hi, empty
+
+    def step(self, i: int, T_prev: np.ndarray, q_prev: np.ndarray, rate_prev: np.ndarray, targets: dict,
+             target: np.ndarray, yaw_now: float, bound_row: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Row ``i``: (the base's pose, the joints [rad], the generalised velocity, the joints' rates [rad/s]);
+        ``bound_row`` marks the joints whose rate lies on its window's bound."""
+        ik, dt, solved, arm_idx = self.ik, self.dt, self.solved, self.arm_idx
+        w_lo, w_hi, empty = self._window(i, q_prev, rate_prev, solved)
+        if len(empty):
+            w_lo[empty] = w_hi[empty] = 0.5 * (w_lo[empty] + w_hi[empty])
+        ik.set_window(q_prev, w_lo, w_hi)
+        self._solve(i, targets, target, yaw_now, None)
+        if self.swing_arms:  # the arms cancel the lower body's yaw momentum of this very period
+            v = generalized_velocity(T_prev, ik.base, q_prev, ik.q, dt)
+            A_yaw = ik.wrapper.centroidal_map()[5]
+            a_lo, a_hi, _ = self._window(i, q_prev, rate_prev, arm_idx)
+            lower_cols, arms = self.lower_cols, self.arms
+            rates = arm_rates(float(A_yaw[lower_cols] @ v[lower_cols]), np.ascontiguousarray(A_yaw[6 + arm_idx]),
+                              q_prev[arm_idx], self.arm_home, a_lo, a_hi, dt, arms.w1, arms.w2, arms.w3)
+            self._solve(i, targets, target, yaw_now, q_prev[arm_idx] + dt * rates)
+        T, q = ik.base, ik.q
+        v = generalized_velocity(T_prev, T, q_prev, q, dt)
+        rate = (q - q_prev) / dt
+        bound_row[solved] = (np.abs(rate[solved] - w_lo) < 1e-6) | (np.abs(rate[solved] - w_hi) < 1e-6)
+        if self.swing_arms:
+            bound_row[arm_idx] = (np.abs(rate[arm_idx] - a_lo) < 1e-6) | (np.abs(rate[arm_idx] - a_hi) < 1e-6)
+        return T, q, v, rate

@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.geometry import SIDES
-from jethr1_plan.robot.model import LEG_ROLES, RobotModel
+from jethr1_plan.robot.model import RobotModel
+from jethr1_plan.robot.schema import LEG_ROLES
 from jethr1_plan.walking.joint_window import rate_window
 from jethr1_plan.walking.knees import knee_limits_for_bend
 

@@ -16,7 +16,8 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.geometry import SIDES, other_side
 from jethr1_plan.io.yaml_input import fill_dataclass, read_text
-from jethr1_plan.robot.model import RobotModel, build_with_robot
+from jethr1_plan.robot.load import build_with_robot
+from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.walking.analysis import SuccessCriteria
 from jethr1_plan.walking.com_mpc import CoMSettings
 from jethr1_plan.walking.generator import ArmSwing, PelvisRotation

@@ -12,7 +12,7 @@ import numpy as np
 from jethr1_plan.cli import run
 from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.route.balance_map import MapSettings, compute_map
 
 GRID = ["--support-position", "0", "0", "0", "--x-range", "0.4", "0.7", "--y-range", "0.1", "0.3", "--z-range", "0.0",

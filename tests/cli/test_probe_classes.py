@@ -24,7 +24,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT
 
 SIDE = str(ROOT / "configs" / "side_step.yaml")

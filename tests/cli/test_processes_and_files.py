@@ -59,7 +59,7 @@ def test_sigterm_ends_the_workers(tmp_path):
 
 def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_path, capsys):
     from jethr1_plan.files.plan_folder import SIMULATION_FILES
-    from jethr1_plan.io import atomic
+    from jethr1_plan.io import atomic, record
 
     out = tmp_path / "out"
     scenario = ROOT / "configs" / "side_step.yaml"
@@ -83,7 +83,7 @@ def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_
     assert (folder / "notes.txt").read_text() == "tested on the robot, 2026-11-20"
     assert not (folder / "simulation.json").exists()
     assert "kept notes.txt" in capsys.readouterr().err
-    assert sorted(p.name for p in folder.iterdir()) == [atomic.RECORD, "notes.txt", "summary.json",
+    assert sorted(p.name for p in folder.iterdir()) == [record.RECORD, "notes.txt", "summary.json",
                                                        "trajectory.csv", "trajectory.mcap"]
 
 

@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 from jethr1_plan.cli import common, run
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT
 
 JETHR1 = [sys.executable, "-c", "from jethr1_plan.cli import entry; entry()"]

@@ -16,7 +16,7 @@ from jethr1_plan.files.plan_csv import read_trajectory_csv
 from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS, read_trajectory_mcap
 from jethr1_plan.files.plan_table import columns
-from jethr1_plan.robot.model import urdf_joints
+from jethr1_plan.robot.urdf import urdf_joints
 
 
 @pytest.fixture(scope="module")

@@ -15,17 +15,9 @@ import pytest
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.io import atomic
-from jethr1_plan.io.atomic import (
-    RECORD,
-    STAGING_PREFIX,
-    check_writable,
-    clean_stale,
-    read_record,
-    staged_directory,
-    write_bytes_atomic,
-    write_text_atomic,
-)
+from jethr1_plan.io.atomic import STAGING_PREFIX, clean_stale, staged_directory, write_bytes_atomic, write_text_atomic
 from jethr1_plan.io.input_file import read_input
+from jethr1_plan.io.record import RECORD, check_writable, read_record
 
 OWN = frozenset({"a.csv", "b.json", "c.json"})
 

@@ -153,7 +153,7 @@ def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
     def between(i, lam):
         return problem_at(i + lam)
 
-    found = [sqp.Found(p, 0.0, True) for p in plan(sc, method="sqp", build_rows=False).steps[0].p_body]
+    found = [sqp_sample.Found(p, 0.0, True) for p in plan(sc, method="sqp", build_rows=False).steps[0].p_body]
     evals = np.zeros(len(found), dtype=np.int64)
     assert sqp.infeasible_between(robot, found, between, evals) == []
     assert evals.sum() > 0
@@ -165,7 +165,7 @@ def test_the_between_check_finds_a_segment_that_cuts_the_edge_cone(robot):
         p = found[i].p + rng.uniform(-0.06, 0.06, 3)
         if sample.feasible(p)[0]:
             bent = list(found)
-            bent[i] = sqp.Found(p, 0.0, True)
+            bent[i] = sqp_sample.Found(p, 0.0, True)
             if sqp.infeasible_between(robot, bent, between, evals):
                 break
     else:

@@ -10,7 +10,7 @@ import pytest
 
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import share_summary
-from jethr1_plan.robot.model import ROBOTS_DIR, forget_robots, load_robot
+from jethr1_plan.robot.load import ROBOTS_DIR, forget_robots, load_robot
 from jethr1_plan.robot.variant import FanDesign, VariantDesign, variant_files
 from jethr1_plan.studies.ditch_curve import default_base, ditch_scenario
 

@@ -30,7 +30,8 @@ from jethr1_plan.physics.balance import NOMINAL, Tolerance, least_thrust
 from jethr1_plan.physics.compiled.objective import balance_objective
 from jethr1_plan.physics.compiled.reach import into_reach
 from jethr1_plan.reasons import Reason, balances
-from jethr1_plan.robot.model import fan_ground_xy, load_robot, reach_centre
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import fan_ground_xy, reach_centre
 from tests.oracles.balance import edge_angle_error, window_bounds
 from tests.oracles.leg import fast_com, leg_ik
 

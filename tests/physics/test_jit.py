@@ -98,7 +98,7 @@ def test_a_second_process_loads_the_kernels_from_the_cache_without_compiling():
             "from jethr1_plan.geometry import sole_polygon\n"
             "from jethr1_plan.kinematics.closed_form import solve_postures\n"
             "from jethr1_plan.physics.balance import thrust_window\n"
-            "from jethr1_plan.robot.model import load_robot\n"
+            "from jethr1_plan.robot.load import load_robot\n"
             "thrust_window(np.zeros((2, 2)), np.ones((2, 2)), sole_polygon((0, 0), 0.0, 0.2, 0.1), 6.8)\n"
             "feet = {'left': (np.array([0.0, 0.09, 0.0]), 0.0), 'right': (np.array([0.0, -0.09, 0.0]), 0.0)}\n"
             "solve_postures(load_robot('jethr1'), np.array([[0.0, 0.0, 0.3]]), 0.0, feet)\n")

@@ -15,7 +15,7 @@ from jethr1_plan.files.mcap import read_mcap
 from jethr1_plan.files.plan_csv import columns, read_trajectory_csv
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS
 from jethr1_plan.geometry import convex_hull, inside_polygon, sole_polygon
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from jethr1_plan.physics.balance import zmp_with_thrust
 from jethr1_plan.scenario import load_scenario
 from tests.conftest import JOINT_NAMES, ROOT

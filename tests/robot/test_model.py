@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.robot.summary import robot_summary
 from tests.conftest import JOINT_NAMES, ROOT
 
@@ -98,7 +98,7 @@ def test_a_robot_yaml_missing_a_key_is_rejected(tmp_path):
 
 
 def test_a_robot_named_and_the_same_robot_by_its_yaml_path_are_loaded_once():
-    from jethr1_plan.robot.model import ROBOTS_DIR, load_robot
+    from jethr1_plan.robot.load import ROBOTS_DIR, load_robot
 
     by_name = load_robot("jethr1")
     assert load_robot(ROBOTS_DIR / "jethr1" / "jethr1.yaml") is by_name  # (a plan folder names its robot so)

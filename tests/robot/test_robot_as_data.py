@@ -14,7 +14,7 @@ from jethr1_plan.cli import run
 from jethr1_plan.files.plan_csv import read_trajectory_csv
 from jethr1_plan.geometry import GRAVITY, halfplanes, sole_polygon
 from jethr1_plan.physics.balance import Tolerance, least_thrust, shared_window, thrust_window
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from tests.conftest import JOINT_NAMES, ROOT
 from tests.oracles.robot_copies import copy_scenario, renamed_jethr1
 

@@ -8,7 +8,8 @@ import yaml
 
 from jethr1_plan.cli import run
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.robot.model import ControllerSettings, ImuLawSettings, TwinSettings, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.model import ControllerSettings, ImuLawSettings, TwinSettings
 from tests.conftest import ROOT
 from tests.oracles.robot_copies import tampered_jethr1
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.errors import RobotModelError
-from jethr1_plan.robot.model import ROBOTS_DIR, forget_robots, load_robot
+from jethr1_plan.robot.load import ROBOTS_DIR, forget_robots, load_robot
 from jethr1_plan.robot.variant import FanDesign, VariantDesign, fan_inertia, variant_files
 
 BASE = ROBOTS_DIR / "jethr1" / "jethr1.yaml"

@@ -13,7 +13,7 @@ from jethr1_plan.balance_space.sweep import SweepSpec, sweep
 from jethr1_plan.errors import InputError
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.reasons import Reason
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.route import balance_map as bm
 from jethr1_plan.route.balance_map import OUTSIDE, MapSettings, cache_dir, cached_map, map_key
 from jethr1_plan.scenario import ROBUST_DEFAULT

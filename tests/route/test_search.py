@@ -11,7 +11,9 @@ import pytest
 import yaml
 
 from jethr1_plan.geometry import other_side
-from jethr1_plan.route.search import StepModel, astar, exhaustive, footholds
+from jethr1_plan.route.footholds import footholds
+from jethr1_plan.route.search import astar, exhaustive
+from jethr1_plan.route.steps import StepModel
 from jethr1_plan.route.terrain import load_terrain_text, random_terrain
 from jethr1_plan.swing_path import arc_path, first_collision, sole_on_carton
 from tests.route.conftest import SOLE

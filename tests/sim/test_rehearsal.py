@@ -14,7 +14,7 @@ from jethr1_plan.cli import run
 from jethr1_plan.control import thrust_feedback as ctl
 from jethr1_plan.files.mcap import read_mcap
 from jethr1_plan.files.simulation import SIMULATION_TOPICS
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from jethr1_plan.sim.certificate import clopper_pearson
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.twin import build_twin
@@ -79,7 +79,7 @@ def test_the_soles_push_where_the_plan_puts_the_zmp(plans, robot):
     d.qpos[twin.qpos_adr] = track.q[i]
     d.ctrl[:] = track.q[i]
     body = twin.fan_bodies["left_fan"]
-    from jethr1_plan.sim.rehearsal import _sole_loads
+    from jethr1_plan.sim.judge import sole_loads as _sole_loads
 
     cops = []
     for k in range(800):

@@ -12,7 +12,8 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.control.measurement import Measurement
-from jethr1_plan.robot.model import EncoderSpec, ImuSpec, Sensors, SoleSensorSpec, load_robot
+from jethr1_plan.robot.load import load_robot
+from jethr1_plan.robot.sensors import EncoderSpec, ImuSpec, Sensors, SoleSensorSpec
 from jethr1_plan.sim.rehearsal import Perturbation, load_plan, rehearse
 from jethr1_plan.sim.sensors import OwnKinematics, SensorDraw, SensorModel, rotation_vector
 from jethr1_plan.sim.twin import build_twin
@@ -50,7 +51,7 @@ def test_without_errors_the_sensors_read_the_truth():
     np.testing.assert_allclose(m.trunk_rate_rad_s, d.qvel[3:6], atol=1e-12)
     # the soles: each one's normal force and its centre of pressure in the sole's frame (the floor under the
     # lower sole pushes it)
-    from jethr1_plan.sim.run import _sole_loads
+    from jethr1_plan.sim.judge import sole_loads as _sole_loads
 
     loads = _sole_loads(twin, d, np.zeros(6))
     assert max(f for f, _ in loads.values()) > 1.0

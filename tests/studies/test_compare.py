@@ -8,7 +8,7 @@ import numpy as np
 import yaml
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT
 
 

@@ -90,7 +90,7 @@ def test_the_files_and_a_best_variant_ready_for_plan(swept):
     from jethr1_plan.io.csv_table import read_csv_table
     from jethr1_plan.planning.plan import plan
     from jethr1_plan.planning.report import share_summary
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.scenario import load_scenario
 
     root, _, doc = swept

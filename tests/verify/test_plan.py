@@ -9,7 +9,7 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.files.plan_csv import columns
-from jethr1_plan.robot.model import load_robot
+from jethr1_plan.robot.load import load_robot
 from tests.conftest import rewritten
 
 

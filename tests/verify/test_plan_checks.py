@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from jethr1_plan.verify.plan_checks import CHECKS
+from jethr1_plan.verify.plan import CHECKS
 from tests.conftest import ROOT
 
 
@@ -20,7 +20,7 @@ def test_every_check_is_named_once_and_documented_in_order():
 
 def test_every_check_says_what_it_holds_and_reads_what_it_needs():
     from jethr1_plan.files.plan_table import columns
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
 
     every = set(columns(load_robot("jethr1")))
     for c in CHECKS:

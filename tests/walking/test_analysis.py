@@ -121,7 +121,7 @@ def test_kappa_without_rotation_sees_the_straight_leg(straight_walk):
 def test_knee_bend_is_the_knee_angle_and_the_law_of_cosines(robot):
     """The bend by forward kinematics equals the knee angle (both robots are straight at 0) and the
     angle the law of cosines gives from the hip–ankle distance; the IK floor is the margin."""
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
     from jethr1_plan.walking.knees import knee_bend_rad, knee_limits_for_bend, leg_points, straight_knee_rad
 
     r = load_robot(robot)

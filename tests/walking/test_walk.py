@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.io.atomic import RECORD
+from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT
 
 DYROS_WALK = ROOT / "configs" / "walks" / "dyros_walk.yaml"
@@ -181,7 +181,7 @@ def test_walk_csv_rows_hold_by_forward_kinematics_and_the_mcap_plays_it(dyros_fo
     one /joint_states per row and one yaw horizon per MPC update."""
     from jethr1_plan.files.mcap import read_mcap
     from jethr1_plan.files.walk_folder import read_walk_csv
-    from jethr1_plan.robot.model import load_robot
+    from jethr1_plan.robot.load import load_robot
 
     s = json.loads((dyros_folder / "summary.json").read_text())
     c = read_walk_csv((dyros_folder / "trajectory.csv").read_text())

@@ -5,7 +5,7 @@ calls (or inlines) a kernel of another module keeps running the callee's old mac
 module changed (numba issue #1833; seen here: after an edit of the objective, the compass in
 ``optimisers.search`` went on scoring with the old one). :func:`kernel` puts every kernel's cache in a
 directory named after a hash of every module in :data:`KERNEL_SOURCES`, so any edit of any of them starts a
-fresh cache (compiled once, ~1 min) and a stale one is never loaded. ``tests/physics/test_jit.py`` checks that
+fresh cache (compiled once) and a stale one is never loaded. ``tests/physics/test_jit.py`` checks that
 every module whose kernels call another module's is listed.
 
 The directory: ``$NUMBA_CACHE_DIR/jethr1_plan-<hash>`` where that variable is set, else

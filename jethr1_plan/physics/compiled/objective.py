@@ -1,9 +1,9 @@
 """The balance-space objective, compiled: closed-form IK of both legs, joint limits, CoM, least thrust and
 edge angle of one pelvis position per candidate, fused in one loop (what every P_body search scores).
 
-In numpy the objective is ~1,300 array operations per batch, each a pass over memory; here one loop whose
-per-candidate arithmetic stays in registers (about 10x faster). ``tests/physics/test_compiled.py`` holds it
-to the numpy statements of the same formulas (``tests/oracles``).
+In numpy the objective is a long chain of array operations per batch, each a pass over memory; here one loop
+whose per-candidate arithmetic stays in registers (docs/benchmarks.md measures the difference).
+``tests/physics/test_compiled.py`` holds it to the numpy statements of the same formulas (``tests/oracles``).
 
 Units: m, rad, kg, N.
 """
