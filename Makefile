@@ -30,7 +30,7 @@ lint: install
 
 test: install lint
 	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadfile  # every core (pytest-xdist); a file's tests in one worker
 	rm -rf $(BATCH_OUT)  # (a scratch folder: jethr1 itself never replaces files it has no record of writing)
 	$(BIN)/jethr1 batch configs/*.yaml -o $(BATCH_OUT) --no-progress
 
