@@ -18,6 +18,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("__init__", "errors", "reasons", "geometry"),  # the words everything uses
     ("io",),  # YAML, JSON, CSV tables, atomic writes
     ("robot",),  # the robot as data
+    ("records",),  # what the planner produces, typed: rows, columns, topics, the first infeasible sample
     ("physics",),  # balance with thrust, statics, the compiled per-candidate physics
     ("kinematics",),  # P_body and yaw to joints and CoM
     ("optimisers",),  # P_body along a swing path; the P_body search of one cell
@@ -39,7 +40,8 @@ LAYERS: list[tuple[str, ...]] = [
 #: (verify/balance.py, motion.py, commands.py); a mistake in the planner's physics, kinematics, optimisers,
 #: commands, plans, walks or balance space must not be repeated in its verdict, so it imports none of them.
 ONLY: dict[str, tuple[str, ...]] = {
-    "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "scenario", "swing_path", "files", "verify"),
+    "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "records", "scenario", "swing_path", "files",
+               "verify"),
 }
 
 

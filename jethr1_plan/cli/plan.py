@@ -78,7 +78,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         print_json(summary)
     bad = result.first_infeasible
     if bad is not None:
-        raise InfeasiblePlan(f"infeasible: {bad['reason']} (step {bad['step']} {bad['phase']} sample {bad['sample']}); "
+        raise InfeasiblePlan(f"infeasible: {bad.reason} (step {bad.step} {bad.phase} sample {bad.sample}); "
                              "trajectory written with infeasible rows marked")
     _report_plan(summary, folder)
 

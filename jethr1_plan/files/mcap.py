@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
 from jethr1_plan.files.cdr import CdrEncoder, parse_schema
 from jethr1_plan.files.ros2_msgs import MSGDEFS, schema_text
 from jethr1_plan.geometry import quat_rpy
+from jethr1_plan.records.topics import MARKERS, POSE, STRING, TF, Topic
 from jethr1_plan.robot.model import RobotModel, urdf_joints
 
 __all__ = [
@@ -64,19 +65,6 @@ __all__ = [
 ]
 
 EPOCH_NS = 946_684_800 * 1_000_000_000  # 2000-01-01T00:00:00Z [ns since 1970]
-
-STRING, TF, POSE = "std_msgs/msg/String", "tf2_msgs/msg/TFMessage", "geometry_msgs/msg/PoseStamped"
-MARKERS = "visualization_msgs/msg/MarkerArray"
-
-
-class Topic(NamedTuple):
-    """A channel of a file: its ROS 2 message type, whether it is published once and kept for late
-    subscribers (transient local), and what it carries (for the docs)."""
-
-    type: str
-    latched: bool
-    what: str
-
 
 def qos_profile(transient_local: bool) -> str:
     """``offered_qos_profiles`` as rosbag2 stores it (its integer form, which Humble and later read):

@@ -3,10 +3,10 @@
 1. The maps (:mod:`.balance_map`): one per support side, computed once per robot and setting.
 2. The search (:mod:`.search`): the least-cost route on the maps.
 3. The route as an ordinary scenario (``route.yaml``), loaded by the scenario loader and planned by
-   the project's planner (:func:`jethr1_plan.planning.plan.plan`). A step the loader refuses or the
+   the project's planner (:func:`.incremental.plan_route`). A step the loader refuses or the
    planner cannot balance is blacklisted and the search resumes (at most :data:`MAX_REPLANS` times);
-   the steps a new route shares with an earlier one from its start are not optimised again (the
-   planner's ``step_memo``: the same steps, bit for bit).
+   the steps a new route shares with an earlier one from its start are not optimised again
+   (:mod:`.incremental`: the same steps, bit for bit).
 4. The plan folder: the plan's own files (re-checked by ``verify`` before they are written, as
    ``jethr1 plan`` does) with the route's (``route.yaml``, ``route.mcap``, ``route.png``) in one commit.
 """
@@ -26,11 +26,13 @@ from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
 from jethr1_plan.files.route import ROUTE_FILES, RouteDrawing, SliceCloud, route_mcap, route_png
 from jethr1_plan.geometry import SIDES, other_side
 from jethr1_plan.pipeline.plan import self_check
-from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.planning.results import PlanResult
+from jethr1_plan.records.infeasible import Infeasible, InfeasibleAt
+from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.robot.model import ROBOTS_DIR
 from jethr1_plan.route.balance_map import BalanceMap, MapSettings, cached_map
+from jethr1_plan.route.incremental import RouteMemo, plan_route
 from jethr1_plan.route.search import Footholds, Frontier, RouteStep, SearchResult, StepModel, astar, footholds
 from jethr1_plan.route.terrain import Terrain, dump_yaml
 from jethr1_plan.scenario import Scenario, load_scenario_text
@@ -182,8 +184,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
     searches: list[SearchResult] = []
     blacklisted: list[dict] = []
     plan_s = 0.0
-    memo: dict = {}  # the steps optimised so far: a re-planned route does not optimise its unchanged first steps again
-    rows: dict = {}  # and the rows built after them: it does not build their rows again either
+    memo = RouteMemo()  # the steps optimised so far, and their rows: a re-planned route does not redo them
     for _ in range(MAX_REPLANS + 1):
         found = astar(model)
         searches.append(found)
@@ -204,15 +205,14 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True, row_memo=rows,
-                          strict_dynamics=True)
-        except InfeasiblePlan as exc:
+            result = plan_route(scenario, memo, jobs=jobs, progress=progress)
+        except InfeasibleAt as exc:
             plan_s += time.perf_counter() - t0
-            first = (exc.summary or {}).get("first_infeasible") or {}
+            first: Infeasible = exc.first
             n = len(found.steps)
-            k = min(max(int(first.get("step", 0)), 0), n)
-            why = f"{first.get('reason', 'infeasible')} ({first.get('phase', '?')})"
-            if first.get("phase") == "transfer":
+            k = min(max(first.step, 0), n)
+            why = f"{first.reason} ({first.phase})"
+            if first.phase == "transfer":
                 left, right, last = _states(holds, found.steps)[k]
                 nxt = found.steps[k].swing if k < n else None
                 model.transfer_blacklist.add((left, right, last, nxt))
@@ -266,17 +266,17 @@ def _per_step(result: PlanResult) -> list[dict]:
     out: list[dict] = []
     if rows is None:
         return out
-    step = rows.array("step")
+    step = rows.array(RowField.STEP)
     total = _total_thrust(result)
-    margin = rows.array("zmp_margin").astype(float)
-    share = rows.array("tolerance_share").astype(float) if "tolerance_share" in rows.columns else None
+    margin = rows.array(RowField.ZMP_MARGIN_M).astype(float)
+    share = rows.array(RowField.TOLERANCE_SHARE).astype(float)
     for st in result.steps:
         at = step == st.index
         m = margin[at]
         rec = {"max_thrust_n": float(np.max(total[at])) if at.any() else None,
                "mean_thrust_n": float(np.mean(total[at])) if at.any() else None,
                "least_zmp_margin_m": float(np.nanmin(m)) if np.isfinite(m).any() else None}
-        if share is not None and np.isfinite(share[at]).any():
+        if np.isfinite(share[at]).any():
             rec["least_tolerance_share"] = float(np.nanmin(share[at]))
         out.append(rec)
     return out
@@ -321,9 +321,9 @@ def _slices(o: RouteOutcome, maps: dict[str, BalanceMap]) -> list[SliceCloud]:
     """Per step, the support's balance space around the swing: the cells in the path's vertical plane
     (within half a cell) and the layer at the landing's height, in the world frame."""
     rows = o.result.rows
-    times = rows.array("time_s").astype(float) if rows is not None else np.zeros(0)
-    step_col = rows.array("step") if rows is not None else np.zeros(0)
-    phase = np.asarray(rows.columns["phase"]) if rows is not None else np.zeros(0)
+    times = rows.array(RowField.TIME_S).astype(float) if rows is not None else np.zeros(0)
+    step_col = rows.array(RowField.STEP) if rows is not None else np.zeros(0)
+    phase = rows.array(RowField.PHASE) if rows is not None else np.zeros(0)
     out = []
     for k, st in enumerate(o.steps):
         m = maps[other_side(st.swing)]
@@ -387,7 +387,7 @@ def plan_summary_lite(result: PlanResult) -> float:
 def _total_thrust(result: PlanResult) -> np.ndarray:
     """(rows,) the thrust of all fans together at each row [N]."""
     assert result.rows is not None
-    return np.sum([result.rows.array(f"thrust_{f.name}").astype(float) for f in result.robot.fans], axis=0)
+    return np.sum([result.rows.fan(f.name) for f in result.robot.fans], axis=0)
 
 
 def write_route(o: RouteOutcome, maps: dict[str, BalanceMap], folder: Path, wall: dict[str, float]
