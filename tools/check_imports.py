@@ -26,6 +26,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("control",),  # what is sent to the robot and the loops that run on it
     ("planning", "walking", "balance_space"),  # Paper A's plan, Paper B's walk, the balance space
     ("files",),  # every file format, written and read
+    ("folders",),  # written folders read back whole, with the scenario they were planned from
     ("sim",),  # the MuJoCo twin and rehearsals
     ("verify",),  # independent re-checks of written files
     ("pipeline",),  # input file to checked output folder
@@ -41,7 +42,7 @@ LAYERS: list[tuple[str, ...]] = [
 #: commands, plans, walks or balance space must not be repeated in its verdict, so it imports none of them.
 ONLY: dict[str, tuple[str, ...]] = {
     "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "records", "scenario", "swing_path", "files",
-               "verify"),
+               "folders", "verify"),
 }
 
 

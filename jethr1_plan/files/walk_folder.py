@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -43,10 +44,24 @@ from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.walking.result import WalkResult
 
-__all__ = ["WALK_FILES", "WALK_TOPICS", "read_walk_csv", "walk_columns", "walk_csv", "walk_figures", "walk_folder",
-           "walk_mcap", "write_walk_outputs"]
+__all__ = ["WALK_FILES", "WALK_TOPICS", "WalkResult", "read_walk_csv", "walk_columns", "walk_csv", "walk_figures",
+           "walk_folder", "walk_mcap", "write_walk_outputs"]
+
+class WalkResult(Protocol):
+    """What these files write of a walk (``walking.result.WalkResult``)."""
+
+    @property
+    def spec(self) -> Any: ...  # walking.spec.WalkSpec: its name, robot, footsteps, rotation, com, timing, success
+    @property
+    def walk(self) -> Any: ...  # walking.generator.Walk: the rows' arrays, per control period
+    @property
+    def analysis(self) -> Any: ...  # walking.analysis.WalkAnalysis: the multibody ZMP, κ, torques per row
+    @property
+    def commands_rad(self) -> np.ndarray: ...  # (N, J) the servo commands [rad]
+    @property
+    def armless_peak_momentum_nms(self) -> float | None: ...  # the walk's peak |yaw momentum| with the arms held
+
 
 #: the files ``jethr1 walk`` writes into a walk folder (any other file there is the user's and is kept)
 WALK_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "yaw.png", "momentum.png",

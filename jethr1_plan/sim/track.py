@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.geometry import SIDES
 from jethr1_plan.io.input_file import input_folder
 from jethr1_plan.robot.model import RobotModel, Sensors
@@ -127,7 +127,7 @@ class PlanTrack:
 
 def load_plan(folder: Path) -> PlanTrack:
     """Read a plan folder (``trajectory.csv`` + ``summary.json``, through
-    :func:`~jethr1_plan.files.plan_folder.read_plan`) as the rehearsal follows it.
+    :func:`~jethr1_plan.folders.plan.read_plan`) as the rehearsal follows it.
 
     Raises:
         InputError: a missing or unreadable file, a plan written infeasible, a robot that cannot load.
