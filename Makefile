@@ -25,6 +25,7 @@ lint: install
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python tools/check_imports.py
+	$(BIN)/python tools/check_vocabulary.py
 
 test: install lint
 	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)

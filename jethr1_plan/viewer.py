@@ -32,6 +32,7 @@ from jethr1_plan.files.mcap import EPOCH_NS, read_mcap
 from jethr1_plan.files.plan_folder import check_belongs, rehearsal_of
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.io.input_file import check_input_path, read_input
+from jethr1_plan.records.plan_columns import ZMP_MARGIN
 
 __all__ = ["VIEW_EXTRA", "ViewFiles", "ViewerMissing", "cloud_fields", "has_display", "record", "view", "view_files"]
 
@@ -414,7 +415,7 @@ def _walk_analysis(rec: Any, path: str, times: list[int], msgs: list, prefix: st
     _plot(rec, "/plots/momentum/lower", times, col("h_lower_nms"), "lower body [N·m·s]", (31, 119, 180), scene)
     _plot(rec, "/plots/momentum/upper", times, col("h_upper_nms"), "arms [N·m·s]", (44, 160, 44), scene)
     _plot(rec, "/plots/kappa/kappa", times, col("kappa"), "κ(J_low)", (148, 103, 189), scene)
-    _plot(rec, "/plots/zmp_margin/walk", times, col("zmp_margin_m"), "ZMP margin [m]", (42, 157, 143), scene)
+    _plot(rec, "/plots/zmp_margin/walk", times, col(ZMP_MARGIN), "ZMP margin [m]", (42, 157, 143), scene)
 
 
 _HANDLERS: dict[str, Callable[..., None]] = {

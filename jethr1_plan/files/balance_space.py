@@ -11,6 +11,7 @@ import numpy as np
 from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import Reason, message
+from jethr1_plan.records.plan_columns import PELVIS, REASON
 
 __all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "Sweep", "SweepGrid", "balance_space_csv",
            "balance_space_mcap", "balance_space_png", "least_thrust_columns", "write_balance_space_csv"]
@@ -69,8 +70,7 @@ _VIRIDIS = np.array([(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567
 
 
 #: the columns of balance_space.csv
-BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
-                         "pelvis_yaw_rad", "reason")
+BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", *PELVIS, "pelvis_yaw_rad", REASON)
 
 
 def balance_space_csv(r: Sweep) -> str:

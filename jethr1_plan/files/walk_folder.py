@@ -43,6 +43,8 @@ from jethr1_plan.geometry import SIDES, quaternion_from_matrix
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
+from jethr1_plan.records.plan_columns import SUPPORT, ZMP_MARGIN
+from jethr1_plan.records.walk_columns import is_walk_column, walk_columns
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["WALK_FILES", "WALK_TOPICS", "WalkResult", "read_walk_csv", "walk_columns", "walk_csv", "walk_figures",
@@ -66,22 +68,6 @@ class WalkResult(Protocol):
 #: the files ``jethr1 walk`` writes into a walk folder (any other file there is the user's and is kept)
 WALK_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "yaw.png", "momentum.png",
                         "kappa.png"})
-_XYZ = ("x", "y", "z")
-_FIXED_HEAD = ("time_s", "step", "support", *(f"pelvis_{a}_m" for a in _XYZ),
-               *(f"pelvis_q{a}" for a in ("x", "y", "z", "w")))
-_FIXED_TAIL = (*(f"{s}_foot_{a}_m" for s in SIDES for a in _XYZ), *(f"com_{a}_m" for a in _XYZ),
-               "com_ref_x_m", "com_ref_y_m", "zmp_x_m", "zmp_y_m", "zmp_ref_x_m", "zmp_ref_y_m", "zmp_lipm_x_m",
-               "zmp_lipm_y_m", "zmp_margin_m", "friction_ratio", "yaw_ref_rad", "yaw_rad", "yaw_rate_rad_s", "kappa",
-               *(f"kappa_leg_{s}" for s in SIDES), *(f"knee_bend_{s}_rad" for s in SIDES), "h_lower_nms",
-               "h_upper_nms")
-
-
-def walk_columns(robot: RobotModel) -> list[str]:
-    """The header of a walk's ``trajectory.csv`` for ``robot``."""
-    return [*_FIXED_HEAD, *(f"{j}_rad" for j in robot.joint_names), *_FIXED_TAIL,
-            *(f"{j}_tau_nm" for j in robot.joint_names), *(f"{j}_cmd_rad" for j in robot.joint_names)]
-
-
 def walk_csv(result: WalkResult) -> str:
     """The CSV text of a walk (shortest round-tripping numbers)."""
     walk, a = result.walk, result.analysis
@@ -102,18 +88,13 @@ def walk_csv(result: WalkResult) -> str:
     return csv_text(walk_columns(walk.robot), (row(i) for i in range(len(walk.t))))
 
 
-def _walk_column(name: str) -> bool:
-    return name in _FIXED_HEAD or name in _FIXED_TAIL or (name.endswith(("_rad", "_tau_nm", "_cmd_rad"))
-                                                          and len(name) > 7)
-
-
 def read_walk_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.ndarray]:
     """A walk's ``trajectory.csv`` as columns (``support`` as text, the rest as floats).
 
     Raises:
         InputError: the header is not a walk's, a row is cut or a number does not parse.
     """
-    return read_csv_table(text, source, _walk_column, ("support",))
+    return read_csv_table(text, source, is_walk_column, (SUPPORT,))
 
 
 # --- MCAP ---------------------------------------------------------------------------------------
@@ -182,7 +163,7 @@ def walk_mcap(result: WalkResult) -> bytes:
     out.write_rows("/walk_analysis", t, {
         "header": header(t), "support": [str(s) for s in walk.support], "step": np.asarray(walk.step, dtype=np.int32),
         "kappa": np.asarray(a.kappa, dtype=float), "h_lower_nms": np.asarray(walk.h_low, dtype=float),
-        "h_upper_nms": np.asarray(walk.h_up, dtype=float), "zmp_margin_m": np.asarray(a.zmp_margin, dtype=float),
+        "h_upper_nms": np.asarray(walk.h_up, dtype=float), ZMP_MARGIN: np.asarray(a.zmp_margin, dtype=float),
         "yaw_ref_rad": np.asarray(walk.yaw_ref, dtype=float), "yaw_rad": np.asarray(walk.yaw, dtype=float)})
     dt_mpc = result.spec.com.dt_s
     per_update = max(1, round(dt_mpc * result.spec.timing.control_hz))

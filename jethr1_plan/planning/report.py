@@ -12,6 +12,7 @@ from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import KAPPA_WARNING
 from jethr1_plan.planning.results import PlanResult
+from jethr1_plan.records.plan_columns import TOLERANCE_SHARE
 from jethr1_plan.records.plan_rows import RowField, Rows
 
 __all__ = ["FULL_SHARE", "finite_or_none", "plan_summary", "robustness_summary", "share_summary",
@@ -185,7 +186,7 @@ def _rows_summary(result: PlanResult, rows: Rows) -> dict:
     robustness = robustness_summary(rows)
     shares = share_summary(rows, sc.balance.tolerance)
     if shares is not None:
-        robustness["tolerance_share"] = shares
+        robustness[TOLERANCE_SHARE] = shares  # (the section named as the column it summarises)
     out["robustness"] = robustness
     from jethr1_plan.control.feedback import controller_summary
 

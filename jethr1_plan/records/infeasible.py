@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jethr1_plan.errors import InfeasiblePlan
+from jethr1_plan.records.plan_columns import TOLERANCE_SHARE
 
 __all__ = ["Infeasible", "InfeasibleAt", "ShareAt"]
 
@@ -70,7 +71,7 @@ class Infeasible:
             out = {"step": self.step, "phase": self.phase, "sample": self.sample, "swing_m": _list(self.swing_m),
                    "p_body_m": _list(self.p_body_m), "thrust_n": self.thrust_n, "reason": self.reason}
             if self.share is not None:
-                out["tolerance_share"] = self.share.to_dict()
+                out[TOLERANCE_SHARE] = self.share.to_dict()
             return out
         out = {"time_s": self.time_s, "step": self.step, "phase": self.phase, "sample": self.sample,
                "reason": self.reason}
@@ -85,7 +86,7 @@ class Infeasible:
         """The record of a summary.json's ``first_infeasible``."""
         if "row" in d:
             return cls.at_row(int(d["row"]), str(d["reason"]))
-        share = d.get("tolerance_share")
+        share = d.get(TOLERANCE_SHARE)
         return cls(int(d["step"]), str(d["phase"]), int(d["sample"]), str(d["reason"]), d.get("time_s"),
                    _tuple(d.get("p_body_m")), _tuple(d.get("swing_m")), d.get("thrust_n"),
                    ShareAt.from_dict(share) if share is not None else None)

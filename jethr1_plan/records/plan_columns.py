@@ -36,6 +36,7 @@ __all__ = [
     "PHASE",
     "REASON",
     "SAMPLE",
+    "SHARED_WORDS",
     "STEP",
     "SUPPORT",
     "SWING",
@@ -71,6 +72,11 @@ ZMP_MARGIN = "zmp_margin_m"  # the ZMP's distance inside the support [m]
 TOLERANCE_SHARE = "tolerance_share"  # the row's share of the plan's tolerance (NaN: the minimal policy)
 KAPPA = ("kappa_left", "kappa_right")  # Paper B's κ of each leg
 YAW_MOMENTUM = "yaw_momentum_nms"  # the yaw momentum [N·m·s]
+
+#: the columns whose names are also ordinary words of other records (summary.json's ``first_infeasible`` and
+#: ``*_at`` records, the walk's columns, the messages' fields): ``tools/check_vocabulary.py`` counts the
+#: literals of every other column name
+SHARED_WORDS = (TIME, STEP, PHASE, SAMPLE, SUPPORT, FEASIBLE, REASON)
 
 TEXT_COLUMNS = (PHASE, SUPPORT, REASON)
 BOOL_COLUMNS = (FEASIBLE,)

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.geometry import SIDES, other_side
+from jethr1_plan.records.plan_columns import COM, KAPPA, SWING, TOLERANCE_SHARE, WINDOW, ZMP, ZMP_MARGIN
 from jethr1_plan.verify.balance import Tolerance, balance_slack, largest_share, support_margin
 from jethr1_plan.verify.commands import PLAN_SAG_FILTER_S, fan_commands, servo_commands
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T
@@ -223,10 +224,10 @@ def _placed(x: RowData) -> list[Finding]:
     return out
 
 
-@check("swing sole off its sample", "the swing sole on the row's written sample", needs=("swing_x_m",))
+@check("swing sole off its sample", "the swing sole on the row's written sample", needs=(SWING[0],))
 def _on_sample(x: RowData) -> list[Finding]:
     c = x.c
-    sample = np.stack([c["swing_x_m"], c["swing_y_m"], c["swing_z_m"]], axis=1).astype(float)
+    sample = np.stack([c[k] for k in SWING], axis=1).astype(float)
     off = x.single & ~(np.isfinite(sample).all(axis=1) & (np.linalg.norm(x.swing_pos - sample, axis=1) <= TOL_M))
     return rows(off, lambda i: f"swing sole at {np.round(x.swing_pos[i], 6).tolist()} m, sample "
                 f"{np.round(sample[i], 6).tolist()} m")
@@ -295,40 +296,40 @@ def _ground_pushes(x: RowData) -> list[Finding]:
                 "than gravity between the rows around it")
 
 
-@check("CoM column wrong", "the written CoM is the posture's", needs=("com_x_m",))
+@check("CoM column wrong", "the written CoM is the posture's", needs=(COM[0],))
 def _com_column(x: RowData) -> list[Finding]:
     c, com = x.c, x.fk["com"]
-    written = np.stack([c["com_x_m"], c["com_y_m"], c["com_z_m"]], axis=1).astype(float)
+    written = np.stack([c[k] for k in COM], axis=1).astype(float)
     return rows(~(np.linalg.norm(written - com, axis=1) <= 1e-9), lambda i: f"written "
                 f"{np.round(written[i], 6).tolist()}, recomputed {np.round(com[i], 6).tolist()}")
 
 
-@check("ZMP column wrong", "the written ZMP is the written thrust's", needs=("zmp_x_m",))
+@check("ZMP column wrong", "the written ZMP is the written thrust's", needs=(ZMP[0],))
 def _zmp_column(x: RowData) -> list[Finding]:
-    wz = np.stack([x.c["zmp_x_m"], x.c["zmp_y_m"]], axis=1).astype(float)
+    wz = np.stack([x.c[k] for k in ZMP], axis=1).astype(float)
     return rows(~(np.linalg.norm(wz - x.zmp, axis=1) <= TOL_M), lambda i: f"written {np.round(wz[i], 6).tolist()}, "
                 f"recomputed {np.round(x.zmp[i], 6).tolist()}")
 
 
 @check("ZMP margin column wrong", "the written ZMP margin is the ZMP's distance inside the support",
-       needs=("thrust_window_lo_n", "zmp_margin_m"))
+       needs=(WINDOW[0], ZMP_MARGIN))
 def _margin_column(x: RowData) -> list[Finding]:
-    margin_w = x.c["zmp_margin_m"].astype(float)
+    margin_w = x.c[ZMP_MARGIN].astype(float)
     margin = support_margin(x.zmp, *x.support_edges)
     check = np.isfinite(x.zmp).all(axis=1)
     return rows(check & ~(np.abs(margin - margin_w) <= TOL_M), lambda i: f"written {margin_w[i]:.6f} m, recomputed "
                 f"{margin[i]:.6f} m")
 
 
-@check("thrust window column wrong", "the written thrust window is the posture's", needs=("thrust_window_lo_n",))
+@check("thrust window column wrong", "the written thrust window is the posture's", needs=(WINDOW[0],))
 def _window_column(x: RowData) -> list[Finding]:
     lo, hi, computed = x.windows
-    lo_w, hi_w = x.c["thrust_window_lo_n"].astype(float), x.c["thrust_window_hi_n"].astype(float)
+    lo_w, hi_w = x.c[WINDOW[0]].astype(float), x.c[WINDOW[1]].astype(float)
     bad = computed & ~((np.abs(lo - lo_w) <= WINDOW_TOL_N) & (np.abs(hi - hi_w) <= WINDOW_TOL_N))
     return rows(bad, lambda i: f"written [{lo_w[i]:.4f}, {hi_w[i]:.4f}] N, recomputed [{lo[i]:.4f}, {hi[i]:.4f}] N")
 
 
-@check("thrust outside its window", "the written thrust within the posture's window", needs=("thrust_window_lo_n",))
+@check("thrust outside its window", "the written thrust within the posture's window", needs=(WINDOW[0],))
 def _in_window(x: RowData) -> list[Finding]:
     lo, hi, computed = x.windows
     total = x.thrust.sum(axis=1)
@@ -350,12 +351,12 @@ def _plan_tolerance(x: RowData) -> Tolerance:
 
 
 @check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within the "
-       "row's share of it (the whole of it where the plan has no shares)", needs=("thrust_window_lo_n",))
+       "row's share of it (the whole of it where the plan has no shares)", needs=(WINDOW[0],))
 def _tolerance(x: RowData) -> list[Finding]:
     if x.balance is None:
         return []
     tol = _plan_tolerance(x)
-    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
+    shares = x.c[TOLERANCE_SHARE].astype(float) if TOLERANCE_SHARE in x.c else np.full(x.n, np.nan)
     share = np.where(np.isfinite(shares) & (not tol.nominal), shares, 1.0)
     at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
     normals, offsets = x.tolerance_edges
@@ -372,14 +373,14 @@ def _tolerance(x: RowData) -> list[Finding]:
 
 
 @check("tolerance share column wrong", "under a tolerance, the written share is the largest share of it the row's "
-       "thrust holds (recomputed, ``verify.balance.largest_share``)", needs=("tolerance_share",))
+       "thrust holds (recomputed, ``verify.balance.largest_share``)", needs=(TOLERANCE_SHARE,))
 def _share_column(x: RowData) -> list[Finding]:
     if x.balance is None:
         return []
     tol = _plan_tolerance(x)
     if tol.nominal:
         return []
-    written = x.c["tolerance_share"].astype(float)
+    written = x.c[TOLERANCE_SHARE].astype(float)
     at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
     normals, offsets = x.tolerance_edges
     again = np.full(x.n, np.nan)
@@ -395,10 +396,10 @@ def _share_column(x: RowData) -> list[Finding]:
 
 
 @check("below the least share", "every row's tolerance share at least the plan's ``min_share``",
-       needs=("tolerance_share",))
+       needs=(TOLERANCE_SHARE,))
 def _least_share(x: RowData) -> list[Finding]:
     least = float((x.balance or {}).get("min_share") or 0.0)
-    written = x.c["tolerance_share"].astype(float)
+    written = x.c[TOLERANCE_SHARE].astype(float)
     return rows(np.isfinite(written) & (written < least - SHARE_TOL),
                 lambda i: f"tolerance share {written[i]:.4f} below the plan's min_share {least:g}")
 
@@ -407,7 +408,7 @@ def _least_share(x: RowData) -> list[Finding]:
 
 
 @check("torque column wrong", "the written static torques are the posture's under the written thrust",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _torque_column(x: RowData) -> list[Finding]:
     if not x.statics:
         return []
@@ -423,7 +424,7 @@ def _torque_column(x: RowData) -> list[Finding]:
 
 
 @check("torque over its servo limit", "every static torque within its servos' limit (unless told not to)",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _torque_limit(x: RowData) -> list[Finding]:
     if not (x.statics and x.torque_limits):
         return []
@@ -440,11 +441,11 @@ def _torque_limit(x: RowData) -> list[Finding]:
     return out
 
 
-@check("kappa column wrong", "the written κ of each leg is the posture's", needs=("kappa_left",))
+@check("kappa column wrong", "the written κ of each leg is the posture's", needs=(KAPPA[0],))
 def _kappa_column(x: RowData) -> list[Finding]:
     if not x.statics:
         return []
-    kappa_w = np.stack([x.c["kappa_left"], x.c["kappa_right"]], axis=1).astype(float)
+    kappa_w = np.stack([x.c[k] for k in KAPPA], axis=1).astype(float)
     kappa = x.fk["kappa"]
     bad = np.isfinite(kappa).all(axis=1) & ~np.all(np.abs(kappa_w - kappa) <= 1e-6 * np.maximum(1.0, kappa), axis=1)
     return rows(bad, lambda i: f"written {np.round(kappa_w[i], 4).tolist()}, recomputed "
@@ -460,7 +461,7 @@ def _command_rate(x: RowData) -> float | None:
 
 
 @check("servo command column wrong", "the servo commands are the rows plus the sag under their torques "
-       "(``verify.commands``)", needs=("kappa_left",))
+       "(``verify.commands``)", needs=(KAPPA[0],))
 def _servo_commands(x: RowData) -> list[Finding]:
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:
@@ -477,7 +478,7 @@ def _servo_commands(x: RowData) -> list[Finding]:
 
 
 @check("fan command column wrong", "the fan commands are the thrust led by the fans' lag (``verify.commands``)",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _fan_commands(x: RowData) -> list[Finding]:
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:

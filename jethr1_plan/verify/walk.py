@@ -40,6 +40,8 @@ from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
+from jethr1_plan.records.plan_columns import PELVIS, ZMP
+from jethr1_plan.records.walk_columns import COM_REF
 from jethr1_plan.robot.model import RobotModel, load_robot
 from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
 from jethr1_plan.verify.commands import WALK_SAG_FILTER_S, servo_commands
@@ -129,7 +131,8 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     Raises:
         InputError: an unreadable or malformed file or summary.
     """
-    from jethr1_plan.files.walk_folder import read_walk_csv, walk_columns
+    from jethr1_plan.files.walk_folder import read_walk_csv
+    from jethr1_plan.records.walk_columns import walk_columns
 
     src = str(folder / "summary.json")
     robot_ref = summary.get("robot_yaml") if isinstance(summary.get("robot_yaml"), str) and Path(
@@ -209,9 +212,9 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
     t = c["time_s"]
     dt = 1.0 / rate
     unit = quat / np.linalg.norm(quat, axis=1)[:, None]
-    T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
+    T = np.array([pose_from_quaternion([c[k][i] for k in PELVIS], unit[i])
                   for i in range(n)])
-    pos = np.column_stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]])
+    pos = np.column_stack([c[k] for k in PELVIS])
     v, acc = row_motion(pos, unit, q, dt)
     w = robot.wrapper()
     com, zmp, friction = np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n)
@@ -242,7 +245,7 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
     fail(np.flatnonzero(np.linalg.norm(com - written_com, axis=1) > TOL_M), "CoM",
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
                    f"{np.round(com[i], 6).tolist()} m")
-    lipm = np.column_stack([c["com_ref_x_m"], c["com_ref_y_m"]])
+    lipm = np.column_stack([c[k] for k in COM_REF])
     fail(np.flatnonzero(np.linalg.norm(com[:, :2] - lipm, axis=1) > criteria["com_tolerance_m"] + TOL_M), "CoM",
          lambda i: f"{1000 * np.linalg.norm(com[i, :2] - lipm[i]):.3f} mm from the LIPM's (tolerance "
                    f"{1000 * criteria['com_tolerance_m']:g} mm)")
@@ -278,7 +281,7 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
             elif p[2] < -TOL_M - criteria["foot_tolerance_m"]:
                 fail([i], "feet", f"the swinging {s} sole is {1000 * -p[2]:.1f} mm below the ground")
     inner = np.arange(EDGE_ROWS, n - EDGE_ROWS)
-    written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
+    written_zmp = np.column_stack([c[k] for k in ZMP])
     fail(inner[np.linalg.norm(zmp - written_zmp, axis=1)[inner] > TOL_ZMP_M], "ZMP",
          lambda i: f"written {np.round(written_zmp[i], 5).tolist()} m, recomputed {np.round(zmp[i], 5).tolist()} m")
     written_tau = np.column_stack([c[f"{j}_tau_nm"] for j in robot.joint_names])
