@@ -239,6 +239,45 @@ class SequenceBuilder:
                        window_n=window, zmp_margin_m=float(polygon_margin(zmp, real_hull)),
                        tolerance_share=self._row_share(com[:2], fans, thrust, hull), reason=reason or "")
 
+    def _swing_thrust(self, com: np.ndarray, fans: np.ndarray, active: np.ndarray, one: bool, poly: np.ndarray,
+                      share: float) -> tuple[np.ndarray, float, bool, bool]:
+        """A swing row's thrust: per fan of the robot [N], the total [N], whether it is above the limit and
+        whether none balances: the least thrust of the ``active`` fans at ``fans`` (F, 2) that balances the CoM
+        ``com`` on the support ``poly`` within the tolerance scaled by ``share`` (one fan: Paper A's window in
+        closed form, ``balance.thrust_window``; several: ``balance.least_thrust``)."""
+        m = self.robot.mass_kg
+        tol = self.tolerance.scaled(share)
+        thrust_all = np.zeros(len(self.names))
+        if one:  # Paper A: one fan, its window in closed form
+            total = float(thrust_window(com[:2], fans[active[0]], poly, m, tol)[0])
+            over = total > self.thrust_max_n
+            unbalanced = not np.isfinite(total)
+            if not unbalanced:
+                thrust_all[active[0]] = total
+            return thrust_all, total, over, unbalanced
+        caps = self.caps[active]
+        total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, tol)
+        total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, tol)
+        over = not np.isfinite(total_b) and np.isfinite(total_f)
+        unbalanced = not np.isfinite(total_f)
+        total = float(total_f if over else total_b)
+        if not unbalanced:
+            thrust_all[active] = split_f if over else split
+        return thrust_all, total, over, unbalanced
+
+    def _swing_zmp(self, com: np.ndarray, fans: np.ndarray, active: np.ndarray, one: bool, thrust_all: np.ndarray,
+                   total: float) -> tuple[np.ndarray, np.ndarray]:
+        """A swing row's ZMP [m] under its thrust, and the shares of the fans that carry it (or are about to)."""
+        m = self.robot.mass_kg
+        if one:
+            f = total if np.isfinite(total) else 0.0
+            fan_share = np.zeros(len(self.names))
+            fan_share[active[0]] = 1.0
+            return zmp_with_thrust(com[:2], fans[active[0]], f, m), fan_share
+        t = float(np.sum(thrust_all))
+        fan_share = thrust_all / t if t > 0 else np.isin(np.arange(len(self.names)), active[:1]).astype(float)
+        return zmp_with_thrusts(com[:2], fans, thrust_all, m), fan_share
+
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
               yaw_fn, duration_s: float, shares: np.ndarray | None = None, positions: np.ndarray | None = None
               ) -> None:
@@ -257,7 +296,6 @@ class SequenceBuilder:
         active = np.array(self.robot.swing_fans(swing_side), dtype=np.int64)
         poly = self._sole(feet[support], self.margin)
         sole = self._sole(feet[support])
-        m = self.robot.mass_kg
         idx = np.arange(len(path))
         one = len(active) == 1 and not self.robot.fans[active[0]].on_trunk
         if positions is None:
@@ -283,24 +321,7 @@ class SequenceBuilder:
                 q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
             share = 1.0 if shares is None else float(np.interp(u, idx, shares))
-            tol = self.tolerance.scaled(share)
-            thrust_all = np.zeros(len(self.names))
-            if one:  # Paper A: one fan, its window in closed form
-                fan = fans[active[0]]
-                total = float(thrust_window(com[:2], fan, poly, m, tol)[0])
-                over = total > self.thrust_max_n
-                unbalanced = not np.isfinite(total)
-                if not unbalanced:
-                    thrust_all[active[0]] = total
-            else:
-                caps = self.caps[active]
-                total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, tol)
-                total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, tol)
-                over = not np.isfinite(total_b) and np.isfinite(total_f)
-                unbalanced = not np.isfinite(total_f)
-                total = float(total_f if over else total_b)
-                if not unbalanced:
-                    thrust_all[active] = split_f if over else split
+            thrust_all, total, over, unbalanced = self._swing_thrust(com, fans, active, one, poly, share)
             edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
             if status != Reason.OK:
@@ -314,16 +335,7 @@ class SequenceBuilder:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
                 self.mark(step, "swing", k, reason, p.tolist(), swing.tolist())
-            if one:
-                f = total if np.isfinite(total) else 0.0
-                zmp = zmp_with_thrust(com[:2], fans[active[0]], f, m)
-                fan_share = np.zeros(len(self.names))
-                fan_share[active[0]] = 1.0
-            else:
-                zmp = zmp_with_thrusts(com[:2], fans, thrust_all, m)
-                t = float(np.sum(thrust_all))
-                fan_share = (thrust_all / t if t > 0 else
-                             np.isin(np.arange(len(self.names)), active[:1]).astype(float))
+            zmp, fan_share = self._swing_zmp(com, fans, active, one, thrust_all, total)
             self._emit(thrust_all, step=step, phase="swing", sample=k, support=support, feasible=reason is None,
                        p_body_m=p, ground_z_m=feet[support][2], yaw_rad=yaw, q_rad=q, swing_m=swing, com_m=com,
                        zmp_m=zmp, window_n=self._window(com[:2], fans, fan_share, sole),
