@@ -32,6 +32,7 @@ from jethr1_plan.files.mcap import EPOCH_NS, read_mcap
 from jethr1_plan.files.plan_folder import check_belongs, rehearsal_of
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.io.input_file import check_input_path, read_input
+from jethr1_plan.records import topics as tp
 from jethr1_plan.records.plan_columns import ZMP_MARGIN
 
 __all__ = ["VIEW_EXTRA", "ViewFiles", "ViewerMissing", "cloud_fields", "has_display", "record", "view", "view_files"]
@@ -74,7 +75,7 @@ def _topics(path: Path) -> set[str]:
 
 def _kind(path: Path) -> str:
     topics = _topics(path)
-    for topic, kind in (("/thrust", "plan"), ("/walk_analysis", "walk"), ("/sim/thrust", "rehearsal"),
+    for topic, kind in ((tp.THRUST, "plan"), ("/walk_analysis", "walk"), ("/sim/thrust", "rehearsal"),
                         ("/balance_space/cells", "balance space"), ("/route/footsteps", "route")):
         if topic in topics:
             return kind
@@ -242,7 +243,7 @@ def _transforms(rec: Any, path: str, times: list[int], msgs: list, prefix: str, 
     """``tf2_msgs/TFMessage``: per child frame, its parent → child transform over time (static for
     /tf_static)."""
     rr = _rerun()
-    static = path.endswith("/tf_static")
+    static = path.endswith(tp.TF_STATIC)
     series: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
     for t, msg in zip(times, msgs, strict=True):
         for ts in msg.transforms:
@@ -263,8 +264,8 @@ def _transforms(rec: Any, path: str, times: list[int], msgs: list, prefix: str, 
                                                         parent_frame=s["parent"], child_frame=[child] * len(s["t"])))
 
 
-_POINT_COLORS = {"/com": (230, 57, 70), "/zmp": (42, 157, 143), "/p_body": (120, 120, 120),
-                 "/swing_sole": (25, 150, 255), "/com_ref": (244, 162, 97), "/zmp_ref": (38, 70, 83),
+_POINT_COLORS = {tp.COM: (230, 57, 70), tp.ZMP: (42, 157, 143), tp.P_BODY: (120, 120, 120),
+                 tp.SWING_SOLE: (25, 150, 255), "/com_ref": (244, 162, 97), "/zmp_ref": (38, 70, 83),
                  "/sim/com": (230, 57, 70), "/sim/cop": (233, 196, 106)}
 
 

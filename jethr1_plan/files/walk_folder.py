@@ -43,6 +43,7 @@ from jethr1_plan.geometry import SIDES, quaternion_from_matrix
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
+from jethr1_plan.records import topics as tp
 from jethr1_plan.records.plan_columns import SUPPORT, ZMP_MARGIN
 from jethr1_plan.records.walk_columns import is_walk_column, walk_columns
 from jethr1_plan.robot.model import RobotModel
@@ -101,18 +102,18 @@ def read_walk_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.nda
 
 #: the topics of a walk's ``trajectory.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 WALK_TOPICS: dict[str, Topic] = {
-    "/robot_description": Topic(STRING, True, "the robot's URDF (viewers build the robot from it)"),
-    "/tf_static": Topic(TF, True, "every fixed joint's parent → child link"),
-    "/tf": Topic(TF, False, "per control period: world → trunk and every moving joint's parent → child link"),
+    tp.ROBOT_DESCRIPTION: Topic(STRING, True, "the robot's URDF (viewers build the robot from it)"),
+    tp.TF_STATIC: Topic(TF, True, "every fixed joint's parent → child link"),
+    tp.TF_TOPIC: Topic(TF, False, "per control period: world → trunk and every moving joint's parent → child link"),
     "/footsteps": Topic(MARKERS, True, "a thin CUBE per sole: the start (grey), the footholds (left blue, "
                                        "right orange)"),
-    "/joint_trajectory": Topic("trajectory_msgs/msg/JointTrajectory", False,
+    tp.JOINT_TRAJECTORY: Topic("trajectory_msgs/msg/JointTrajectory", False,
                                "once, at the start: the servo commands `<joint>_cmd_rad`, a point per period"),
-    "/joint_states": Topic("sensor_msgs/msg/JointState", False,
+    tp.JOINT_STATES: Topic("sensor_msgs/msg/JointState", False,
                            "per period: joint angles (position) and torques by inverse dynamics (effort)"),
-    "/com": Topic(POSE, False, "per period: the posture's centre of mass, turned by the pelvic yaw"),
+    tp.COM: Topic(POSE, False, "per period: the posture's centre of mass, turned by the pelvic yaw"),
     "/com_ref": Topic(POSE, False, "per period: the LIPM's centre of mass"),
-    "/zmp": Topic(POSE, False, "per period: the multibody ZMP (from the joints' motion), on the ground"),
+    tp.ZMP: Topic(POSE, False, "per period: the multibody ZMP (from the joints' motion), on the ground"),
     "/zmp_ref": Topic(POSE, False, "per period: the ZMP reference (B-18), on the ground"),
     "/yaw_horizon": Topic("jethr1_msgs/msg/YawHorizon", False,
                           "per MPC update: the pelvic yaw reference over the horizon (Fig. 7)"),
@@ -141,7 +142,7 @@ def walk_mcap(result: WalkResult) -> bytes:
     walk, a = result.walk, result.analysis
     robot = walk.robot
     out = Ros2Mcap(WALK_TOPICS)
-    out.write("/robot_description", 0.0, urdf_message(robot))
+    out.write(tp.ROBOT_DESCRIPTION, 0.0, urdf_message(robot))
     out.write("/footsteps", 0.0, _footstep_markers(robot, result))
     t = np.asarray(walk.t, dtype=float)
     n = len(t)
@@ -151,14 +152,14 @@ def walk_mcap(result: WalkResult) -> bytes:
     base = np.asarray(walk.base, dtype=float).reshape(n, 4, 4)
     trunk_q = np.array([quaternion_from_matrix(T[:3, :3]) for T in base]).reshape(n, 4)
     tf, tf_static = robot_transforms(robot, t, base[:, :3, 3], trunk_q, walk.q)
-    out.write("/tf_static", 0.0, tf_static)
-    out.write_rows("/tf", t, tf)
-    out.write("/joint_trajectory", 0.0, joint_trajectory(names, t, result.commands_rad))
-    out.write_rows("/joint_states", t, joint_state(t, names, walk.q, a.tau))
-    out.write_rows("/com", t, pose_stamped(t, "world", walk.com, yaw_quaternions(walk.yaw)))
+    out.write(tp.TF_STATIC, 0.0, tf_static)
+    out.write_rows(tp.TF_TOPIC, t, tf)
+    out.write(tp.JOINT_TRAJECTORY, 0.0, joint_trajectory(names, t, result.commands_rad))
+    out.write_rows(tp.JOINT_STATES, t, joint_state(t, names, walk.q, a.tau))
+    out.write_rows(tp.COM, t, pose_stamped(t, "world", walk.com, yaw_quaternions(walk.yaw)))
     out.write_rows("/com_ref", t, pose_stamped(t, "world", np.asarray(walk.com_ref, dtype=float)[:, :3]))
     ground = np.zeros((n, 1))
-    out.write_rows("/zmp", t, pose_stamped(t, "world", np.hstack([np.asarray(a.zmp, dtype=float), ground])))
+    out.write_rows(tp.ZMP, t, pose_stamped(t, "world", np.hstack([np.asarray(a.zmp, dtype=float), ground])))
     out.write_rows("/zmp_ref", t, pose_stamped(t, "world", np.hstack([np.asarray(walk.zmp_ref, dtype=float), ground])))
     out.write_rows("/walk_analysis", t, {
         "header": header(t), "support": [str(s) for s in walk.support], "step": np.asarray(walk.step, dtype=np.int32),

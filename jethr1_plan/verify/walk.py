@@ -40,6 +40,7 @@ from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
+from jethr1_plan.records import topics as tp
 from jethr1_plan.records.plan_columns import PELVIS, ZMP
 from jethr1_plan.records.walk_columns import COM_REF
 from jethr1_plan.robot.model import RobotModel, load_robot
@@ -321,7 +322,7 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
 
     data = read_input(path, MAX_MCAP_BYTES, "a walk's MCAP")
     try:
-        messages = read_mcap(data, ["/joint_states"])
+        messages = read_mcap(data, [tp.JOINT_STATES])
     except Exception as exc:  # any corrupt MCAP is bad input, not a bug
         raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
     states = [(m, ns) for _, _, m, ns in messages]
@@ -334,7 +335,7 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
             pos = np.asarray(m.position, dtype=float)
             names = list(m.name)
         except (AttributeError, TypeError, ValueError):
-            raise InputError(str(path), "/joint_states", "a message without name / position") from None
+            raise InputError(str(path), tp.JOINT_STATES, "a message without name / position") from None
         if names != list(robot.joint_names) or pos.shape != q[i].shape or np.any(pos != q[i]) \
                 or ns != expected_ns[i]:
             fail([i], "MCAP", "/joint_states differs from trajectory.csv's row")
