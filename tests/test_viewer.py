@@ -78,7 +78,7 @@ def test_a_plan_and_its_rehearsal_move_in_rerun(saved, written):
     assert "Boxes3D:half_sizes" in components["/plan/terrain/cartons"]
     assert "LineStrips3D:strips" in components["/plan/swing_path/swing_paths_0"]
     # the rehearsal's landing beside the plan's foothold: the label names its error, slip and turn
-    label = [lab for r in rows["/rehearsal/sim/steps/step_0_3"] for lab in (r.get("Points3D:labels") or [])]
+    label = [lab for r in rows["/rehearsal/sim/steps/step_0"] for lab in (r.get("Points3D:labels") or [])]
     assert len(label) == 1 and label[0].startswith("step 0: ") and "mm off; support slip" in label[0]
     assert "Points3D:positions" in components["/rehearsal/sim/steps/step_0_0"]
 

@@ -67,6 +67,9 @@ def main() -> None:
 
 def run(argv: list[str] | None = None) -> int:
     """Entry point: run the CLI and map expected failures to exit codes (no traceback)."""
+    from jethr1_plan.io.input_file import forget_inputs
+
+    forget_inputs()  # this command's inputs are the files it reads
     try:
         rv = main.main(args=argv, prog_name="jethr1", standalone_mode=False)
         sys.stdout.flush()

@@ -22,8 +22,8 @@ from pathlib import Path
 
 from jethr1_plan.errors import InputError
 
-__all__ = ["check_input_file", "check_input_path", "describe_kind", "input_folder", "inputs", "is_input", "read_input",
-           "read_input_text"]
+__all__ = ["check_input_file", "check_input_path", "describe_kind", "forget_inputs", "input_folder", "inputs",
+           "is_input", "read_input", "read_input_text"]
 
 _INPUTS: dict[tuple[int, int], Path] = {}  # (device, inode) of every file this process read → its path
 
@@ -31,6 +31,11 @@ _INPUTS: dict[tuple[int, int], Path] = {}  # (device, inode) of every file this 
 def inputs() -> dict[tuple[int, int], Path]:
     """The files this process has read (or checked for a library to read), by (device, inode)."""
     return dict(_INPUTS)
+
+
+def forget_inputs() -> None:
+    """Start a new command's list of inputs (a process that runs several commands, as the tests do)."""
+    _INPUTS.clear()
 
 
 def is_input(st: os.stat_result) -> bool:

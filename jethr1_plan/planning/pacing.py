@@ -11,7 +11,7 @@ from jethr1_plan.planning.sequence import SequenceBuilder
 from jethr1_plan.records.plan_rows import RowField, Rows
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["PACE_ACCEL", "pace_swing", "rows_dynamics", "swing_dynamic_margin"]
+__all__ = ["GRIP_SAFETY", "PACE_ACCEL", "pace_swing", "rows_dynamics", "swing_dynamic_margin"]
 
 
 def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop: int | None = None) -> RowDynamics:
@@ -31,6 +31,7 @@ def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop
 
 #: the trunk accelerations [m/s²] a paced swing is tried with, in order (:func:`pace_swing`)
 PACE_ACCEL = (0.4, 0.2, 0.1, 0.05)
+GRIP_SAFETY = 2.0  # the rows' motion may need at most μ / this of friction
 
 
 def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: float, held: bool) -> None:
@@ -44,27 +45,44 @@ def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: flo
 def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
     """(rows,) the multibody ZMP's margin in the support [m] of the swing rows written from row ``start``
     on (the row before them in the stencil; the last held)."""
+    return _swing_dynamics(seq, start)[0]
+
+
+def _swing_dynamics(seq: SequenceBuilder, start: int) -> tuple[np.ndarray, np.ndarray]:
+    """(margin [m], friction ratio [1]) per swing row written from row ``start`` on (as
+    :func:`swing_dynamic_margin`)."""
     lo = max(start - 1, 0)
     dyn = rows_dynamics(seq.rows, seq.robot, seq.dt, lo)
-    return dyn.margin[start - lo:]
+    return dyn.margin[start - lo:], dyn.friction_ratio[start - lo:]
+
+
+def _holds(seq: SequenceBuilder, start: int, margin_m: float) -> tuple[bool, float]:
+    """Whether the swing rows from ``start`` keep the multibody ZMP ``margin_m`` inside the support and need
+    at most μ / :data:`GRIP_SAFETY` of friction; and their least margin [m]."""
+    margin, friction = _swing_dynamics(seq, start)
+    least = float(np.min(margin))
+    grip = float(np.max(friction[:-1], initial=0.0))  # (the last row's stencil holds: the transfer judges it)
+    return least >= margin_m and grip <= seq.robot.sole_friction / GRIP_SAFETY, least
 
 
 def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, duration_s: float,
                margin_m: float, strict: bool = True) -> float | None:
     """Re-time a swing whose rows' own motion moves the multibody ZMP to within ``margin_m`` [m] of the
-    support sole's edge (or beyond). ``build(positions)`` writes the swing (``positions`` None: the
-    minimum-jerk law) after ``snap``; it is rebuilt paced (:func:`paced_row_positions` of ``p_samples``
-    (N, 3) over ``duration_s``) for each trunk acceleration of :data:`PACE_ACCEL` in turn, and the first
-    whose rows all hold quasistatically with the multibody ZMP ``margin_m`` inside is kept. Where none
-    is, the swing of the largest multibody margin is kept and, if ``strict``, its rows that leave the
-    margin are marked infeasible. A swing looked at again is noted in ``seq.rows.paced`` (:func:`_note_pace`).
+    support sole's edge (or beyond), or needs more than μ / :data:`GRIP_SAFETY` of the soles' friction.
+    ``build(positions)`` writes the swing (``positions`` None: the minimum-jerk law) after ``snap``; it is
+    rebuilt paced (:func:`paced_row_positions` of ``p_samples`` (N, 3) over ``duration_s``) for each trunk
+    acceleration of :data:`PACE_ACCEL` in turn, and the first whose rows all hold quasistatically, with the
+    multibody ZMP ``margin_m`` inside and the friction within its bound, is kept. Where none is, the swing
+    of the largest multibody margin is kept and, if ``strict``, its rows that leave the margin are marked
+    infeasible (the friction is judged with every row, ``plan.add_analysis``). A swing looked at again is
+    noted in ``seq.rows.paced`` (:func:`_note_pace`).
     Returns the kept swing's least multibody margin [m] (None: the swing was infeasible already, or needed no
     pacing)."""
     start, before = snap[0], snap[3]
     if seq.first_infeasible is not before:
         return None
-    least = float(np.min(swing_dynamic_margin(seq, start)))
-    if least >= margin_m:
+    held, least = _holds(seq, start, margin_m)
+    if held:
         return None
     best: tuple[float, np.ndarray | None, float | None] = (least, None, None)
     rate = 1.0 / seq.dt
@@ -74,8 +92,8 @@ def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, 
         build(positions)
         if seq.first_infeasible is not before:
             continue
-        least = float(np.min(swing_dynamic_margin(seq, start)))
-        if least >= margin_m:
+        held, least = _holds(seq, start, margin_m)
+        if held:
             _note_pace(seq, start, accel, least, True)
             return least
         if least > best[0]:

@@ -21,7 +21,7 @@ from jethr1_plan.optimisers import OptimiserConfig, PathRequest, optimise_path
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import analyse_rows
-from jethr1_plan.planning.pacing import rows_dynamics
+from jethr1_plan.planning.pacing import GRIP_SAFETY, rows_dynamics
 from jethr1_plan.planning.phases import STANDING_HEIGHT_FRACTION, Sequence, build_sequence, standing_pose
 from jethr1_plan.planning.problems import feet_before_each_step, nominal_p_body, path_problems, yaw_function
 from jethr1_plan.planning.report import finite_or_none, plan_summary
@@ -50,7 +50,6 @@ __all__ = [
     "yaw_schedule",
 ]
 
-GRIP_SAFETY = 2.0  # the rows' motion may need at most μ / this of friction
 
 Progress = Callable[[str, int, int], None]  # progress(label, done, total)
 

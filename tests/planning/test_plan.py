@@ -132,12 +132,13 @@ def test_same_seed_same_bytes(planned, tmp_path):
 def _small_two_step(tmp_path: Path, **balance) -> Path:
     doc = yaml.safe_load((ROOT / "configs" / "jet_hr1_trial.yaml").read_text())
     doc["optimiser"] = {"initial": {"population": 40, "generations": 10},
-                        "intermediate": {"population": 30, "generations": 4}}
+                        "intermediate": {"population": 40, "generations": 8}}
     for st in doc["steps"]:
         st["path"]["samples"] = 25
     doc["steps"][1]["landing_m"] = [0.45, -0.1125, 0.0]
     doc["terrain"]["cartons"][3]["top_centre_m"] = [0.45, -0.1125, 0.0]
-    doc["timing"] = {"swing_s": 1.0, "transfer_s": 0.5, "rate_hz": 20.0}
+    doc["timing"] = {"swing_s": 3.0, "transfer_s": 1.5, "rate_hz": 20.0}  # (the soles' grip: a GA this small jumps
+    # its path between samples; faster, a row needs more friction than μ / 2)
     doc["balance"] = {"thrust_max_n": 23.0, "policy": "minimal", **balance}  # a GA this small: Paper A's policy
     p = tmp_path / "small_two_step.yaml"
     p.write_text(yaml.safe_dump(doc))

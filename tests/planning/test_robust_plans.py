@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 
 import numpy as np
 import pytest
@@ -112,10 +113,12 @@ def test_window_margin_and_command_columns(side_plans, robot):
     lead = c["thrust_cmd_left_n"] - c["thrust_left_n"]
     rising = np.flatnonzero(np.diff(c["thrust_left_n"]) > 0.01)[5:-5]
     assert np.all(lead[rising] > 0)  # the command leads a rising thrust by the fan's lag
-    assert s["controller"]["gains"]["band_margin_m"] == robot.controller.band_margin_m
-    # the placement `simulate --controller feedback` runs by default, stated with its settings
-    from dataclasses import asdict
+    # Jet-HR1 senses itself by its IMU and encoders alone: its law is the IMU's, with the gains its YAML gives
+    from jethr1_plan.control.imu_thrust import ImuGains
 
+    assert s["controller"]["law"] == "imu_tilt_pid" and s["controller"]["sensors_read"] == ["imu", "encoders"]
+    assert s["controller"]["gains"] == asdict(ImuGains.of(robot))
+    # the placement `simulate --controller feedback` runs by default, stated with its settings
     from jethr1_plan.control.swing_placement import PlacementGains
 
     assert s["controller"]["swing_placement"]["settings"] == asdict(PlacementGains())
