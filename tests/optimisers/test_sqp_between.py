@@ -44,7 +44,8 @@ def test_a_narrow_ditch_plans_where_the_rows_once_failed_the_cone(tmp_path, fore
     result = plan(scenario, keep_going=True)
     rows = result.rows
     assert rows is not None
-    reasons = {str(r) for r, ok in zip(rows.array(RowField.REASON), rows.array(RowField.FEASIBLE), strict=True) if not ok}
+    reasons = {str(r) for r, ok in zip(rows.array(RowField.REASON), rows.array(RowField.FEASIBLE), strict=True)
+               if not ok}
     assert all("friction ratio" in r for r in reasons), reasons
     assert share_summary(rows, scenario.balance.tolerance)["least"] >= least
     swing = np.flatnonzero(rows.array(RowField.PHASE) == "swing")
