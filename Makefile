@@ -27,6 +27,7 @@ lint: install
 	$(BIN)/python tools/check_imports.py
 	$(BIN)/python tools/check_size.py
 	$(BIN)/python tools/architecture.py --check
+	$(BIN)/python tools/check_vocabulary.py
 
 test: install lint
 	$(BIN)/python tools/check_lock.py $(LOCK_CHECK) $(LOCK)

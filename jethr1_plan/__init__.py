@@ -8,22 +8,24 @@ The package is layered, lowest first; a layer imports only its own and the layer
    everything uses
 1. :mod:`.io` — YAML, JSON, CSV tables, atomic writes
 2. :mod:`.robot` — the robot as data
-3. :mod:`.physics` — the balance model with thrust
-4. :mod:`.kinematics` — P_body and body yaw to joints and CoM
-5. :mod:`.optimisers` — the optimisers of P_body along a swing path
-6. :mod:`.scenario` — what a user asks for; :mod:`.scenario_schema` — the scenario file's schema;
+3. :mod:`.records` — what the planner produces, typed
+4. :mod:`.physics` — the balance model with thrust
+5. :mod:`.kinematics` — P_body and body yaw to joints and CoM
+6. :mod:`.optimisers` — the optimisers of P_body along a swing path
+7. :mod:`.scenario` — what a user asks for; :mod:`.scenario_schema` — the scenario file's schema;
    :mod:`.swing_path` — the swing foot's path
-7. :mod:`.control` — what is sent to the robot and the loops that run on it
-8. :mod:`.planning` — Paper A's plan; :mod:`.walking` — Paper B's walk; :mod:`.balance_space` — Paper A's
+8. :mod:`.control` — what is sent to the robot and the loops that run on it
+9. :mod:`.planning` — Paper A's plan; :mod:`.walking` — Paper B's walk; :mod:`.balance_space` — Paper A's
    balance space
-9. :mod:`.files` — every file format, written and read in one place
-10. :mod:`.sim` — the MuJoCo twin and rehearsals
-11. :mod:`.verify` — independent re-checks of written files
-12. :mod:`.pipeline` — input file to checked output folder
-13. :mod:`.route` — footholds chosen on the balance space, then planned (``jethr1 route``)
-14. :mod:`.studies` — comparisons, curves, sweeps, batches
-15. :mod:`.viewer` — written folders shown in Rerun (``jethr1 view``)
-16. :mod:`.cli` — the command line
+10. :mod:`.files` — every file format, written and read in one place
+11. :mod:`.folders` — written folders read back whole, with the scenario they were planned from (``plan.py``
+12. :mod:`.sim` — the MuJoCo twin and rehearsals
+13. :mod:`.verify` — independent re-checks of written files
+14. :mod:`.pipeline` — input file to checked output folder
+15. :mod:`.route` — footholds chosen on the balance space, then planned (``jethr1 route``)
+16. :mod:`.studies` — comparisons, curves, sweeps, batches
+17. :mod:`.viewer` — written folders shown in Rerun (``jethr1 view``)
+18. :mod:`.cli` — the command line
 """
 
 __version__ = "0.1.0"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jethr1_plan.cli import run
-from jethr1_plan.files.plan_folder import read_plan
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.robot.urdf import urdf_joints
 from jethr1_plan.viewer.topics import VIEW_EXTRA
 

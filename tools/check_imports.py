@@ -19,6 +19,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("__init__", "errors", "reasons", "geometry"),  # the words everything uses
     ("io",),  # YAML, JSON, CSV tables, atomic writes
     ("robot",),  # the robot as data
+    ("records",),  # what the planner produces, typed: rows, columns, topics, the first infeasible sample
     ("physics",),  # balance with thrust, statics, the compiled per-candidate physics
     ("kinematics",),  # P_body and yaw to joints and CoM
     ("optimisers",),  # P_body along a swing path; the P_body search of one cell
@@ -26,6 +27,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("control",),  # what is sent to the robot and the loops that run on it
     ("planning", "walking", "balance_space"),  # Paper A's plan, Paper B's walk, the balance space
     ("files",),  # every file format, written and read
+    ("folders",),  # written folders read back whole, with the scenario they were planned from
     ("sim",),  # the MuJoCo twin and rehearsals
     ("verify",),  # independent re-checks of written files
     ("pipeline",),  # input file to checked output folder
@@ -55,6 +57,9 @@ WHAT: dict[str, str] = {
              "`load_robot` putting the URDF and the robot YAML together (`load.py`), the YAML's schema, the URDF "
              "read and checked, `robot show`'s summary, a robot's design variants written as robot folders "
              "(`variant.py`)",
+    "records": "what the planner produces, typed: the plan's rows with fixed fields (`plan_rows.py`), every plan and "
+               "walk column name (`plan_columns.py`, `walk_columns.py`), the topics and their message types "
+               "(`topics.py`), the first infeasible sample (`infeasible.py`)",
     "physics": "**the balance model** with thrust: ZMP, thrust window, least thrust of several fans, (A-4), (A-10) "
                "(`balance.py`), the statics of a posture (`statics.py`), the compiled per-candidate physics every "
                "search calls",
@@ -75,6 +80,8 @@ WHAT: dict[str, str] = {
     "walking": "Paper B's walk: footsteps in time, CoM MPC, yaw reference, QP IK with joint windows, arm swing, the "
                "judge",
     "balance_space": "Paper A's balance space: the sweep of swing-sole cells",
+    "folders": "written folders read back whole, with the scenario they were planned from (`plan.py`: "
+               "`read_plan`, `PlanFolder`)",
     "files": "**every file format, written and read in one place**: the plan's column contract (`plan_table.py`), "
              "`trajectory.csv`, `trajectory.mcap`, the plan folder (`plan_folder.py`: `write_plan`, `read_plan`), "
              "the rehearsal's files, the walk folder, the balance-space files, the ROS 2 MCAP container and CDR "
@@ -103,7 +110,8 @@ WHAT: dict[str, str] = {
 #: (verify/balance.py, motion.py, commands.py); a mistake in the planner's physics, kinematics, optimisers,
 #: commands, plans, walks or balance space must not be repeated in its verdict, so it imports none of them.
 ONLY: dict[str, tuple[str, ...]] = {
-    "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "scenario", "swing_path", "files", "verify"),
+    "verify": ("__init__", "errors", "reasons", "geometry", "io", "robot", "records", "scenario", "swing_path", "files",
+               "folders", "verify"),
 }
 
 

@@ -101,6 +101,10 @@ class SweepResult:
         """(N,) body yaw of (A-4) [rad]."""
         return cell_yaw(self.spec, self.swing)
 
+    def cell_yaw(self, swing: np.ndarray) -> np.ndarray:
+        """(k,) the body yaw (A-4) [rad] of swing soles ``swing`` (k, 3) (:func:`cell_yaw`)."""
+        return cell_yaw(self.spec, swing)
+
     def swing_at(self, mask: np.ndarray) -> np.ndarray:
         """The swing sole centres [m] of the cells ``mask`` selects, without building all of :attr:`swing`."""
         axes = self.spec.axes()

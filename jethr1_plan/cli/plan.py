@@ -78,7 +78,7 @@ def plan(scenario_path: Path, outdir: Path, optimiser: str | None, seed: int | N
         print_json(summary)
     bad = result.first_infeasible
     if bad is not None:
-        raise InfeasiblePlan(f"infeasible: {bad['reason']} (step {bad['step']} {bad['phase']} sample {bad['sample']}); "
+        raise InfeasiblePlan(f"infeasible: {bad.reason} (step {bad.step} {bad.phase} sample {bad.sample}); "
                              "trajectory written with infeasible rows marked")
     _report_plan(summary, folder)
 
@@ -92,6 +92,8 @@ def plan_bytes(scenario) -> int:
 
 
 def _report_plan(summary: dict, folder: Path) -> None:
+    from jethr1_plan.records.plan_columns import TOLERANCE_SHARE
+
     c = err_console
     c.print(f"[green]feasible[/] {summary['scenario']}: {summary['sample_count']} swing samples, "
             f"max thrust {summary['max_thrust_n']:.2f} N, mean {summary['mean_thrust_n']:.2f} N, "
@@ -114,7 +116,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
             line += (f"; narrowest thrust window [{lo:.2f}, {hi:.2f}] N (step {at['step']} {at['phase']} row "
                      f"{at['row']}, t = {at['time_s']:.2f} s)")
         c.print(line)
-    share = rob.get("tolerance_share")
+    share = rob.get(TOLERANCE_SHARE)
     if share is not None:
         at, tol = share["least_at"], share["tolerance"]
         if share["rows_below_full"] == 0:

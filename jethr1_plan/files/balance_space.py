@@ -4,17 +4,54 @@ from __future__ import annotations
 
 import io
 import math
-from typing import TextIO
+from typing import Protocol, TextIO
 
 import numpy as np
 
-from jethr1_plan.balance_space.sweep import SweepResult, cell_yaw
 from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import Reason, message
+from jethr1_plan.records.plan_columns import PELVIS, REASON
 
-__all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "balance_space_csv", "balance_space_mcap",
-           "balance_space_png", "least_thrust_columns", "write_balance_space_csv"]
+__all__ = ["BALANCE_SPACE_COLUMNS", "BALANCE_SPACE_TOPICS", "Sweep", "SweepGrid", "balance_space_csv",
+           "balance_space_mcap", "balance_space_png", "least_thrust_columns", "write_balance_space_csv"]
+
+
+class SweepGrid(Protocol):
+    """What these files read of a sweep's grid (``balance_space.spec.SweepSpec``)."""
+
+    @property
+    def support_side(self) -> str: ...
+    @property
+    def swing_side(self) -> str: ...
+    @property
+    def support_xyz(self) -> tuple[float, float, float] | None: ...
+    @property
+    def support(self) -> tuple[float, float, float]: ...  # the support sole's centre [m]
+    @property
+    def resolution_m(self) -> float: ...
+    @property
+    def fan_limit_n(self) -> float: ...  # the limit on every fan [N]
+    def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...  # grid coordinates along x, y, z [m]
+
+
+class Sweep(Protocol):
+    """What these files read of a sweep (``balance_space.sweep.SweepResult``): every cell, x-major."""
+
+    @property
+    def spec(self) -> SweepGrid: ...
+    @property
+    def thrust(self) -> np.ndarray: ...  # (N,) the least thrust [N] (inf where nothing balances)
+    @property
+    def p_body(self) -> np.ndarray: ...  # (N, 3) the best posture [m]
+    @property
+    def reason(self) -> np.ndarray: ...  # (N,) reason codes
+    @property
+    def with_thrust(self) -> np.ndarray: ...  # (N,) the cells in balance with thrust
+    @property
+    def without_thrust(self) -> np.ndarray: ...  # (N,) the cells in balance without
+    def swing_at(self, mask: np.ndarray) -> np.ndarray: ...  # the swing sole centres [m] of the cells ``mask`` picks
+    def cell_yaw(self, swing: np.ndarray) -> np.ndarray: ...  # (k,) the body yaw (A-4) [rad] of swing soles (k, 3)
 
 #: the topics of ``balance_space.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 BALANCE_SPACE_TOPICS: dict[str, Topic] = {
@@ -33,18 +70,17 @@ _VIRIDIS = np.array([(0.267, 0.005, 0.329), (0.229, 0.322, 0.546), (0.128, 0.567
 
 
 #: the columns of balance_space.csv
-BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", "pelvis_x_m", "pelvis_y_m", "pelvis_z_m",
-                         "pelvis_yaw_rad", "reason")
+BALANCE_SPACE_COLUMNS = ("x_m", "y_m", "z_m", "min_thrust_n", *PELVIS, "pelvis_yaw_rad", REASON)
 
 
-def balance_space_csv(r: SweepResult) -> str:
+def balance_space_csv(r: Sweep) -> str:
     """balance_space.csv as text (:func:`write_balance_space_csv`)."""
     out = io.StringIO()
     write_balance_space_csv(r, out)
     return out.getvalue()
 
 
-def write_balance_space_csv(r: SweepResult, out: TextIO) -> None:
+def write_balance_space_csv(r: Sweep, out: TextIO) -> None:
     """Write balance_space.csv to ``out``: x_m, y_m, z_m, min_thrust_n (empty outside the space with thrust),
     best pelvis, reason.
 
@@ -66,7 +102,7 @@ def write_balance_space_csv(r: SweepResult, out: TextIO) -> None:
         if len(inside):
             # the body yaw depends on the cell's x and y alone: its text once per column of cells
             ys, column = np.unique(inside // nz, return_inverse=True)
-            yaw = cell_yaw(r.spec, np.column_stack([np.full(len(ys), axes[0][i]), axes[1][ys], np.zeros(len(ys))]))
+            yaw = r.cell_yaw(np.column_stack([np.full(len(ys), axes[0][i]), axes[1][ys], np.zeros(len(ys))]))
             yaw_text = [num(v) for v in yaw.tolist()]
             cols = [r.thrust[sl][inside], *r.p_body[sl][inside].T]
             texts = [[num(v) for v in c.tolist()] for c in cols]
@@ -89,7 +125,7 @@ def _thrust_colors(thrust_n: np.ndarray, fmax_n: float) -> dict:
             "a": np.ones(len(s), np.float32)}
 
 
-def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:
+def balance_space_mcap(r: Sweep, sole_length_m: float, sole_width_m: float) -> bytes:
     """The MCAP bytes of a balance-space sweep (topics :data:`BALANCE_SPACE_TOPICS`): the support
     sole; the cells of each space as a point cloud and as cubes coloured by the least thrust."""
     out = Ros2Mcap(BALANCE_SPACE_TOPICS)
@@ -110,7 +146,7 @@ def balance_space_mcap(r: SweepResult, sole_length_m: float, sole_width_m: float
     return out.finish()
 
 
-def least_thrust_columns(r: SweepResult, mask: np.ndarray, hidden: int) -> np.ndarray:
+def least_thrust_columns(r: Sweep, mask: np.ndarray, hidden: int) -> np.ndarray:
     """The least thrust [N] of the cells ``mask`` selects in each column of the grid along axis ``hidden``
     (0 x, 1 y, 2 z): an (n_a, n_b) image over the two other axes in their order, NaN where the column holds
     none of them (what a top or side view of the space shows)."""
@@ -123,7 +159,7 @@ def least_thrust_columns(r: SweepResult, mask: np.ndarray, hidden: int) -> np.nd
     return image
 
 
-def _view_box(r: SweepResult) -> tuple[np.ndarray, np.ndarray]:
+def _view_box(r: Sweep) -> tuple[np.ndarray, np.ndarray]:
     """The corners [m] of the box the views show: the space with thrust (the larger) and the support sole, two
     cells beyond; the whole grid if the space is empty."""
     grid = r.spec.axes()
@@ -135,7 +171,7 @@ def _view_box(r: SweepResult) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(pts.min(axis=0), sup) - pad, np.maximum(pts.max(axis=0), sup) + pad
 
 
-def balance_space_png(r: SweepResult, sole_length_m: float, sole_width_m: float) -> bytes:
+def balance_space_png(r: Sweep, sole_length_m: float, sole_width_m: float) -> bytes:
     """Fig. 5 as a picture: without and with thrust, top (x–y) and side (x–z) views, each pixel block a column of
     cells coloured by its least thrust (:func:`least_thrust_columns`), the support sole drawn."""
     import matplotlib

@@ -15,7 +15,7 @@ from jethr1_plan.files.plan_table import (
     plan_table,
 )
 from jethr1_plan.io.csv_table import csv_text, number_text, numbers_text, read_csv_table
-from jethr1_plan.planning.sequence import Rows
+from jethr1_plan.records.plan_rows import Rows
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["CSV_FORMAT_VERSION", "read_trajectory_csv", "table_csv", "trajectory_csv"]

@@ -1,7 +1,7 @@
 """A plan folder, ``OUTDIR/<scenario stem>/``: ``trajectory.csv``, ``trajectory.mcap`` and
-``summary.json`` (and a rehearsal's ``simulation.json`` / ``simulation.mcap``), written atomically and
-read back in one place: :func:`write_plan` and :func:`read_plan`. Every command that reads a plan
-(``verify``, ``simulate``) reads it through :func:`read_plan`.
+``summary.json`` (and a rehearsal's ``simulation.json`` / ``simulation.mcap``), written atomically
+(:func:`write_plan`), and the checks that its files belong together. Reading a folder back whole, with
+the scenario it was planned from, is :func:`jethr1_plan.folders.plan.read_plan`'s.
 """
 
 from __future__ import annotations
@@ -10,15 +10,15 @@ import errno
 import hashlib
 import os
 import stat
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_csv import read_trajectory_csv, table_csv
-from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES, read_trajectory_mcap, trajectory_mcap
+from jethr1_plan.files.plan_csv import table_csv
+from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES, trajectory_mcap
 from jethr1_plan.files.plan_table import columns, plan_table
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
@@ -26,17 +26,32 @@ from jethr1_plan.io.input_file import describe_kind, read_input
 from jethr1_plan.io.json_text import MAX_JSON_BYTES, json_document, json_text
 from jethr1_plan.io.json_text import read_json as read_json_document
 from jethr1_plan.io.record import RECORD, file_sha256, read_record
-from jethr1_plan.io.yaml_input import check_schema
-from jethr1_plan.planning.results import PlanResult
-from jethr1_plan.robot.load import load_robot
+from jethr1_plan.records.plan_rows import Rows
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.scenario import Scenario, load_scenario, load_scenario_text
-from jethr1_plan.scenario_schema import MAX_FILE_BYTES, MAX_ROWS, POLICIES
 from jethr1_plan.swing_path import Carton
 
-__all__ = ["PLAN_FILES", "PLAN_WRITES", "SIMULATION_FILES", "SUMMARY_SCHEMA", "PlanFolder", "check_belongs",
-           "file_digests", "folder_kind", "plan_folder", "read_json", "read_plan", "rehearsal_of", "trajectory_files",
-           "write_plan", "write_summary_only"]
+__all__ = [
+    "PLAN_FILES",
+    "PLAN_WRITES",
+    "SIMULATION_FILES",
+    "TRAJECTORY_FILES",
+    "WrittenPlan",
+    "check_belongs",
+    "check_digest",
+    "check_summary_record",
+    "file_bounds",
+    "file_digests",
+    "folder_kind",
+    "lstat_or_none",
+    "plan_folder",
+    "read_json",
+    "recorded_digest",
+    "rehearsal_of",
+    "summary_rows",
+    "trajectory_files",
+    "write_plan",
+    "write_summary_only",
+]
 
 #: the files ``jethr1 simulate`` writes into a plan folder (both, or neither)
 SIMULATION_FILES = frozenset({"simulation.json", "simulation.mcap"})
@@ -58,12 +73,42 @@ def file_digests(files: Mapping[str, bytes]) -> dict[str, dict[str, int | str]]:
     return {name: {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)} for name, data in files.items()}
 
 
-def plan_folder(outdir: Path, scenario: Scenario) -> Path:
+class _Source(Protocol):
+    @property
+    def source(self) -> str: ...  # the scenario file's path
+
+
+class _Scenario(_Source, Protocol):
+    @property
+    def cartons(self) -> Sequence[Carton]: ...
+
+
+class _Step(Protocol):
+    @property
+    def path_m(self) -> np.ndarray: ...  # (N, 3) the swing sole's samples [m]
+
+
+class WrittenPlan(Protocol):
+    """What :func:`write_plan` writes of a plan (``planning.results.PlanResult``)."""
+
+    @property
+    def scenario(self) -> _Scenario: ...
+    @property
+    def robot(self) -> RobotModel: ...
+    @property
+    def steps(self) -> Sequence[_Step]: ...
+    @property
+    def rows(self) -> Rows | None: ...
+    @property
+    def feasible(self) -> bool: ...
+
+
+def plan_folder(outdir: Path, scenario: _Source) -> Path:
     """OUTDIR/<scenario stem>/."""
     return Path(outdir) / Path(scenario.source).stem
 
 
-def write_plan(result: PlanResult, outdir: Path, summary: dict, trajectory: bool = True,
+def write_plan(result: WrittenPlan, outdir: Path, summary: dict, trajectory: bool = True,
                check: Callable[[str], None] | None = None, folder: Path | None = None,
                extra: Mapping[str, bytes] | None = None, own: frozenset[str] = PLAN_FILES) -> tuple[Path, list[str]]:
     """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ (or ``folder``) atomically,
@@ -94,7 +139,7 @@ def write_plan(result: PlanResult, outdir: Path, summary: dict, trajectory: bool
     return final, staging.kept
 
 
-def write_summary_only(scenario: Scenario, outdir: Path, summary: dict | None) -> tuple[Path, list[str]]:
+def write_summary_only(scenario: _Source, outdir: Path, summary: dict | None) -> tuple[Path, list[str]]:
     """summary.json alone (an infeasible plan), atomically; the folder and the files kept in it."""
     final = plan_folder(outdir, scenario)
     if summary is None:
@@ -113,97 +158,7 @@ def read_json(path: Path) -> dict:
     return read_json_document(path)
 
 
-_vec3 = {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3}
-_unit = {"type": "number", "minimum": 0, "maximum": 0.9}
-#: what the readers of a plan folder take from summary.json, and the types and bounds it must have
-#: there (every other key is free: it is a report)
-SUMMARY_SCHEMA = {
-    "type": "object",
-    "properties": {
-        "robot": {"type": "string", "maxLength": 1000},
-        "robot_yaml": {"type": ["string", "null"], "maxLength": 4096},
-        "scenario_file": {"type": ["string", "null"], "maxLength": 4096},
-        "scenario_yaml": {"type": ["string", "null"], "maxLength": MAX_FILE_BYTES},
-        "feasible": {"type": "boolean"},
-        "row_count": {"type": "integer", "minimum": 0, "maximum": MAX_ROWS},
-        "thrust_max_n": {"type": "number", "minimum": 0, "maximum": 1e4},
-        "trajectory": {"type": "object", "properties": {
-            "rows": {"type": "integer", "minimum": 0, "maximum": MAX_ROWS},
-            "rate_hz": {"type": "number", "exclusiveMinimum": 0, "maximum": 1000}}},
-        "balance": {"type": "object", "properties": {
-            "policy": {"enum": list(POLICIES)},
-            "sole_margin_m": {"type": "number", "minimum": 0, "maximum": 0.1},
-            "tolerance": {"type": "object", "properties": {"thrust_error": _unit, "mass_error": _unit,
-                                                           "com_error_m": {"type": "number", "minimum": 0,
-                                                                           "maximum": 0.1}}}}},
-        "terrain": {"type": "object", "properties": {"cartons": {
-            "type": "array", "maxItems": 200, "items": {
-                "type": "object", "required": ["top_centre_m", "size_m"],
-                "properties": {"top_centre_m": _vec3, "size_m": _vec3}}}}},
-    },
-}
-
-
-@dataclass
-class PlanFolder:
-    """A written plan as its readers see it (nothing of the planner's state)."""
-
-    folder: Path
-    files: list[Path]  # the trajectory files read, in the order given
-    summary: dict | None  # summary.json (None where the folder has none)
-    robot: RobotModel
-    scenario: Scenario | None  # the scenario it was planned from, where it can be found
-    tables: dict[Path, dict[str, np.ndarray]] = field(default_factory=dict)  # per file, its columns
-    swing_paths: dict[Path, list[np.ndarray]] = field(default_factory=dict)  # per MCAP, its swing paths
-    checked: list[Path] = field(default_factory=list)  # every file read: trajectories, summary, scenario
-    summary_sha256: str = ""  # of summary.json's bytes as read
-
-    @property
-    def table(self) -> dict[str, np.ndarray]:
-        """The plan's columns: the CSV's where it was read, else the MCAP's."""
-        csv = [f for f in self.files if f.suffix == ".csv"]
-        return self.tables[csv[0] if csv else self.files[0]]
-
-    @property
-    def cartons(self) -> tuple[Carton, ...]:
-        """The terrain the plan stands on: the scenario's, else the one summary.json records."""
-        if self.scenario is not None:
-            return tuple(self.scenario.cartons)
-        return tuple(Carton(tuple(c["top_centre_m"]), tuple(c["size_m"]))
-                     for c in (self.summary or {}).get("terrain", {}).get("cartons", []))
-
-    def problems(self) -> list[tuple[str, int, str]]:
-        """Where the files disagree with themselves or with summary.json: (file, row, problem), the
-        first of each kind: a row count other than summary.json's, a time that does not increase,
-        a number that is not finite where a number is required. ``verify`` reports these as failing
-        rows (exit 5); :func:`read_plan` with ``strict`` refuses the folder (exit 2)."""
-        out = []
-        rows = _summary_rows(self.summary)
-        for f, table in self.tables.items():
-            n = len(table["time_s"])
-            if rows is not None and n != rows:
-                out.append((f.name, min(n, rows), f"{n} rows, summary.json says {rows}"))
-            t = table["time_s"].astype(float)
-            back = np.flatnonzero(~(np.diff(t) > 0))
-            if len(back):
-                out.append((f.name, int(back[0]) + 1, f"time {t[back[0] + 1]:.9g} s does not come after "
-                            f"{t[back[0]]:.9g} s"))
-            for name, col in table.items():
-                if col.dtype.kind != "f" or name in OPTIONAL_NUMBER_COLUMNS or name.startswith(OPTIONAL_PREFIXES):
-                    continue
-                bad = np.flatnonzero(~np.isfinite(col))
-                if len(bad):
-                    out.append((f.name, int(bad[0]), f"{name} is empty or not a finite number"))
-                    break
-        return out
-
-
-#: number columns that may be empty (NaN): no swing sole in a transfer, no thrust window, no tolerance
-OPTIONAL_PREFIXES = ("swing_", "thrust_window_")
-OPTIONAL_NUMBER_COLUMNS = frozenset({"zmp_margin_m", "tolerance_share"})
-
-
-def _summary_rows(summary: dict | None) -> int | None:
+def summary_rows(summary: dict | None) -> int | None:
     traj = (summary or {}).get("trajectory")
     rows = traj.get("rows") if isinstance(traj, dict) else None
     return int(rows) if isinstance(rows, int | float) and not isinstance(rows, bool) else None
@@ -232,7 +187,7 @@ _NOT_A_PLAN = {
 }
 
 
-def _lstat(path: Path) -> os.stat_result | None:
+def lstat_or_none(path: Path) -> os.stat_result | None:
     try:
         return os.lstat(path)
     except FileNotFoundError:
@@ -271,7 +226,7 @@ def trajectory_files(path: Path, suffixes: tuple[str, ...] = (".csv", ".mcap"), 
             raise InputError(str(path / "summary.json"), "feasible", "false: the plan is not feasible and only its "
                              "summary was written (plan --write-infeasible writes the trajectory too)")
         for name in (*TRAJECTORY_FILES, "summary.json"):
-            fst = _lstat(path / name)
+            fst = lstat_or_none(path / name)
             if fst is None:
                 raise InputError(str(path / name), "", "missing: a plan folder holds trajectory.csv, "
                                  "trajectory.mcap and summary.json (give one trajectory file to check it alone)")
@@ -291,7 +246,7 @@ def trajectory_files(path: Path, suffixes: tuple[str, ...] = (".csv", ".mcap"), 
 
 def _summary_if_any(folder: Path) -> dict | None:
     """summary.json of ``folder`` where it exists as a file and reads as an object (for telling folders apart)."""
-    st = _lstat(folder / "summary.json")
+    st = lstat_or_none(folder / "summary.json")
     if st is None or not stat.S_ISREG(st.st_mode):
         return None
     try:
@@ -300,63 +255,7 @@ def _summary_if_any(folder: Path) -> dict | None:
         return None
 
 
-def plan_scenario(folder: Path, summary: dict | None, explicit: Path | None = None) -> Scenario | None:
-    """The scenario of a written plan: ``explicit`` (must exist), else the file summary.json names (as
-    written, then beside summary.json), else the copy summary.json holds."""
-    if explicit is not None:
-        return load_scenario(explicit)
-    if not summary:
-        return None
-    named = summary.get("scenario_file")
-    text = summary.get("scenario_yaml")
-    if isinstance(named, str) and named:
-        for candidate in (Path(named), folder / named):
-            if candidate.is_file():
-                sc = load_scenario(candidate)
-                if not isinstance(text, str) or not text or sc.text == text:
-                    return sc
-                break  # edited since: the plan was made from the copy summary.json holds
-    if isinstance(text, str) and text:
-        return load_scenario_text(text, f"{folder / 'summary.json'} (scenario_yaml)")
-    return None
-
-
-def plan_robot(summary: dict | None, scenario: Scenario | None, src: str = "summary.json") -> RobotModel:
-    """The robot a plan was made for: summary.json's robot YAML where it still exists, else the
-    scenario's robot, else summary.json's robot name, else Jet-HR1.
-
-    Raises:
-        InputError: summary.json names a robot other than the scenario's or its robot YAML's.
-    """
-    named = (summary or {}).get("robot")
-    path = (summary or {}).get("robot_yaml")
-    if isinstance(path, str) and Path(path).is_file():
-        robot = load_robot(path)
-    elif scenario is not None:
-        robot = scenario.robot  # the plan moved with its summary: the scenario names the robot
-    else:
-        robot = load_robot(named or "jethr1")
-    if isinstance(named, str) and named != robot.name:
-        where = "its robot_yaml" if isinstance(path, str) and Path(path).is_file() else "the scenario"
-        raise InputError(src, "robot", f"{named!r}, but {where} is robot {robot.name!r}: the folder's files do "
-                         "not belong together")
-    if scenario is not None and scenario.robot.name != robot.name:
-        raise InputError(src, "robot", f"{robot.name!r}, but the scenario names robot {scenario.robot.name!r}")
-    return robot
-
-
-def _file_bounds(summary: dict | None, robot: RobotModel) -> dict[str, int]:
-    """The most bytes each trajectory file of a plan of ``summary``'s rows can hold (the CSV, the MCAP, the
-    MCAP's chunks once expanded); the formats' own bounds where summary.json gives no rows."""
-    rows = _summary_rows(summary)
-    if rows is None:
-        return {".csv": MAX_CSV_BYTES, ".mcap": MAX_MCAP_BYTES}
-    return {".csv": min(MAX_CSV_BYTES, (rows + 1) * CSV_ROW_BYTES(len(columns(robot))) + 1_000_000),
-            ".mcap": min(MAX_MCAP_BYTES, rows * MCAP_ROW_BYTES + FILE_SLACK_BYTES),
-            "expanded": rows * MCAP_EXPANDED_ROW_BYTES + FILE_SLACK_BYTES}
-
-
-def _check_summary_record(folder: Path, summary_bytes: bytes) -> None:
+def check_summary_record(folder: Path, summary_bytes: bytes) -> None:
     """summary.json as jethr1 wrote it, where the folder keeps jethr1's record of its files.
 
     Raises:
@@ -370,7 +269,7 @@ def _check_summary_record(folder: Path, summary_bytes: bytes) -> None:
                          "the scenario again")
 
 
-def _recorded_digest(summary: dict, summary_path: Path, name: str) -> dict:
+def recorded_digest(summary: dict, summary_path: Path, name: str) -> dict:
     """summary.json's record of trajectory file ``name``: {"sha256", "bytes"}.
 
     Raises:
@@ -385,7 +284,7 @@ def _recorded_digest(summary: dict, summary_path: Path, name: str) -> dict:
     return rec
 
 
-def _check_digest(path: Path, data: bytes, rec: dict) -> None:
+def check_digest(path: Path, data: bytes, rec: dict) -> None:
     """Raises InputError where ``data`` (the bytes of ``path``) are not those summary.json records."""
     if rec["bytes"] != len(data) or rec["sha256"] != hashlib.sha256(data).hexdigest():
         raise InputError(str(path), "", f"not the {path.name} that summary.json records ({len(data):,} bytes, "
@@ -406,13 +305,13 @@ def check_belongs(folder: Path) -> dict:
     summary_path = folder / "summary.json"
     summary_bytes = read_input(summary_path, MAX_JSON_BYTES, "a summary.json")
     summary = json_document(summary_bytes, str(summary_path))
-    _check_summary_record(folder, summary_bytes)
+    check_summary_record(folder, summary_bytes)
     for name in TRAJECTORY_FILES:
-        rec = _recorded_digest(summary, summary_path, name)
+        rec = recorded_digest(summary, summary_path, name)
         p = folder / name
         st = os.stat(p)
         if st.st_size != rec["bytes"] or file_sha256(p) != rec["sha256"]:
-            _check_digest(p, read_input(p, rec["bytes"] + 1, f"a {name}"), rec)
+            check_digest(p, read_input(p, rec["bytes"] + 1, f"a {name}"), rec)
     return summary
 
 
@@ -428,70 +327,12 @@ def rehearsal_of(folder: Path, summary: dict) -> bool:
     return isinstance(files, dict) and bool(files) and doc.get("plan_files") == files
 
 
-def read_plan(path: Path, scenario: Path | None = None, suffixes: tuple[str, ...] = (".csv", ".mcap"),
-              strict: bool = False, purpose: str = "") -> PlanFolder:
-    """Read a plan folder (or one of its trajectory files): summary, scenario, robot and the columns
-    of each trajectory file with a suffix in ``suffixes``, everything checked before it is used:
-
-    * a folder holds trajectory.csv, trajectory.mcap and summary.json, regular files (a walk's or a
-      balance space's folder is named as such);
-    * summary.json is a bounded JSON object whose fields the readers use have their types and bounds
-      (:data:`SUMMARY_SCHEMA`: row counts up to the scenario's ``MAX_ROWS``, cartons as a list), every
-      number finite;
-    * the folder is one thing: summary.json is the one the folder's record (``io.atomic``) names, and the
-      trajectory files (both, for a folder: also the one not parsed) are those summary.json records, size
-      and SHA-256, checked before a byte of them is parsed or decompressed;
-    * each file is read bounded by the rows summary.json states (the MCAP's chunks too, before they are
-      decompressed);
-    * the robot named by summary.json is the scenario's and its robot YAML's, and the files have
-      exactly that robot's columns;
-    * with ``strict``, the rows agree with summary.json and with themselves (:meth:`PlanFolder.problems`:
-      the row count, time strictly increasing, finite numbers where numbers are required).
-
-    Raises:
-        InputError: the first problem (exit 2); ``purpose`` says what the folder was wanted for.
-    """
-    folder, files = trajectory_files(path, suffixes, purpose)
-    whole = Path(path) != files[0] if files else True
-    summary_path = folder / "summary.json"
-    summary: dict | None = None
-    summary_bytes = b""
-    if whole or _lstat(summary_path) is not None:
-        summary_bytes = read_input(summary_path, MAX_JSON_BYTES, "a summary.json")
-        summary = json_document(summary_bytes, str(summary_path))
-        check_schema(summary, str(summary_path), SUMMARY_SCHEMA)
-        _check_summary_record(folder, summary_bytes)
-    checked = [summary_path] if summary is not None else []
-    sc = plan_scenario(folder, summary, scenario)
-    if sc is not None and os.path.isfile(sc.source):
-        checked.append(Path(sc.source))
-    robot = plan_robot(summary, sc, str(summary_path))
-    plan = PlanFolder(folder, files, summary, robot, sc, summary_sha256=hashlib.sha256(summary_bytes).hexdigest())
-    bounds = _file_bounds(summary, robot)
-    data: dict[Path, bytes] = {}
-    for f in ([folder / name for name in TRAJECTORY_FILES] if whole else files):
-        data[f] = read_input(f, bounds[f.suffix], f"a plan's {f.suffix[1:].upper()}")
-        if summary is not None:
-            _check_digest(f, data[f], _recorded_digest(summary, summary_path, f.name))
-    for f in files:
-        try:
-            if f.suffix == ".csv":
-                try:
-                    text = data[f].decode("utf-8")
-                except UnicodeDecodeError:
-                    raise InputError(str(f), "", "not UTF-8 text") from None
-                plan.tables[f] = read_trajectory_csv(text, str(f), robot, complete=True)
-            else:
-                plan.tables[f], plan.swing_paths[f] = read_trajectory_mcap(data[f], str(f), robot,
-                                                                           bounds.get("expanded"))
-        except InputError as exc:
-            if exc.key == "header" and summary is not None:
-                raise InputError(str(f), "header", f"{exc.problem}: not the columns of robot {robot.name!r} that "
-                                 "summary.json names") from None
-            raise
-    plan.checked = [*files, *checked]
-    if strict:
-        for name, row, problem in plan.problems()[:1]:
-            raise InputError(str(folder / name), f"row {row + 1}", f"{problem}: the plan folder is not one jethr1 "
-                             "wrote, or was edited since")
-    return plan
+def file_bounds(summary: dict | None, robot: RobotModel) -> dict[str, int]:
+    """The most bytes each trajectory file of a plan of ``summary``'s rows can hold (the CSV, the MCAP, the
+    MCAP's chunks once expanded); the formats' own bounds where summary.json gives no rows."""
+    rows = summary_rows(summary)
+    if rows is None:
+        return {".csv": MAX_CSV_BYTES, ".mcap": MAX_MCAP_BYTES}
+    return {".csv": min(MAX_CSV_BYTES, (rows + 1) * CSV_ROW_BYTES(len(columns(robot))) + 1_000_000),
+            ".mcap": min(MAX_MCAP_BYTES, rows * MCAP_ROW_BYTES + FILE_SLACK_BYTES),
+            "expanded": rows * MCAP_EXPANDED_ROW_BYTES + FILE_SLACK_BYTES}

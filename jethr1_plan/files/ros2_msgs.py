@@ -16,7 +16,7 @@ __all__ = ["JETHR1_MSGS", "MSGDEFS", "STANDARD_MSGDEFS", "dependencies", "schema
 
 from collections.abc import Mapping
 
-from jethr1_plan.files.cdr import PRIMITIVES, SEPARATOR, parse_schema, resolve_type
+from jethr1_plan.files.msg_schema import PRIMITIVES, SEPARATOR, parse_schema, resolve_type
 
 #: the standard types used, as ROS 2 Jazzy defines them (without the comments)
 STANDARD_MSGDEFS: dict[str, str] = {

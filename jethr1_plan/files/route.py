@@ -24,6 +24,7 @@ from jethr1_plan.files.mcap import (
     point_cloud2,
     swing_path_markers,
 )
+from jethr1_plan.records import topics as tp
 from jethr1_plan.swing_path import Carton
 
 __all__ = ["ROUTE_FILES", "ROUTE_TOPICS", "RouteDrawing", "SliceCloud", "route_mcap", "route_png"]
@@ -33,7 +34,7 @@ ROUTE_FILES = frozenset({"route.yaml", "route.mcap", "route.png"})
 
 #: the topics of ``route.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 ROUTE_TOPICS: dict[str, Topic] = {
-    "/terrain": Topic(MARKERS, True, "a CUBE per carton"),
+    tp.TERRAIN: Topic(MARKERS, True, "a CUBE per carton"),
     "/route/footholds": Topic(MARKERS, True, "the candidate sole centres the search chose from (a CUBE_LIST of 1 cm "
                                              "squares) and the goal (a flat CUBE: its carton or region)"),
     "/route/footsteps": Topic(MARKERS, True, "the start soles and each landing sole (flat CUBEs, left blue, right "
@@ -83,7 +84,7 @@ def _footstep(ns: str, ident: int, xyz, sole, rgba) -> dict:
 def route_mcap(d: RouteDrawing) -> bytes:
     """The bytes of ``route.mcap`` (topics :data:`ROUTE_TOPICS`)."""
     out = Ros2Mcap(ROUTE_TOPICS)
-    out.write("/terrain", 0.0, carton_markers(d.cartons))
+    out.write(tp.TERRAIN, 0.0, carton_markers(d.cartons))
     holds = np.asarray(d.footholds_m, dtype=float).reshape(-1, 3)
     x0, x1, y0, y1 = d.goal_rect
     top = max((c.top_z for c in d.cartons), default=0.0)

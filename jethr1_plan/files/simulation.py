@@ -25,6 +25,7 @@ from jethr1_plan.files.mcap import (
     step_markers,
     urdf_message,
 )
+from jethr1_plan.records import topics as tp
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = ["PREFIX", "SIMULATION_TOPICS", "simulation_mcap"]
@@ -34,9 +35,9 @@ PREFIX = "sim/"  # before every robot frame of a rehearsal
 #: the topics of a rehearsal's ``simulation.mcap``, in the order the file registers them
 SIMULATION_TOPICS: dict[str, Topic] = {
     "/sim/robot_description": Topic(STRING, True, "the robot's URDF, every link prefixed `sim/`"),
-    "/tf_static": Topic(TF, True, "every fixed joint's parent → child link (`sim/` frames)"),
-    "/tf": Topic(TF, False, "at 50 Hz: world → `sim/trunk` and every moving joint's link (`sim/` frames)"),
-    "/terrain": Topic(MARKERS, True, "a CUBE per carton"),
+    tp.TF_STATIC: Topic(TF, True, "every fixed joint's parent → child link (`sim/` frames)"),
+    tp.TF_TOPIC: Topic(TF, False, "at 50 Hz: world → `sim/trunk` and every moving joint's link (`sim/` frames)"),
+    tp.TERRAIN: Topic(MARKERS, True, "a CUBE per carton"),
     "/sim/thrust": Topic("jethr1_msgs/msg/FanThrust", False,
                          "at 50 Hz: the thrust each fan applied [N] and the frame it acts at (`sim/left_fan` …)"),
     "/sim/com": Topic(POSE, False, "at 50 Hz: the twin's centre of mass"),
@@ -54,14 +55,14 @@ def simulation_mcap(robot: RobotModel, record: dict, cartons) -> bytes:
     ``foothold_error_m`` where the foothold is not the plan's landing)."""
     out = Ros2Mcap(SIMULATION_TOPICS)
     out.write("/sim/robot_description", 0.0, urdf_message(robot, PREFIX))
-    out.write("/terrain", 0.0, carton_markers(cartons))
+    out.write(tp.TERRAIN, 0.0, carton_markers(cartons))
     t = np.maximum(np.asarray(record["t"], dtype=float), 0.0)
     n = len(t)
     if n:
         qpos = np.asarray(record["qpos"], dtype=float).reshape(n, -1)
         tf, tf_static = robot_transforms(robot, t, qpos[:, :3], qpos[:, [4, 5, 6, 3]], qpos[:, 7:], prefix=PREFIX)
-        out.write("/tf_static", 0.0, tf_static)
-        out.write_rows("/tf", t, tf)
+        out.write(tp.TF_STATIC, 0.0, tf_static)
+        out.write_rows(tp.TF_TOPIC, t, tf)
         out.write_rows("/sim/thrust", t, {"header": header(t), "frame": [PREFIX + f.frame for f in robot.fans],
                                           "thrust_n": np.asarray(record["thrust"], dtype=float).reshape(n, -1)})
         out.write_rows("/sim/com", t, pose_stamped(t, "world", np.asarray(record["com"], dtype=float)))

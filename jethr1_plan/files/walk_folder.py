@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -42,31 +43,32 @@ from jethr1_plan.geometry import SIDES, quaternion_from_matrix
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import csv_text, number_text, read_csv_table
 from jethr1_plan.io.json_text import json_text
+from jethr1_plan.records import topics as tp
+from jethr1_plan.records.plan_columns import SUPPORT, ZMP_MARGIN
+from jethr1_plan.records.walk_columns import is_walk_column, walk_columns
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.walking.result import WalkResult
 
-__all__ = ["WALK_FILES", "WALK_TOPICS", "read_walk_csv", "walk_columns", "walk_csv", "walk_figures", "walk_folder",
-           "walk_mcap", "write_walk_outputs"]
+__all__ = ["WALK_FILES", "WALK_TOPICS", "WalkResult", "read_walk_csv", "walk_columns", "walk_csv", "walk_figures",
+           "walk_folder", "walk_mcap", "write_walk_outputs"]
+
+class WalkResult(Protocol):
+    """What these files write of a walk (``walking.result.WalkResult``)."""
+
+    @property
+    def spec(self) -> Any: ...  # walking.spec.WalkSpec: its name, robot, footsteps, rotation, com, timing, success
+    @property
+    def walk(self) -> Any: ...  # walking.generator.Walk: the rows' arrays, per control period
+    @property
+    def analysis(self) -> Any: ...  # walking.analysis.WalkAnalysis: the multibody ZMP, κ, torques per row
+    @property
+    def commands_rad(self) -> np.ndarray: ...  # (N, J) the servo commands [rad]
+    @property
+    def armless_peak_momentum_nms(self) -> float | None: ...  # the walk's peak |yaw momentum| with the arms held
+
 
 #: the files ``jethr1 walk`` writes into a walk folder (any other file there is the user's and is kept)
 WALK_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", "yaw.png", "momentum.png",
                         "kappa.png"})
-_XYZ = ("x", "y", "z")
-_FIXED_HEAD = ("time_s", "step", "support", *(f"pelvis_{a}_m" for a in _XYZ),
-               *(f"pelvis_q{a}" for a in ("x", "y", "z", "w")))
-_FIXED_TAIL = (*(f"{s}_foot_{a}_m" for s in SIDES for a in _XYZ), *(f"com_{a}_m" for a in _XYZ),
-               "com_ref_x_m", "com_ref_y_m", "zmp_x_m", "zmp_y_m", "zmp_ref_x_m", "zmp_ref_y_m", "zmp_lipm_x_m",
-               "zmp_lipm_y_m", "zmp_margin_m", "friction_ratio", "yaw_ref_rad", "yaw_rad", "yaw_rate_rad_s", "kappa",
-               *(f"kappa_leg_{s}" for s in SIDES), *(f"knee_bend_{s}_rad" for s in SIDES), "h_lower_nms",
-               "h_upper_nms")
-
-
-def walk_columns(robot: RobotModel) -> list[str]:
-    """The header of a walk's ``trajectory.csv`` for ``robot``."""
-    return [*_FIXED_HEAD, *(f"{j}_rad" for j in robot.joint_names), *_FIXED_TAIL,
-            *(f"{j}_tau_nm" for j in robot.joint_names), *(f"{j}_cmd_rad" for j in robot.joint_names)]
-
-
 def walk_csv(result: WalkResult) -> str:
     """The CSV text of a walk (shortest round-tripping numbers)."""
     walk, a = result.walk, result.analysis
@@ -87,36 +89,31 @@ def walk_csv(result: WalkResult) -> str:
     return csv_text(walk_columns(walk.robot), (row(i) for i in range(len(walk.t))))
 
 
-def _walk_column(name: str) -> bool:
-    return name in _FIXED_HEAD or name in _FIXED_TAIL or (name.endswith(("_rad", "_tau_nm", "_cmd_rad"))
-                                                          and len(name) > 7)
-
-
 def read_walk_csv(text: str, source: str = "trajectory.csv") -> dict[str, np.ndarray]:
     """A walk's ``trajectory.csv`` as columns (``support`` as text, the rest as floats).
 
     Raises:
         InputError: the header is not a walk's, a row is cut or a number does not parse.
     """
-    return read_csv_table(text, source, _walk_column, ("support",))
+    return read_csv_table(text, source, is_walk_column, (SUPPORT,))
 
 
 # --- MCAP ---------------------------------------------------------------------------------------
 
 #: the topics of a walk's ``trajectory.mcap`` (ROS 2 profile, :mod:`.mcap`), in the order the file registers them
 WALK_TOPICS: dict[str, Topic] = {
-    "/robot_description": Topic(STRING, True, "the robot's URDF (viewers build the robot from it)"),
-    "/tf_static": Topic(TF, True, "every fixed joint's parent → child link"),
-    "/tf": Topic(TF, False, "per control period: world → trunk and every moving joint's parent → child link"),
+    tp.ROBOT_DESCRIPTION: Topic(STRING, True, "the robot's URDF (viewers build the robot from it)"),
+    tp.TF_STATIC: Topic(TF, True, "every fixed joint's parent → child link"),
+    tp.TF_TOPIC: Topic(TF, False, "per control period: world → trunk and every moving joint's parent → child link"),
     "/footsteps": Topic(MARKERS, True, "a thin CUBE per sole: the start (grey), the footholds (left blue, "
                                        "right orange)"),
-    "/joint_trajectory": Topic("trajectory_msgs/msg/JointTrajectory", False,
+    tp.JOINT_TRAJECTORY: Topic("trajectory_msgs/msg/JointTrajectory", False,
                                "once, at the start: the servo commands `<joint>_cmd_rad`, a point per period"),
-    "/joint_states": Topic("sensor_msgs/msg/JointState", False,
+    tp.JOINT_STATES: Topic("sensor_msgs/msg/JointState", False,
                            "per period: joint angles (position) and torques by inverse dynamics (effort)"),
-    "/com": Topic(POSE, False, "per period: the posture's centre of mass, turned by the pelvic yaw"),
+    tp.COM: Topic(POSE, False, "per period: the posture's centre of mass, turned by the pelvic yaw"),
     "/com_ref": Topic(POSE, False, "per period: the LIPM's centre of mass"),
-    "/zmp": Topic(POSE, False, "per period: the multibody ZMP (from the joints' motion), on the ground"),
+    tp.ZMP: Topic(POSE, False, "per period: the multibody ZMP (from the joints' motion), on the ground"),
     "/zmp_ref": Topic(POSE, False, "per period: the ZMP reference (B-18), on the ground"),
     "/yaw_horizon": Topic("jethr1_msgs/msg/YawHorizon", False,
                           "per MPC update: the pelvic yaw reference over the horizon (Fig. 7)"),
@@ -145,7 +142,7 @@ def walk_mcap(result: WalkResult) -> bytes:
     walk, a = result.walk, result.analysis
     robot = walk.robot
     out = Ros2Mcap(WALK_TOPICS)
-    out.write("/robot_description", 0.0, urdf_message(robot))
+    out.write(tp.ROBOT_DESCRIPTION, 0.0, urdf_message(robot))
     out.write("/footsteps", 0.0, _footstep_markers(robot, result))
     t = np.asarray(walk.t, dtype=float)
     n = len(t)
@@ -155,19 +152,19 @@ def walk_mcap(result: WalkResult) -> bytes:
     base = np.asarray(walk.base, dtype=float).reshape(n, 4, 4)
     trunk_q = np.array([quaternion_from_matrix(T[:3, :3]) for T in base]).reshape(n, 4)
     tf, tf_static = robot_transforms(robot, t, base[:, :3, 3], trunk_q, walk.q)
-    out.write("/tf_static", 0.0, tf_static)
-    out.write_rows("/tf", t, tf)
-    out.write("/joint_trajectory", 0.0, joint_trajectory(names, t, result.commands_rad))
-    out.write_rows("/joint_states", t, joint_state(t, names, walk.q, a.tau))
-    out.write_rows("/com", t, pose_stamped(t, "world", walk.com, yaw_quaternions(walk.yaw)))
+    out.write(tp.TF_STATIC, 0.0, tf_static)
+    out.write_rows(tp.TF_TOPIC, t, tf)
+    out.write(tp.JOINT_TRAJECTORY, 0.0, joint_trajectory(names, t, result.commands_rad))
+    out.write_rows(tp.JOINT_STATES, t, joint_state(t, names, walk.q, a.tau))
+    out.write_rows(tp.COM, t, pose_stamped(t, "world", walk.com, yaw_quaternions(walk.yaw)))
     out.write_rows("/com_ref", t, pose_stamped(t, "world", np.asarray(walk.com_ref, dtype=float)[:, :3]))
     ground = np.zeros((n, 1))
-    out.write_rows("/zmp", t, pose_stamped(t, "world", np.hstack([np.asarray(a.zmp, dtype=float), ground])))
+    out.write_rows(tp.ZMP, t, pose_stamped(t, "world", np.hstack([np.asarray(a.zmp, dtype=float), ground])))
     out.write_rows("/zmp_ref", t, pose_stamped(t, "world", np.hstack([np.asarray(walk.zmp_ref, dtype=float), ground])))
     out.write_rows("/walk_analysis", t, {
         "header": header(t), "support": [str(s) for s in walk.support], "step": np.asarray(walk.step, dtype=np.int32),
         "kappa": np.asarray(a.kappa, dtype=float), "h_lower_nms": np.asarray(walk.h_low, dtype=float),
-        "h_upper_nms": np.asarray(walk.h_up, dtype=float), "zmp_margin_m": np.asarray(a.zmp_margin, dtype=float),
+        "h_upper_nms": np.asarray(walk.h_up, dtype=float), ZMP_MARGIN: np.asarray(a.zmp_margin, dtype=float),
         "yaw_ref_rad": np.asarray(walk.yaw_ref, dtype=float), "yaw_rad": np.asarray(walk.yaw, dtype=float)})
     dt_mpc = result.spec.com.dt_s
     per_update = max(1, round(dt_mpc * result.spec.timing.control_hz))

@@ -82,17 +82,15 @@ def generalized_velocities(p: np.ndarray, yaw: np.ndarray, q: np.ndarray, dt: fl
     return np.column_stack([v_local, np.zeros((len(p), 2)), yawdot, np.gradient(q, dt, axis=0)])
 
 
-def analyse_rows(robot: RobotModel, rows, dt: float) -> dict[str, Any]:
-    """Torques (N, J), κ per leg (N, 2) and yaw momentum (N,) for every output row."""
+def analyse_rows(robot: RobotModel, p: np.ndarray, yaw: np.ndarray, q: np.ndarray, thrust: np.ndarray,
+                 support: np.ndarray, dt: float) -> dict[str, Any]:
+    """Torques (N, J), κ per leg (N, 2) and yaw momentum (N,) for every output row: P_body ``p`` (N, 3) [m],
+    the body yaw (N,) [rad], the joints ``q`` (N, J) [rad], the thrust per fan (N, F) [N] and the support
+    (N,) (left / right / both), rows ``dt`` [s] apart."""
     wrapper = robot.wrapper()
-    c = rows.columns
-    n = len(rows)
-    p = np.asarray(c["p_body"], dtype=float)
-    yaw = np.asarray(c["yaw"], dtype=float)
-    q = np.asarray(c["q"], dtype=float)
+    n = len(p)
     v = generalized_velocities(p, yaw, q, dt)
     tau = np.zeros((n, len(robot.joint_names)))
-    thrust = np.column_stack([np.asarray(c[f"thrust_{f.name}"], dtype=float) for f in robot.fans])
     kappa = np.zeros((n, 2))
     h_yaw = np.zeros(n)
     for i in range(n):
@@ -102,7 +100,7 @@ def analyse_rows(robot: RobotModel, rows, dt: float) -> dict[str, Any]:
         wrapper.set_T_world_fbase(T)
         wrapper.state.q[7:] = q[i]
         wrapper.update_kinematics()
-        supports = SIDES if c["support"][i] == "both" else (c["support"][i],)
+        supports = SIDES if support[i] == "both" else (support[i],)
         tau[i], _ = static_torques(robot, wrapper, thrust[i], supports)
         k = leg_condition_numbers(robot, wrapper)
         kappa[i] = k["left"], k["right"]

@@ -29,6 +29,7 @@ from jethr1_plan.control.time_optimal import TimeLaw, binding_constraints, faste
 from jethr1_plan.geometry import SIDES, convex_hull, pose_difference, sole_polygon
 from jethr1_plan.physics.path_dynamics import Limits, path_constraints
 from jethr1_plan.physics.row_dynamics import row_derivatives
+from jethr1_plan.records.plan_rows import RowField
 
 __all__ = ["DYNAMIC_MARGIN", "FastTiming", "time_phase"]
 
@@ -67,16 +68,17 @@ class FastTiming:
 def _grid_table(seq, start: int) -> dict[str, np.ndarray]:
     """The rows written from ``start`` on, as arrays: base (G, 4, 4), q, thrust (G, F), share (G,)."""
     c = seq.rows.columns
-    p = np.asarray(c["p_body"][start:], dtype=float)
-    yaw = np.asarray(c["yaw"][start:], dtype=float)
+    p = np.asarray(c[RowField.P_BODY_M][start:], dtype=float)
+    yaw = np.asarray(c[RowField.YAW_RAD][start:], dtype=float)
     base = np.zeros((len(p), 4, 4))
     base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
     base[:, 2, 2] = base[:, 3, 3] = 1.0
     base[:, :3, 3] = p
-    thrust = np.column_stack([np.asarray(c[f"thrust_{n}"][start:], dtype=float) for n in seq.names])
-    share = np.asarray(c["tolerance_share"][start:], dtype=float)
-    return {"base": base, "q": np.asarray(c["q"][start:], dtype=float), "thrust": thrust,
-            "share": np.where(np.isfinite(share), share, 1.0), "time": np.asarray(c["time_s"][start:], dtype=float)}
+    thrust = seq.rows.fan_array()[start:]
+    share = np.asarray(c[RowField.TOLERANCE_SHARE][start:], dtype=float)
+    return {"base": base, "q": np.asarray(c[RowField.Q_RAD][start:], dtype=float), "thrust": thrust,
+            "share": np.where(np.isfinite(share), share, 1.0),
+            "time": np.asarray(c[RowField.TIME_S][start:], dtype=float)}
 
 
 def _path_derivatives(base: np.ndarray, q: np.ndarray, thrust: np.ndarray, grid: np.ndarray, stencil: float
@@ -231,7 +233,7 @@ def time_phase(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], kind
         if not len(bad) or rounds == ROUNDS or np.all((rest[bad] >= 0.0) & (worst[bad] > 0.0)):
             break
         x_max = _slowed(x_max, law, grid, positions, bad, worst, xb, rest, swing)
-    phase = {"step": int(seq.rows.columns["step"][start]) if len(seq.rows) > start else None, "phase": kind,
+    phase = {"step": int(seq.rows.columns[RowField.STEP][start]) if len(seq.rows) > start else None, "phase": kind,
              "rows": len(seq.rows) - start, "fixed_duration_s": fixed_s, "rounds": rounds}
     if swing:
         phase["trunk"] = ("linear between samples" if not seq.smooth_trunk else "monotone cubic through the samples"
@@ -259,7 +261,7 @@ def _phase_table(seq, snap: tuple, build: Callable[[np.ndarray, bool], None], gr
     for _ in range(4):
         seq.restore(snap)
         build(grid, True)
-        failed = np.flatnonzero(~np.asarray(seq.rows.columns["feasible"][start:], dtype=bool))
+        failed = np.flatnonzero(~np.asarray(seq.rows.columns[RowField.FEASIBLE][start:], dtype=bool))
         if not (swing and seq.smooth_trunk and len(failed)):
             break
         seg = np.floor(grid[failed]).astype(int)
@@ -333,9 +335,9 @@ def _timed(seq, start: int, kind: str, law: TimeLaw, terms: tuple, con, worst: n
 def _mark_all(seq, start: int, reason: str) -> None:
     c = seq.rows.columns
     r = start
-    c["feasible"][r] = False
-    c["reason"][r] = c["reason"][r] or reason
-    seq._mark(int(c["step"][r]), str(c["phase"][r]), int(c["sample"][r]), reason, {})
+    c[RowField.FEASIBLE][r] = False
+    c[RowField.REASON][r] = c[RowField.REASON][r] or reason
+    seq.mark(int(c[RowField.STEP][r]), str(c[RowField.PHASE][r]), int(c[RowField.SAMPLE][r]), reason)
 
 
 def _mark_rows(seq, start: int, broken: np.ndarray, worst: np.ndarray, kind: str) -> None:
@@ -344,9 +346,9 @@ def _mark_rows(seq, start: int, broken: np.ndarray, worst: np.ndarray, kind: str
         r = start + i
         reason = (f"the rows' motion breaks a dynamic limit of the fastest {kind} by {worst[i]:.4f} "
                   "(dynamic ZMP, friction, torque, joint velocity or fan lag) after every slow-down")
-        c["feasible"][r] = False
-        c["reason"][r] = c["reason"][r] or reason
-        seq._mark(int(c["step"][r]), kind, int(c["sample"][r]), reason, {"p_body_m": list(c["p_body"][r])})
+        c[RowField.FEASIBLE][r] = False
+        c[RowField.REASON][r] = c[RowField.REASON][r] or reason
+        seq.mark(int(c[RowField.STEP][r]), kind, int(c[RowField.SAMPLE][r]), reason, list(c[RowField.P_BODY_M][r]))
 
 
 def sides_down(kind: str, support: str) -> tuple[str, ...]:

@@ -12,9 +12,10 @@ from jethr1_plan.physics.balance import Tolerance
 from jethr1_plan.physics.row_dynamics import RowDynamics
 from jethr1_plan.physics.statics import KAPPA_WARNING
 from jethr1_plan.planning.results import PlanResult
-from jethr1_plan.planning.sequence import Rows
+from jethr1_plan.records.plan_columns import TOLERANCE_SHARE
+from jethr1_plan.records.plan_rows import RowField, Rows
 
-__all__ = ["FULL_SHARE", "describe_infeasible", "finite_or_none", "plan_summary", "robustness_summary", "share_summary",
+__all__ = ["FULL_SHARE", "finite_or_none", "plan_summary", "robustness_summary", "share_summary",
            "smoothness"]
 
 
@@ -34,33 +35,20 @@ def finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def describe_infeasible(bad: dict) -> str:
-    where = f"step {bad['step']} {bad['phase']} sample {bad['sample']}"
-    pos = f" (swing sole at {np.round(bad['swing_m'], 4).tolist()} m)" if "swing_m" in bad else ""
-    thrust = f", minimal thrust {bad['thrust_n']:.2f} N" if bad.get("thrust_n") is not None else ""
-    share = bad.get("tolerance_share")
-    if share is not None:
-        thrust += (f"; the most robust posture found there holds {100 * share['share']:.1f} % of the tolerance "
-                   f"(±{100 * share['thrust_error']:.1f} % thrust, ±{100 * share['mass_error']:.1f} % mass, "
-                   f"{1000 * share['com_error_m']:.1f} mm of CoM error)" if share["share"] > 0 else
-                   "; no posture balances this sample even without tolerance")
-    return f"infeasible at {where}{pos}: {bad['reason']}{thrust}"
-
-
 def _where(rows: Rows, i: int) -> dict:
     c = rows.columns
-    return {"row": int(i), "time_s": round(float(c["time_s"][i]), 9), "step": int(c["step"][i]),
-            "phase": c["phase"][i], "sample": int(c["sample"][i])}
+    return {"row": int(i), "time_s": round(float(c[RowField.TIME_S][i]), 9), "step": int(c[RowField.STEP][i]),
+            "phase": c[RowField.PHASE][i], "sample": int(c[RowField.SAMPLE][i])}
 
 
-def robustness_summary(rows: Rows, fans: list[str]) -> dict:
+def robustness_summary(rows: Rows) -> dict:
     """The least ZMP margin [m] and the narrowest thrust window [N] over the rows, and where they occur.
 
     The narrowest window is taken over the rows whose fan carries thrust (elsewhere the window is
     that of a fan not in use)."""
-    margin = rows.array("zmp_margin").astype(float)
-    window = np.array(rows.columns["window"], dtype=float)
-    loaded = sum(rows.array(f"thrust_{f}") for f in fans) > 0
+    margin = rows.array(RowField.ZMP_MARGIN_M).astype(float)
+    window = np.array(rows.columns[RowField.WINDOW_N], dtype=float)
+    loaded = rows.fan_array().sum(axis=1) > 0
     if not np.isfinite(margin).any():  # no row has a posture (an unreachable step written anyway)
         return {"least_zmp_margin_m": None}
     i = int(np.nanargmin(margin))
@@ -83,7 +71,7 @@ def share_summary(rows: Rows, tol: Tolerance) -> dict | None:
     means (the plan's tolerance × the share), and how many rows hold less than all of it (below
     ``FULL_SHARE``); None where
     the rows carry no share (the minimal policy)."""
-    share = rows.array("tolerance_share").astype(float)
+    share = rows.array(RowField.TOLERANCE_SHARE).astype(float)
     if not np.isfinite(share).any():
         return None
     i = int(np.nanargmin(share))
@@ -100,15 +88,15 @@ def dynamics_summary(rows: Rows, dyn: RowDynamics) -> dict:
     """summary.json's ``dynamics``: where the multibody ZMP of the rows' own motion (second central
     differences, ``physics.row_dynamics``) comes nearest the support polygon's edge, or leaves it; the
     quasistatic ZMP's margin at that row beside it, the rows (first and last excepted) outside, and the swings
-    re-timed to keep it inside (``sequence.pace_swing``)."""
+    re-timed to keep it inside (``pacing.pace_swing``)."""
     row, least = dyn.least()
     inner = dyn.margin[1:-1]
     return {"least_zmp_margin_m": finite_or_none(least), "least_zmp_margin_at": _where(rows, row),
             "rows_needing_pull": int(np.sum(dyn.vertical_force_n[1:-1] <= 0.0)),
-            "quasistatic_zmp_margin_m": finite_or_none(float(rows.columns["zmp_margin"][row])),
+            "quasistatic_zmp_margin_m": finite_or_none(float(rows.columns[RowField.ZMP_MARGIN_M][row])),
             "rows_outside_support": int(np.sum(inner < 0.0)),
             "max_shift_from_quasistatic_m": finite_or_none(float(np.nanmax(np.linalg.norm(
-                dyn.zmp[1:-1] - rows.array("zmp")[1:-1].astype(float), axis=1), initial=0.0))),
+                dyn.zmp[1:-1] - rows.array(RowField.ZMP_M)[1:-1].astype(float), axis=1), initial=0.0))),
             "least_vertical_force_n": float(np.min(dyn.vertical_force_n[1:-1], initial=np.inf)),
             **_grip(dyn),
             "paced_swings": [dict(p) for p in rows.paced]}
@@ -127,28 +115,29 @@ def _grip(dyn: RowDynamics) -> dict:
             "peak_yaw_moment_to_capacity": finite_or_none(float(np.nanmax(ratio, initial=0.0)))}
 
 
+def _step_summary(st) -> dict:
+    """summary.json's record of one optimised step."""
+    thrust = st.thrust_n
+    fin = thrust[np.isfinite(thrust)]
+    return {
+        "index": st.index, "swing": st.swing, "support": st.support, "samples": len(st.samples),
+        "max_thrust_n": float(fin.max()) if len(fin) else None,
+        "mean_thrust_n": float(fin.mean()) if len(fin) else None,
+        **smoothness(st.p_body, thrust),
+        "evaluations": int(sum(s.evaluations for s in st.samples)),
+        "restarts": sum(s.phase == "restart" for s in st.samples),
+        "least_share": float(min(s.share for s in st.samples)) if st.samples else None,
+        "samples_below_full_share": sum(s.share < 1.0 for s in st.samples),
+        "feasible": all(s.feasible for s in st.samples),
+    }
+
+
 def plan_summary(result: PlanResult) -> dict:
     """summary.json (docs/contract.md): figures over the optimised swing samples, per step and in total."""
     sc = result.scenario
-    per_step = []
-    all_thrust, all_p = [], []
-    for st in result.steps:
-        thrust = st.thrust_n
-        fin = thrust[np.isfinite(thrust)]
-        per_step.append({
-            "index": st.index, "swing": st.swing, "support": st.support, "samples": len(st.samples),
-            "max_thrust_n": float(fin.max()) if len(fin) else None,
-            "mean_thrust_n": float(fin.mean()) if len(fin) else None,
-            **smoothness(st.p_body, thrust),
-            "evaluations": int(sum(s.evaluations for s in st.samples)),
-            "restarts": sum(s.phase == "restart" for s in st.samples),
-            "least_share": float(min(s.share for s in st.samples)) if st.samples else None,
-            "samples_below_full_share": sum(s.share < 1.0 for s in st.samples),
-            "feasible": all(s.feasible for s in st.samples),
-        })
-        all_thrust.append(fin)
-        all_p.append(st.p_body)
-    thr = np.concatenate(all_thrust) if all_thrust else np.zeros(0)
+    per_step = [_step_summary(st) for st in result.steps]
+    fins = [t[np.isfinite(t)] for t in (st.thrust_n for st in result.steps)]
+    thr = np.concatenate(fins) if fins else np.zeros(0)
     out = {
         "scenario": sc.name,
         "scenario_file": str(Path(sc.source).resolve()) if sc.text else sc.source,
@@ -159,7 +148,7 @@ def plan_summary(result: PlanResult) -> dict:
         "seed": result.seed,
         "version": __version__,
         "feasible": result.feasible,
-        "first_infeasible": result.first_infeasible,
+        "first_infeasible": None if result.first_infeasible is None else result.first_infeasible.to_dict(),
         "sample_count": int(sum(len(st.samples) for st in result.steps)),
         "row_count": len(result.rows) if result.rows is not None else 0,
         "max_thrust_n": float(thr.max()) if len(thr) else None,
@@ -179,46 +168,60 @@ def plan_summary(result: PlanResult) -> dict:
                                 for c in sc.cartons]},
     }
     if result.rows is not None and len(result.rows):
-        rows = result.rows
-        fans = [f.name for f in result.robot.fans]
-        per_fan = {f: rows.array(f"thrust_{f}") for f in fans}
-        out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
-                             "duration_s": len(rows) / sc.timing.rate_hz,
-                             "max_thrust_n": float(max(v.max() for v in per_fan.values())),
-                             "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
-        robustness = robustness_summary(rows, fans)
-        shares = share_summary(rows, sc.balance.tolerance)
-        if shares is not None:
-            robustness["tolerance_share"] = shares
-        out["robustness"] = robustness
-        from jethr1_plan.control.feedback import controller_summary
+        out |= _rows_summary(result, result.rows)
+    return out
 
-        tol = sc.balance.tolerance
-        out["controller"] = controller_summary(result.robot, tol.thrust, tol.mass, sc.balance.thrust_max_n)
-        if "tau" in rows.columns:
-            tau, kappa = np.abs(rows.array("tau")), rows.array("kappa")
-            ratio = rows.analysis["ratio"]
-            out["torques"] = {
-                "max_abs_nm": dict(zip(result.robot.joint_names, tau.max(axis=0).tolist(), strict=True)),
-                "max_ratio_to_servo_limit": float(ratio.max()),
-                "rows_over_servo_limit": int(np.sum(ratio.max(axis=1) > 1.0)),
-            }
-            out["energy_j"] = float(rows.analysis["energy_j"])
-            kappa = np.where(np.isfinite(kappa), kappa, np.nan)  # rows without a posture have none
-            out["kappa"] = {"max_left": finite_or_none(np.nanmax(kappa[:, 0], initial=0.0)),
-                            "max_right": finite_or_none(np.nanmax(kappa[:, 1], initial=0.0)),
-                            "warning_threshold": KAPPA_WARNING,
-                            "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
-            out["yaw_momentum_peak_nms"] = float(np.abs(rows.array("yaw_momentum")).max())
-        if "dynamics" in rows.analysis:
-            out["dynamics"] = dynamics_summary(rows, rows.analysis["dynamics"])
-        if sc.timing.fastest:
-            out["timing"] = timing_summary(sc, rows)
-        dt = 1.0 / sc.timing.rate_hz
-        yaw = np.unwrap(rows.array("yaw").astype(float))
-        rate = np.gradient(yaw, dt)
-        out["yaw"] = {"mode": sc.yaw_mode, "peak_rate_rad_s": float(np.abs(rate).max()),
-                      "peak_accel_rad_s2": float(np.abs(np.gradient(rate, dt)).max())}
+
+def _rows_summary(result: PlanResult, rows: Rows) -> dict:
+    """summary.json's figures over the output rows: the trajectory, robustness, controller, torques, κ, yaw
+    momentum, dynamics, timing and yaw."""
+    sc = result.scenario
+    out: dict = {}
+    fans = [f.name for f in result.robot.fans]
+    per_fan = {f: rows.fan(f) for f in fans}
+    out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
+                         "duration_s": len(rows) / sc.timing.rate_hz,
+                         "max_thrust_n": float(max(v.max() for v in per_fan.values())),
+                         "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
+    robustness = robustness_summary(rows)
+    shares = share_summary(rows, sc.balance.tolerance)
+    if shares is not None:
+        robustness[TOLERANCE_SHARE] = shares  # (the section named as the column it summarises)
+    out["robustness"] = robustness
+    from jethr1_plan.control.feedback import controller_summary
+
+    tol = sc.balance.tolerance
+    out["controller"] = controller_summary(result.robot, tol.thrust, tol.mass, sc.balance.thrust_max_n)
+    if rows.analysed:
+        out |= _analysis_summary(result, rows)
+    if "dynamics" in rows.analysis:
+        out["dynamics"] = dynamics_summary(rows, rows.analysis["dynamics"])
+    if sc.timing.fastest:
+        out["timing"] = timing_summary(sc, rows)
+    dt = 1.0 / sc.timing.rate_hz
+    yaw = np.unwrap(rows.array(RowField.YAW_RAD).astype(float))
+    rate = np.gradient(yaw, dt)
+    out["yaw"] = {"mode": sc.yaw_mode, "peak_rate_rad_s": float(np.abs(rate).max()),
+                  "peak_accel_rad_s2": float(np.abs(np.gradient(rate, dt)).max())}
+    return out
+
+
+def _analysis_summary(result: PlanResult, rows: Rows) -> dict:
+    """summary.json's ``torques``, ``energy_j``, ``kappa`` and ``yaw_momentum_peak_nms``."""
+    tau, kappa = np.abs(rows.array(RowField.TAU_NM)), rows.array(RowField.KAPPA)
+    ratio = rows.analysis["ratio"]
+    out: dict = {"torques": {
+        "max_abs_nm": dict(zip(result.robot.joint_names, tau.max(axis=0).tolist(), strict=True)),
+        "max_ratio_to_servo_limit": float(ratio.max()),
+        "rows_over_servo_limit": int(np.sum(ratio.max(axis=1) > 1.0)),
+    }}
+    out["energy_j"] = float(rows.analysis["energy_j"])
+    kappa = np.where(np.isfinite(kappa), kappa, np.nan)  # rows without a posture have none
+    out["kappa"] = {"max_left": finite_or_none(np.nanmax(kappa[:, 0], initial=0.0)),
+                    "max_right": finite_or_none(np.nanmax(kappa[:, 1], initial=0.0)),
+                    "warning_threshold": KAPPA_WARNING,
+                    "rows_above_threshold": int(np.sum(kappa.max(axis=1) > KAPPA_WARNING))}
+    out["yaw_momentum_peak_nms"] = float(np.abs(rows.array(RowField.YAW_MOMENTUM_NMS)).max())
     return out
 
 

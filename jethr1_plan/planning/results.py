@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from jethr1_plan.optimisers import SampleResult
-from jethr1_plan.planning.sequence import Rows
+from jethr1_plan.records.infeasible import Infeasible
+from jethr1_plan.records.plan_rows import Rows
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.scenario import Scenario
 
@@ -57,7 +58,7 @@ class PlanResult:
     seed: int
     steps: list[StepResult]
     rows: Rows | None
-    first_infeasible: dict | None
+    first_infeasible: Infeasible | None
     evaluations: int
     wall_s: float
     optimise_s: float = 0.0  # the optimisation alone (no output-rate sequence) [s]

@@ -26,11 +26,11 @@ transfer to the smaller share of the swings at its two ends.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.control.time_laws import min_jerk, paced_row_positions, swing_row_positions
+from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
 from jethr1_plan.geometry import GRAVITY, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
@@ -44,32 +44,13 @@ from jethr1_plan.physics.balance import (
     zmp_with_thrust,
     zmp_with_thrusts,
 )
-from jethr1_plan.physics.row_dynamics import RowDynamics, row_dynamics
 from jethr1_plan.physics.share import row_shares
 from jethr1_plan.reasons import Reason, message
+from jethr1_plan.records.infeasible import Infeasible
+from jethr1_plan.records.plan_rows import Rows
 from jethr1_plan.robot.model import RobotModel, fan_ground_xy
 
-__all__ = ["FanThrust", "Rows", "SequenceBuilder"]
-
-
-@dataclass
-class Rows:
-    """Output rows (column arrays). Lengths grow as rows are appended."""
-
-    columns: dict[str, list] = field(default_factory=dict)
-    analysis: dict = field(default_factory=dict)  # whole-trajectory figures (energy, torque ratios)
-    paced: list[dict] = field(default_factory=list)  # the swings re-timed by :func:`pace_swing`, in order
-    timed: list[dict] = field(default_factory=list)  # the phases timed fastest (``planning.fast_timing``), in order
-
-    def append(self, **values) -> None:
-        for k, v in values.items():
-            self.columns.setdefault(k, []).append(v)
-
-    def __len__(self) -> int:
-        return len(next(iter(self.columns.values()), []))
-
-    def array(self, key: str) -> np.ndarray:
-        return np.asarray(self.columns[key])
+__all__ = ["FanThrust", "SequenceBuilder"]
 
 
 @dataclass(frozen=True)
@@ -94,17 +75,17 @@ class SequenceBuilder:
         self.dt = 1.0 / rate_hz
         self.thrust_max_n, self.rho_rad, self.margin = thrust_max_n, rho_rad, sole_margin_m
         self.tolerance = tolerance
-        self.rows = Rows()
+        self.names = [f.name for f in robot.fans]
+        self.rows = Rows(fans=tuple(self.names))
         self.t = 0.0
         self.q_prev: np.ndarray | None = None
-        self.first_infeasible: dict | None = None
+        self.first_infeasible: Infeasible | None = None
         #: when set, the body yaw of row i (a smoothed schedule, e.g. the yaw MPC) instead of the blends
         self.yaw_of_row = None
         #: P_body through the swing samples by a monotone cubic (PCHIP: C¹, no overshoot between samples)
         #: instead of linearly (a fastest timing: the trunk's path has no corner at a sample for the rows to feel)
         self.smooth_trunk = False
         self.linear_segments: set[int] = set()  # segments (i → i + 1) kept linear where the smooth trunk fails
-        self.names = [f.name for f in robot.fans]
         self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
     def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
@@ -167,10 +148,12 @@ class SequenceBuilder:
             self.q_prev = q[ok[-1]]
         return q, com, status
 
-    def _mark(self, step: int, phase: str, sample: int, reason: str, detail: dict) -> None:
+    def mark(self, step: int, phase: str, sample: int, reason: str, p_body_m=None, swing_m=None) -> None:
+        """The row about to be written is infeasible: the first such row is kept (``first_infeasible``)."""
         if self.first_infeasible is None:
-            self.first_infeasible = {"time_s": self.t, "step": step, "phase": phase, "sample": sample,
-                                     "reason": reason, **detail}
+            self.first_infeasible = Infeasible(step, phase, sample, reason, self.t,
+                                               None if p_body_m is None else tuple(p_body_m),
+                                               None if swing_m is None else tuple(swing_m))
 
     def snapshot(self) -> tuple:
         """The builder's state (rows written, clock, warm start, first infeasible row), for :meth:`restore`."""
@@ -180,12 +163,10 @@ class SequenceBuilder:
         """Back to a :meth:`snapshot`: the rows written since are dropped."""
         n, self.t, q_prev, self.first_infeasible = snap
         self.q_prev = None if q_prev is None else q_prev.copy()
-        for col in self.rows.columns.values():
-            del col[n:]
+        self.rows.truncate(n)
 
     def _emit(self, thrust: np.ndarray, **row) -> None:
-        self.rows.append(time_s=self.t, **row, **{f"thrust_{n}": float(f) for n, f in zip(self.names, thrust,
-                                                                                            strict=True)})
+        self.rows.append(time_s=self.t, **row, thrust_n=np.array([float(f) for f in thrust]))
         self.t += self.dt
 
     def transfer(self, step: int, feet: dict[str, np.ndarray], p0: np.ndarray, yaw0: float, p1: np.ndarray,
@@ -251,12 +232,51 @@ class SequenceBuilder:
             elif slack < -1e-9:
                 reason = "ZMP outside the hull of both soles" + self._describe_tolerance(share)
             if reason:
-                self._mark(step, "transfer", k, reason, {"p_body_m": p.tolist()})
+                self.mark(step, "transfer", k, reason, p.tolist())
             self._emit(thrust, step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
-                       ground_z=min(feet["left"][2], feet["right"][2]),
-                       p_body=p, yaw=yaw, q=q, swing=np.full(3, np.nan), com=com, zmp=zmp, window=window,
-                       zmp_margin=float(polygon_margin(zmp, real_hull)),
+                       ground_z_m=min(feet["left"][2], feet["right"][2]),
+                       p_body_m=p, yaw_rad=yaw, q_rad=q, swing_m=np.full(3, np.nan), com_m=com, zmp_m=zmp,
+                       window_n=window, zmp_margin_m=float(polygon_margin(zmp, real_hull)),
                        tolerance_share=self._row_share(com[:2], fans, thrust, hull), reason=reason or "")
+
+    def _swing_thrust(self, com: np.ndarray, fans: np.ndarray, active: np.ndarray, one: bool, poly: np.ndarray,
+                      share: float) -> tuple[np.ndarray, float, bool, bool]:
+        """A swing row's thrust: per fan of the robot [N], the total [N], whether it is above the limit and
+        whether none balances: the least thrust of the ``active`` fans at ``fans`` (F, 2) that balances the CoM
+        ``com`` on the support ``poly`` within the tolerance scaled by ``share`` (one fan: Paper A's window in
+        closed form, ``balance.thrust_window``; several: ``balance.least_thrust``)."""
+        m = self.robot.mass_kg
+        tol = self.tolerance.scaled(share)
+        thrust_all = np.zeros(len(self.names))
+        if one:  # Paper A: one fan, its window in closed form
+            total = float(thrust_window(com[:2], fans[active[0]], poly, m, tol)[0])
+            over = total > self.thrust_max_n
+            unbalanced = not np.isfinite(total)
+            if not unbalanced:
+                thrust_all[active[0]] = total
+            return thrust_all, total, over, unbalanced
+        caps = self.caps[active]
+        total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, tol)
+        total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, tol)
+        over = not np.isfinite(total_b) and np.isfinite(total_f)
+        unbalanced = not np.isfinite(total_f)
+        total = float(total_f if over else total_b)
+        if not unbalanced:
+            thrust_all[active] = split_f if over else split
+        return thrust_all, total, over, unbalanced
+
+    def _swing_zmp(self, com: np.ndarray, fans: np.ndarray, active: np.ndarray, one: bool, thrust_all: np.ndarray,
+                   total: float) -> tuple[np.ndarray, np.ndarray]:
+        """A swing row's ZMP [m] under its thrust, and the shares of the fans that carry it (or are about to)."""
+        m = self.robot.mass_kg
+        if one:
+            f = total if np.isfinite(total) else 0.0
+            fan_share = np.zeros(len(self.names))
+            fan_share[active[0]] = 1.0
+            return zmp_with_thrust(com[:2], fans[active[0]], f, m), fan_share
+        t = float(np.sum(thrust_all))
+        fan_share = thrust_all / t if t > 0 else np.isin(np.arange(len(self.names)), active[:1]).astype(float)
+        return zmp_with_thrusts(com[:2], fans, thrust_all, m), fan_share
 
     def swing(self, step: int, support: str, feet: dict[str, np.ndarray], path: np.ndarray, p_samples: np.ndarray,
               yaw_fn, duration_s: float, shares: np.ndarray | None = None, positions: np.ndarray | None = None
@@ -276,7 +296,6 @@ class SequenceBuilder:
         active = np.array(self.robot.swing_fans(swing_side), dtype=np.int64)
         poly = self._sole(feet[support], self.margin)
         sole = self._sole(feet[support])
-        m = self.robot.mass_kg
         idx = np.arange(len(path))
         one = len(active) == 1 and not self.robot.fans[active[0]].on_trunk
         if positions is None:
@@ -302,24 +321,7 @@ class SequenceBuilder:
                 q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
             share = 1.0 if shares is None else float(np.interp(u, idx, shares))
-            tol = self.tolerance.scaled(share)
-            thrust_all = np.zeros(len(self.names))
-            if one:  # Paper A: one fan, its window in closed form
-                fan = fans[active[0]]
-                total = float(thrust_window(com[:2], fan, poly, m, tol)[0])
-                over = total > self.thrust_max_n
-                unbalanced = not np.isfinite(total)
-                if not unbalanced:
-                    thrust_all[active[0]] = total
-            else:
-                caps = self.caps[active]
-                total_b, split = least_thrust(com[:2], fans[active], poly, m, caps, tol)
-                total_f, split_f = least_thrust(com[:2], fans[active], poly, m, None, tol)
-                over = not np.isfinite(total_b) and np.isfinite(total_f)
-                unbalanced = not np.isfinite(total_f)
-                total = float(total_f if over else total_b)
-                if not unbalanced:
-                    thrust_all[active] = split_f if over else split
+            thrust_all, total, over, unbalanced = self._swing_thrust(com, fans, active, one, poly, share)
             edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
             reason = None
             if status != Reason.OK:
@@ -332,120 +334,10 @@ class SequenceBuilder:
             elif edge > 0:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
             if reason:
-                self._mark(step, "swing", k, reason, {"p_body_m": p.tolist(), "swing_m": swing.tolist()})
-            if one:
-                f = total if np.isfinite(total) else 0.0
-                zmp = zmp_with_thrust(com[:2], fans[active[0]], f, m)
-                fan_share = np.zeros(len(self.names))
-                fan_share[active[0]] = 1.0
-            else:
-                zmp = zmp_with_thrusts(com[:2], fans, thrust_all, m)
-                t = float(np.sum(thrust_all))
-                fan_share = (thrust_all / t if t > 0 else
-                             np.isin(np.arange(len(self.names)), active[:1]).astype(float))
+                self.mark(step, "swing", k, reason, p.tolist(), swing.tolist())
+            zmp, fan_share = self._swing_zmp(com, fans, active, one, thrust_all, total)
             self._emit(thrust_all, step=step, phase="swing", sample=k, support=support, feasible=reason is None,
-                       p_body=p, ground_z=feet[support][2], yaw=yaw, q=q, swing=swing, com=com, zmp=zmp,
-                       window=self._window(com[:2], fans, fan_share, sole), zmp_margin=float(polygon_margin(zmp, sole)),
+                       p_body_m=p, ground_z_m=feet[support][2], yaw_rad=yaw, q_rad=q, swing_m=swing, com_m=com,
+                       zmp_m=zmp, window_n=self._window(com[:2], fans, fan_share, sole),
+                       zmp_margin_m=float(polygon_margin(zmp, sole)),
                        tolerance_share=self._row_share(com[:2], fans, thrust_all, poly), reason=reason or "")
-
-
-def rows_dynamics(rows: Rows, robot: RobotModel, dt: float, start: int = 0, stop: int | None = None) -> RowDynamics:
-    """The multibody ZMP rows ``start:stop`` need (``physics.row_dynamics``; the robot held still beyond
-    them): Paper A's balance is quasistatic, and this is how far the rows' own motion moves the ZMP from it."""
-    c = rows.columns
-    p = np.asarray(c["p_body"][start:stop], dtype=float)
-    yaw = np.asarray(c["yaw"][start:stop], dtype=float)
-    base = np.zeros((len(p), 4, 4))
-    base[:, 0, 0], base[:, 0, 1], base[:, 1, 0], base[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
-    base[:, 2, 2] = base[:, 3, 3] = 1.0
-    base[:, :3, 3] = p
-    thrust = np.column_stack([np.asarray(c[f"thrust_{f.name}"][start:stop]) for f in robot.fans]).astype(float)
-    return row_dynamics(robot, base, np.asarray(c["q"][start:stop], dtype=float), thrust,
-                        np.asarray(c["support"][start:stop]), dt)
-
-
-#: the trunk accelerations [m/s²] a paced swing is tried with, in order (:func:`pace_swing`)
-PACE_ACCEL = (0.4, 0.2, 0.1, 0.05)
-GRIP_SAFETY = 2.0  # the rows' motion may need at most μ / this of friction
-
-
-def _note_pace(seq: SequenceBuilder, start: int, accel: float | None, least: float, held: bool) -> None:
-    """summary.json's record of a paced swing (``dynamics.paced_swings``): its step, the trunk acceleration
-    [m/s²] of its time law (None: the minimum-jerk law was kept, no pace doing better), the least multibody ZMP
-    margin [m] of its rows, and whether that margin reaches ``balance.sole_margin_m``."""
-    seq.rows.paced.append({"step": int(seq.rows.columns["step"][start]), "trunk_accel_m_s2": accel,
-                           "least_zmp_margin_m": least, "margin_held": held})
-
-
-def swing_dynamic_margin(seq: SequenceBuilder, start: int) -> np.ndarray:
-    """(rows,) the multibody ZMP's margin in the support [m] of the swing rows written from row ``start``
-    on (the row before them in the stencil; the last held)."""
-    return _swing_dynamics(seq, start)[0]
-
-
-def _swing_dynamics(seq: SequenceBuilder, start: int) -> tuple[np.ndarray, np.ndarray]:
-    """(margin [m], friction ratio [1]) per swing row written from row ``start`` on (as
-    :func:`swing_dynamic_margin`)."""
-    lo = max(start - 1, 0)
-    dyn = rows_dynamics(seq.rows, seq.robot, seq.dt, lo)
-    return dyn.margin[start - lo:], dyn.friction_ratio[start - lo:]
-
-
-def _holds(seq: SequenceBuilder, start: int, margin_m: float) -> tuple[bool, float]:
-    """Whether the swing rows from ``start`` keep the multibody ZMP ``margin_m`` inside the support and need
-    at most μ / :data:`GRIP_SAFETY` of friction; and their least margin [m]."""
-    margin, friction = _swing_dynamics(seq, start)
-    least = float(np.min(margin))
-    grip = float(np.max(friction[:-1], initial=0.0))  # (the last row's stencil holds: the transfer judges it)
-    return least >= margin_m and grip <= seq.robot.sole_friction / GRIP_SAFETY, least
-
-
-def pace_swing(seq: SequenceBuilder, snap: tuple, build, p_samples: np.ndarray, duration_s: float,
-               margin_m: float, strict: bool = True) -> float | None:
-    """Re-time a swing whose rows' own motion moves the multibody ZMP to within ``margin_m`` [m] of the
-    support sole's edge (or beyond), or needs more than μ / :data:`GRIP_SAFETY` of the soles' friction.
-    ``build(positions)`` writes the swing (``positions`` None: the minimum-jerk law) after ``snap``; it is
-    rebuilt paced (:func:`paced_row_positions` of ``p_samples`` (N, 3) over ``duration_s``) for each trunk
-    acceleration of :data:`PACE_ACCEL` in turn, and the first whose rows all hold quasistatically, with the
-    multibody ZMP ``margin_m`` inside and the friction within its bound, is kept. Where none is, the swing
-    of the largest multibody margin is kept and, if ``strict``, its rows that leave the margin are marked
-    infeasible (the friction is judged with every row, ``plan.add_analysis``). A swing looked at again is
-    noted in ``seq.rows.paced`` (:func:`_note_pace`).
-    Returns the kept swing's least multibody margin [m] (None: the swing was infeasible already, or needed no
-    pacing)."""
-    start, before = snap[0], snap[3]
-    if seq.first_infeasible is not before:
-        return None
-    held, least = _holds(seq, start, margin_m)
-    if held:
-        return None
-    best: tuple[float, np.ndarray | None, float | None] = (least, None, None)
-    rate = 1.0 / seq.dt
-    for accel in PACE_ACCEL:
-        seq.restore(snap)
-        positions = paced_row_positions(p_samples, duration_s, rate, accel)
-        build(positions)
-        if seq.first_infeasible is not before:
-            continue
-        held, least = _holds(seq, start, margin_m)
-        if held:
-            _note_pace(seq, start, accel, least, True)
-            return least
-        if least > best[0]:
-            best = (least, positions, accel)
-    seq.restore(snap)
-    build(best[1])
-    margins = swing_dynamic_margin(seq, start)
-    _note_pace(seq, start, best[2], float(np.min(margins)), False)
-    if not strict:
-        return float(np.min(margins))
-    c = seq.rows.columns
-    for i in np.flatnonzero(margins < margin_m).tolist():
-        r = start + i
-        reason = (f"the rows' motion moves the ZMP to {1000 * margins[i]:.1f} mm from the sole's edge (multibody "
-                  f"ZMP by central differences; {1000 * margin_m:g} mm wanted, the quasistatic ZMP "
-                  f"{1000 * float(c['zmp_margin'][r]):.1f} mm inside), paced or not")
-        c["feasible"][r] = False
-        c["reason"][r] = c["reason"][r] or reason
-        seq._mark(int(c["step"][r]), "swing", int(c["sample"][r]), reason, {"p_body_m": list(c["p_body"][r])})
-    return float(np.min(margins))

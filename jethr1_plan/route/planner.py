@@ -3,10 +3,10 @@
 1. The maps (:mod:`.balance_map`): one per support side, computed once per robot and setting.
 2. The search (:mod:`.search`): the least-cost route on the maps.
 3. The route as an ordinary scenario (``route.yaml``), loaded by the scenario loader and planned by
-   the project's planner (:func:`jethr1_plan.planning.plan.plan`). A step the loader refuses or the
+   the project's planner (:func:`.incremental.plan_route`). A step the loader refuses or the
    planner cannot balance is blacklisted and the search resumes (at most :data:`MAX_REPLANS` times);
-   the steps a new route shares with an earlier one from its start are not optimised again (the
-   planner's ``step_memo``: the same steps, bit for bit).
+   the steps a new route shares with an earlier one from its start are not optimised again
+   (:mod:`.incremental`: the same steps, bit for bit).
 4. The plan folder: the plan's own files (re-checked by ``verify`` before they are written, as
    ``jethr1 plan`` does) with the route's (``route.yaml``, ``route.mcap``, ``route.png``) in one commit.
 """
@@ -16,26 +16,24 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
-
-import numpy as np
 
 from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
-from jethr1_plan.files.route import ROUTE_FILES, RouteDrawing, SliceCloud, route_mcap, route_png
-from jethr1_plan.geometry import SIDES, other_side
+from jethr1_plan.files.route import ROUTE_FILES, route_mcap, route_png
+from jethr1_plan.geometry import SIDES
 from jethr1_plan.pipeline.plan import self_check
-from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
-from jethr1_plan.planning.results import PlanResult
+from jethr1_plan.records.infeasible import Infeasible, InfeasibleAt
 from jethr1_plan.robot.load import ROBOTS_DIR
 from jethr1_plan.route.balance_map import BalanceMap, MapSettings, cached_map
 from jethr1_plan.route.footholds import Footholds, footholds
+from jethr1_plan.route.incremental import RouteMemo, plan_route
+from jethr1_plan.route.report import RouteOutcome, drawing, route_summary, steps_text
 from jethr1_plan.route.search import Frontier, RouteStep, SearchResult, astar
 from jethr1_plan.route.steps import StepModel
 from jethr1_plan.route.terrain import Terrain, dump_yaml
-from jethr1_plan.scenario import Scenario, load_scenario_text
+from jethr1_plan.scenario import load_scenario_text
 
 __all__ = [
     "MAX_REPLANS",
@@ -62,21 +60,6 @@ class NoRoute(InfeasiblePlan):
     def __init__(self, message: str, frontier: dict):
         super().__init__(message)
         self.frontier = frontier
-
-
-@dataclass
-class RouteOutcome:
-    """A route found and planned."""
-
-    terrain: Terrain
-    holds: Footholds
-    steps: list[RouteStep]
-    scenario: Scenario
-    text: str  # route.yaml
-    result: PlanResult
-    searches: list[SearchResult]
-    blacklisted: list[dict] = field(default_factory=list)
-    plan_s: float = 0.0
 
 
 def _map_settings(terrain: Terrain, side: str) -> MapSettings:
@@ -152,10 +135,6 @@ def route_scenario_text(terrain: Terrain, holds: Footholds, steps: list[RouteSte
     return text + (dump_yaml(rest) if rest else "")
 
 
-def steps_text(n: int) -> str:
-    return f"{n} step{'' if n == 1 else 's'}"
-
-
 _STEP_KEY = re.compile(r"steps\[(\d+)\]")
 
 
@@ -184,8 +163,7 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
     searches: list[SearchResult] = []
     blacklisted: list[dict] = []
     plan_s = 0.0
-    memo: dict = {}  # the steps optimised so far: a re-planned route does not optimise its unchanged first steps again
-    rows: dict = {}  # and the rows built after them: it does not build their rows again either
+    memo = RouteMemo()  # the steps optimised so far, and their rows: a re-planned route does not redo them
     for _ in range(MAX_REPLANS + 1):
         found = astar(model)
         searches.append(found)
@@ -206,15 +184,14 @@ def find_route(terrain: Terrain, maps: dict[str, BalanceMap], folder: Path, jobs
             continue
         t0 = time.perf_counter()
         try:
-            result = plan(scenario, jobs=jobs, progress=progress, step_memo=memo, early_rows=True, row_memo=rows,
-                          strict_dynamics=True)
-        except InfeasiblePlan as exc:
+            result = plan_route(scenario, memo, jobs=jobs, progress=progress)
+        except InfeasibleAt as exc:
             plan_s += time.perf_counter() - t0
-            first = (exc.summary or {}).get("first_infeasible") or {}
+            first: Infeasible = exc.first
             n = len(found.steps)
-            k = min(max(int(first.get("step", 0)), 0), n)
-            why = f"{first.get('reason', 'infeasible')} ({first.get('phase', '?')})"
-            if first.get("phase") == "transfer":
+            k = min(max(first.step, 0), n)
+            why = f"{first.reason} ({first.phase})"
+            if first.phase == "transfer":
                 left, right, last = _states(holds, found.steps)[k]
                 nxt = found.steps[k].swing if k < n else None
                 model.transfer_blacklist.add((left, right, last, nxt))
@@ -259,137 +236,6 @@ _WHY_TEXT = {"reach": "out of reach", "thrust": "beyond the thrust limit", "marg
              "joint limits": "beyond the joint limits", "overlap": "behind the support sole",
              "planner": "refused by the planner", "transfer": "its transfers leave the joint limits", "goal": "",
              "": "not reached"}
-
-
-def _per_step(result: PlanResult) -> list[dict]:
-    """Per step, from the plan's rows (the transfer before the swing and the swing): the largest total
-    thrust [N], the least ZMP margin [m] and, where the plan has it, the least tolerance share."""
-    rows = result.rows
-    out: list[dict] = []
-    if rows is None:
-        return out
-    step = rows.array("step")
-    total = _total_thrust(result)
-    margin = rows.array("zmp_margin").astype(float)
-    share = rows.array("tolerance_share").astype(float) if "tolerance_share" in rows.columns else None
-    for st in result.steps:
-        at = step == st.index
-        m = margin[at]
-        rec = {"max_thrust_n": float(np.max(total[at])) if at.any() else None,
-               "mean_thrust_n": float(np.mean(total[at])) if at.any() else None,
-               "least_zmp_margin_m": float(np.nanmin(m)) if np.isfinite(m).any() else None}
-        if share is not None and np.isfinite(share[at]).any():
-            rec["least_tolerance_share"] = float(np.nanmin(share[at]))
-        out.append(rec)
-    return out
-
-
-def route_summary(o: RouteOutcome, maps: dict[str, BalanceMap], wall: dict[str, float]) -> dict:
-    """The ``route`` section of summary.json."""
-    t = o.terrain
-    names = t.names
-    plan_steps = _per_step(o.result)
-    tol = t.base.balance.tolerance
-    steps = []
-    for k, st in enumerate(o.steps):
-        e = st.edge
-        rec = {"index": k, "swing": st.swing, "support": other_side(st.swing),
-               "from_m": o.holds.xyz[st.frm].tolist(), "landing_m": o.holds.xyz[st.to].tolist(),
-               "carton": names[o.holds.carton[st.to]], "clearance_m": e.clearance_m,
-               "map": {"peak_thrust_n": e.peak_n, "mean_thrust_n": e.mean_n, "least_margin_m": e.margin_m,
-                       "cost": e.cost},
-               "plan": plan_steps[k] if k < len(plan_steps) else None}
-        steps.append(rec)
-    searched = o.searches
-    return {
-        "terrain": t.name, "terrain_file": str(Path(t.source).resolve()), "terrain_yaml": t.text,
-        "goal": t.goal.describe(names), "footholds": len(o.holds),
-        "balance": {"policy": t.base.balance.policy, "tolerance": {"thrust_error": tol.thrust, "mass_error": tol.mass,
-                                                                   "com_error_m": tol.com_m}},
-        "cost_weights": asdict(t.options.cost), "cost": float(sum(s.edge.cost for s in o.steps)),
-        "steps": steps,
-        "search": {"runs": len(searched), "stances_expanded": sum(s.expanded for s in searched),
-                   "steps_judged": sum(s.evaluated for s in searched), "wall_s": sum(s.wall_s for s in searched)},
-        "blacklisted": o.blacklisted,
-        "maps": [{"support": side, "resolution_m": m.settings.resolution_m, "cells": int(m.member.size),
-                  "members": int(m.member.sum()), "reach_m": m.reach_m, "key": m.key,
-                  "file": None if m.path is None else str(m.path), "reused": m.reused, "wall_s": m.wall_s}
-                 for side, m in maps.items()],
-        "wall_s": wall,
-    }
-
-
-def _slices(o: RouteOutcome, maps: dict[str, BalanceMap]) -> list[SliceCloud]:
-    """Per step, the support's balance space around the swing: the cells in the path's vertical plane
-    (within half a cell) and the layer at the landing's height, in the world frame."""
-    rows = o.result.rows
-    times = rows.array("time_s").astype(float) if rows is not None else np.zeros(0)
-    step_col = rows.array("step") if rows is not None else np.zeros(0)
-    phase = np.asarray(rows.columns["phase"]) if rows is not None else np.zeros(0)
-    out = []
-    for k, st in enumerate(o.steps):
-        m = maps[other_side(st.swing)]
-        sup = o.holds.xyz[st.support]
-        a, b = o.holds.xyz[st.frm] - sup, o.holds.xyz[st.to] - sup
-        res = m.settings.resolution_m
-        X, Y, Z = np.meshgrid(*m.axes, indexing="ij")
-        rel = np.stack([X, Y, Z], axis=-1)[m.member]
-        d = b[:2] - a[:2]
-        n = np.linalg.norm(d)
-        if n > 0:
-            u = d / n
-            along = (rel[:, :2] - a[:2]) @ u
-            off = np.abs((rel[:, 0] - a[0]) * u[1] - (rel[:, 1] - a[1]) * u[0])
-            plane = (off <= res / 2 + 1e-9) & (along >= -0.1) & (along <= n + 0.1)
-        else:
-            plane = np.zeros(len(rel), dtype=bool)
-        layer = np.abs(rel[:, 2] - m.axes[2][np.argmin(np.abs(m.axes[2] - b[2]))]) < 1e-9
-        pick = plane | layer
-        sel = np.flatnonzero(m.member.ravel())[pick]
-        at = np.flatnonzero((step_col == k) & (phase == "swing"))
-        out.append(SliceCloud(float(times[at[0]]) if len(at) else 0.0, rel[pick] + sup, m.thrust.ravel()[sel],
-                              m.margin.ravel()[sel]))
-    return out
-
-
-def drawing(o: RouteOutcome, maps: dict[str, BalanceMap]) -> RouteDrawing:
-    t = o.terrain
-    robot = t.robot
-    names = t.names
-    per = _per_step(o.result)
-    if t.goal.carton is not None:
-        goal_rect = t.cartons[t.goal.carton].top_rectangle()
-    else:
-        (x0, x1), (y0, y1) = t.goal.region  # type: ignore[misc]
-        goal_rect = (x0, x1, y0, y1)
-    labels = [f"{st.swing:5s} -> {names[o.holds.carton[st.to]]}: plan {p['max_thrust_n']:5.2f} N, map "
-              f"{st.edge.peak_n:5.2f} N, margin {1000 * st.edge.margin_m:3.0f} mm" for st, p in zip(o.steps, per,
-                                                                                                  strict=True)]
-    s = plan_summary_lite(o.result)
-    title = (f"{t.name}: {steps_text(len(o.steps))} to {t.goal.describe(names)}; {t.base.balance.policy} policy, "
-             f"plan's peak thrust {s:.2f} N")
-    return RouteDrawing(title=title, cartons=t.cartons, names=names, footholds_m=o.holds.xyz,
-                        start={k: np.asarray(v, dtype=float) for k, v in t.base.start.items()},
-                        swings=[st.swing for st in o.steps], landings_m=o.holds.xyz[[st.to for st in o.steps]],
-                        paths_m=[st.path_m for st in o.scenario.steps],
-                        sole_m=(robot.sole_length_m, robot.sole_width_m),
-                        goal_rect=(float(goal_rect[0]), float(goal_rect[1]), float(goal_rect[2]), float(goal_rect[3])),
-                        step_labels=labels, slices=_slices(o, maps),
-                        thrust_max_n=t.base.balance.thrust_max_n)
-
-
-def plan_summary_lite(result: PlanResult) -> float:
-    """The plan's largest total thrust over its rows [N]."""
-    rows = result.rows
-    if rows is None or not len(rows):
-        return float("nan")
-    return float(np.max(_total_thrust(result)))
-
-
-def _total_thrust(result: PlanResult) -> np.ndarray:
-    """(rows,) the thrust of all fans together at each row [N]."""
-    assert result.rows is not None
-    return np.sum([result.rows.array(f"thrust_{f.name}").astype(float) for f in result.robot.fans], axis=0)
 
 
 def write_route(o: RouteOutcome, maps: dict[str, BalanceMap], folder: Path, wall: dict[str, float]

@@ -48,6 +48,8 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.planning.plan import Sequence, add_analysis, plan, row_solver
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.results import PlanResult, StepResult
+from jethr1_plan.records.infeasible import Infeasible
+from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Scenario, Step, load_scenario_text
 from jethr1_plan.sim.judge import RunResult
 from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun
@@ -132,7 +134,7 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
             rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
             if bad is None:
                 bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
-            if bad is None and all(rows.columns["feasible"]):
+            if bad is None and all(rows.columns[RowField.FEASIBLE]):
                 return PlanResult(moved_one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
     return plan(one), "optimised"
 
@@ -314,6 +316,6 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
         seq.add(st)
     rows, bad = seq.finish()
     bad = add_analysis(rows, robot, 1.0 / done.timing.rate_hz, False) or bad
-    first = bad if bad is not None else next(({"row": i, "reason": r} for i, r in enumerate(rows.columns["reason"])
-                                              if r), None)
+    first = bad if bad is not None else next((Infeasible.at_row(i, r)
+                                              for i, r in enumerate(rows.columns[RowField.REASON]) if r), None)
     return PlanResult(done, robot, "executed", done.seed, results, rows, first, 0, 0.0), text

@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_table import fan_matrix, joint_matrix, stack
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.geometry import SIDES
 from jethr1_plan.io.input_file import input_folder
+from jethr1_plan.records.plan_columns import PELVIS, PELVIS_QUAT, TOLERANCE_SHARE, WINDOW, ZMP
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.robot.sensors import Sensors
 from jethr1_plan.sim.sensors import SensorDraw
@@ -128,7 +129,7 @@ class PlanTrack:
 
 def load_plan(folder: Path) -> PlanTrack:
     """Read a plan folder (``trajectory.csv`` + ``summary.json``, through
-    :func:`~jethr1_plan.files.plan_folder.read_plan`) as the rehearsal follows it.
+    :func:`~jethr1_plan.folders.plan.read_plan`) as the rehearsal follows it.
 
     Raises:
         InputError: a missing or unreadable file, a plan written infeasible, a robot that cannot load.
@@ -158,11 +159,11 @@ def track_of(c: dict[str, np.ndarray], robot: RobotModel, cartons: tuple[Carton,
     """A plan's table (the columns of ``trajectory.csv``, :func:`~jethr1_plan.files.plan_table.plan_table`) as
     the twin follows it; ``tolerance`` as :func:`held_tolerance` gives it."""
     q = joint_matrix(c, robot)
-    pelvis = stack(c, ("pelvis_x_m", "pelvis_y_m", "pelvis_z_m", "pelvis_qw", "pelvis_qx", "pelvis_qy", "pelvis_qz"))
+    pelvis = stack(c, (*PELVIS, PELVIS_QUAT[3], *PELVIS_QUAT[:3]))  # x, y, z, then the quaternion w, x, y, z
     track = PlanTrack(folder, robot, cartons, rate_hz, thrust_max_n, float(tolerance["thrust_error"]),
                       float(tolerance["mass_error"]), np.asarray(c["time_s"], dtype=float), q, pelvis,
-                      fan_matrix(c, robot), stack(c, ("thrust_window_lo_n", "thrust_window_hi_n")),
-                      stack(c, ("zmp_x_m", "zmp_y_m")), np.asarray(c["support"]), np.asarray(c["phase"]),
+                      fan_matrix(c, robot), stack(c, WINDOW),
+                      stack(c, ZMP), np.asarray(c["support"]), np.asarray(c["phase"]),
                       np.asarray(c["step"]).astype(int), np.asarray(c["sample"]).astype(int),
                       joint_matrix(c, robot, "_cmd_rad"), fan_matrix(c, robot, "thrust_cmd_"))
     track.tolerance = dict(tolerance)
@@ -174,7 +175,7 @@ def held_tolerance(summary: dict) -> dict:
     share of the scenario's tolerance, the tolerance at the least share
     (``robustness.tolerance_share.tolerance``); else ``balance.tolerance``; a plan with neither (or the
     minimal policy) holds none. Fractions of thrust and mass, the CoM error in metres."""
-    shared = (summary.get("robustness") or {}).get("tolerance_share") or {}
+    shared = (summary.get("robustness") or {}).get(TOLERANCE_SHARE) or {}
     if shared.get("tolerance"):
         tol, source = shared["tolerance"], f"robustness.tolerance_share (least share {float(shared['least']):g})"
     else:

@@ -62,7 +62,7 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
         # the rows' own motion (physics.row_dynamics): the multibody ZMP's least margin [m] (None: a row
         # needs the ground to pull)
         "dynamic_zmp_margin_m": least if least is not None and np.isfinite(least) else None,
-        "first_infeasible": result.first_infeasible,
+        "first_infeasible": None if result.first_infeasible is None else result.first_infeasible.to_dict(),
         "p_body_m": [p.tolist() for p in p_body],
         "thrust_n": [[float(x) if np.isfinite(x) else None for x in t] for t in thrust],
     }

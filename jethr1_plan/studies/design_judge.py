@@ -78,7 +78,7 @@ def _minimal_crossing(scenario) -> dict[str, Any]:
         return {"feasible": False, "max_thrust_n": None, "reason": str(exc)}
     rows = result.rows
     assert rows is not None
-    peak = max(float(np.max(rows.array(f"thrust_{f.name}"))) for f in scenario.robot.fans)
+    peak = max(float(np.max(rows.fan(f.name))) for f in scenario.robot.fans)
     return {"feasible": True, "max_thrust_n": peak, "reason": None}
 
 

@@ -79,10 +79,11 @@ def share_of_gap(scenario: Scenario, energy: bool = False) -> dict[str, Any]:
     except InfeasiblePlan as exc:
         return {"share": None, "reason": str(exc)}
     if not result.feasible or result.rows is None:
-        return {"share": None, "reason": str((result.first_infeasible or {}).get("reason", "infeasible"))}
+        bad = result.first_infeasible
+        return {"share": None, "reason": bad.reason if bad is not None else "infeasible"}
     rows = result.rows
     fans = [f.name for f in scenario.robot.fans]
-    peak = float(max(np.max(rows.array(f"thrust_{f}")) for f in fans))
+    peak = float(max(np.max(rows.fan(f)) for f in fans))
     swing = np.concatenate([st.thrust_n for st in result.steps])
     shares = share_summary(rows, scenario.balance.tolerance)
     assert shares is not None  # a robust plan carries a share on every row
@@ -90,7 +91,7 @@ def share_of_gap(scenario: Scenario, energy: bool = False) -> dict[str, Any]:
            "rows_below_full": shares["rows_below_full"], "max_thrust_n": peak,
            "mean_thrust_n": float(np.mean(swing[np.isfinite(swing)])), "reason": None}
     if energy:
-        total = np.sum([rows.array(f"thrust_{f}") for f in fans], axis=0)
+        total = np.sum([rows.fan(f) for f in fans], axis=0)
         out["energy_j"] = float(rows.analysis["energy_j"])
         out["impulse_ns"] = float(0.5 * np.sum(total[1:] + total[:-1]) / scenario.timing.rate_hz)
     return out

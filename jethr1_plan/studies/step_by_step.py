@@ -18,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import PLAN_FILES, plan_scenario, write_plan
+from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
 from jethr1_plan.files.plan_table import joint_matrix, plan_table
+from jethr1_plan.folders.plan import plan_scenario
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.planning.results import StepResult

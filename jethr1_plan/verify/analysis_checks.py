@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from jethr1_plan.records.plan_columns import KAPPA
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
 from jethr1_plan.verify.commands import PLAN_SAG_FILTER_S, fan_commands, servo_commands
 from jethr1_plan.verify.plan_rows import RowData
@@ -19,7 +20,7 @@ check = registrar(CHECKS)
 
 
 @check("torque column wrong", "the written static torques are the posture's under the written thrust",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _torque_column(x: RowData) -> list[Finding]:
     if not x.statics:
         return []
@@ -35,7 +36,7 @@ def _torque_column(x: RowData) -> list[Finding]:
 
 
 @check("torque over its servo limit", "every static torque within its servos' limit (unless told not to)",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _torque_limit(x: RowData) -> list[Finding]:
     if not (x.statics and x.torque_limits):
         return []
@@ -52,11 +53,11 @@ def _torque_limit(x: RowData) -> list[Finding]:
     return out
 
 
-@check("kappa column wrong", "the written κ of each leg is the posture's", needs=("kappa_left",))
+@check("kappa column wrong", "the written κ of each leg is the posture's", needs=(KAPPA[0],))
 def _kappa_column(x: RowData) -> list[Finding]:
     if not x.statics:
         return []
-    kappa_w = np.stack([x.c["kappa_left"], x.c["kappa_right"]], axis=1).astype(float)
+    kappa_w = np.stack([x.c[KAPPA[0]], x.c[KAPPA[1]]], axis=1).astype(float)
     kappa = x.fk["kappa"]
     bad = np.isfinite(kappa).all(axis=1) & ~np.all(np.abs(kappa_w - kappa) <= 1e-6 * np.maximum(1.0, kappa), axis=1)
     return rows(bad, lambda i: f"written {np.round(kappa_w[i], 4).tolist()}, recomputed "
@@ -72,7 +73,7 @@ def _command_rate(x: RowData) -> float | None:
 
 
 @check("servo command column wrong", "the servo commands are the rows plus the sag under their torques "
-       "(``verify.commands``)", needs=("kappa_left",))
+       "(``verify.commands``)", needs=(KAPPA[0],))
 def _servo_commands(x: RowData) -> list[Finding]:
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:
@@ -89,7 +90,7 @@ def _servo_commands(x: RowData) -> list[Finding]:
 
 
 @check("fan command column wrong", "the fan commands are the thrust led by the fans' lag (``verify.commands``)",
-       needs=("kappa_left",))
+       needs=(KAPPA[0],))
 def _fan_commands(x: RowData) -> list[Finding]:
     rate = _command_rate(x)
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:

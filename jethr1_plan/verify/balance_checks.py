@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from jethr1_plan.geometry import other_side
+from jethr1_plan.records.plan_columns import COM, TOLERANCE_SHARE, WINDOW, ZMP, ZMP_MARGIN
 from jethr1_plan.verify.balance import Tolerance, balance_slack, largest_share, support_margin
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
 from jethr1_plan.verify.common import TOL_M
@@ -74,40 +75,40 @@ def _ground_pushes(x: RowData) -> list[Finding]:
                 "than gravity between the rows around it")
 
 
-@check("CoM column wrong", "the written CoM is the posture's", needs=("com_x_m",))
+@check("CoM column wrong", "the written CoM is the posture's", needs=(COM[0],))
 def _com_column(x: RowData) -> list[Finding]:
     c, com = x.c, x.fk["com"]
-    written = np.stack([c["com_x_m"], c["com_y_m"], c["com_z_m"]], axis=1).astype(float)
+    written = np.stack([c[COM[0]], c[COM[1]], c[COM[2]]], axis=1).astype(float)
     return rows(~(np.linalg.norm(written - com, axis=1) <= 1e-9), lambda i: f"written "
                 f"{np.round(written[i], 6).tolist()}, recomputed {np.round(com[i], 6).tolist()}")
 
 
-@check("ZMP column wrong", "the written ZMP is the written thrust's", needs=("zmp_x_m",))
+@check("ZMP column wrong", "the written ZMP is the written thrust's", needs=(ZMP[0],))
 def _zmp_column(x: RowData) -> list[Finding]:
-    wz = np.stack([x.c["zmp_x_m"], x.c["zmp_y_m"]], axis=1).astype(float)
+    wz = np.stack([x.c[ZMP[0]], x.c[ZMP[1]]], axis=1).astype(float)
     return rows(~(np.linalg.norm(wz - x.zmp, axis=1) <= TOL_M), lambda i: f"written {np.round(wz[i], 6).tolist()}, "
                 f"recomputed {np.round(x.zmp[i], 6).tolist()}")
 
 
 @check("ZMP margin column wrong", "the written ZMP margin is the ZMP's distance inside the support",
-       needs=("thrust_window_lo_n", "zmp_margin_m"))
+       needs=(WINDOW[0], ZMP_MARGIN))
 def _margin_column(x: RowData) -> list[Finding]:
-    margin_w = x.c["zmp_margin_m"].astype(float)
+    margin_w = x.c[ZMP_MARGIN].astype(float)
     margin = support_margin(x.zmp, *x.support_edges)
     check = np.isfinite(x.zmp).all(axis=1)
     return rows(check & ~(np.abs(margin - margin_w) <= TOL_M), lambda i: f"written {margin_w[i]:.6f} m, recomputed "
                 f"{margin[i]:.6f} m")
 
 
-@check("thrust window column wrong", "the written thrust window is the posture's", needs=("thrust_window_lo_n",))
+@check("thrust window column wrong", "the written thrust window is the posture's", needs=(WINDOW[0],))
 def _window_column(x: RowData) -> list[Finding]:
     lo, hi, computed = x.windows
-    lo_w, hi_w = x.c["thrust_window_lo_n"].astype(float), x.c["thrust_window_hi_n"].astype(float)
+    lo_w, hi_w = x.c[WINDOW[0]].astype(float), x.c[WINDOW[1]].astype(float)
     bad = computed & ~((np.abs(lo - lo_w) <= WINDOW_TOL_N) & (np.abs(hi - hi_w) <= WINDOW_TOL_N))
     return rows(bad, lambda i: f"written [{lo_w[i]:.4f}, {hi_w[i]:.4f}] N, recomputed [{lo[i]:.4f}, {hi[i]:.4f}] N")
 
 
-@check("thrust outside its window", "the written thrust within the posture's window", needs=("thrust_window_lo_n",))
+@check("thrust outside its window", "the written thrust within the posture's window", needs=(WINDOW[0],))
 def _in_window(x: RowData) -> list[Finding]:
     lo, hi, computed = x.windows
     total = x.thrust.sum(axis=1)
@@ -129,12 +130,12 @@ def _plan_tolerance(x: RowData) -> Tolerance:
 
 
 @check("below the tolerance", "under the plan's tolerance, the ZMP in the support for every error within the "
-       "row's share of it (the whole of it where the plan has no shares)", needs=("thrust_window_lo_n",))
+       "row's share of it (the whole of it where the plan has no shares)", needs=(WINDOW[0],))
 def _tolerance(x: RowData) -> list[Finding]:
     if x.balance is None:
         return []
     tol = _plan_tolerance(x)
-    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
+    shares = x.c[TOLERANCE_SHARE].astype(float) if TOLERANCE_SHARE in x.c else np.full(x.n, np.nan)
     share = np.where(np.isfinite(shares) & (not tol.nominal), shares, 1.0)
     at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
     normals, offsets = x.tolerance_edges
@@ -151,14 +152,14 @@ def _tolerance(x: RowData) -> list[Finding]:
 
 
 @check("tolerance share column wrong", "under a tolerance, the written share is the largest share of it the row's "
-       "thrust holds (recomputed, ``verify.balance.largest_share``)", needs=("tolerance_share",))
+       "thrust holds (recomputed, ``verify.balance.largest_share``)", needs=(TOLERANCE_SHARE,))
 def _share_column(x: RowData) -> list[Finding]:
     if x.balance is None:
         return []
     tol = _plan_tolerance(x)
     if tol.nominal:
         return []
-    written = x.c["tolerance_share"].astype(float)
+    written = x.c[TOLERANCE_SHARE].astype(float)
     at = np.flatnonzero(np.isfinite(x.zmp).all(axis=1))
     normals, offsets = x.tolerance_edges
     again = np.full(x.n, np.nan)
@@ -174,9 +175,9 @@ def _share_column(x: RowData) -> list[Finding]:
 
 
 @check("below the least share", "every row's tolerance share at least the plan's ``min_share``",
-       needs=("tolerance_share",))
+       needs=(TOLERANCE_SHARE,))
 def _least_share(x: RowData) -> list[Finding]:
     least = float((x.balance or {}).get("min_share") or 0.0)
-    written = x.c["tolerance_share"].astype(float)
+    written = x.c[TOLERANCE_SHARE].astype(float)
     return rows(np.isfinite(written) & (written < least - SHARE_TOL),
                 lambda i: f"tolerance share {written[i]:.4f} below the plan's min_share {least:g}")

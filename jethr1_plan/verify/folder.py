@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import TRAJECTORY_FILES, read_json, read_plan
+from jethr1_plan.files.plan_folder import TRAJECTORY_FILES, read_json
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.verify.common import Failure, csv_header, is_walk
 from jethr1_plan.verify.plan import verify_plan
 
@@ -20,7 +21,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
 
     Raises:
         InputError: a missing, unreadable, malformed or inconsistent file, a ``--scenario`` that does
-            not exist (see :func:`~jethr1_plan.files.plan_folder.read_plan`).
+            not exist (see :func:`~jethr1_plan.folders.plan.read_plan`).
     """
     path = Path(path)
     folder = path if path.is_dir() else path.parent

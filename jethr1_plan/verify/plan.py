@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.files.plan_folder import PlanFolder
+from jethr1_plan.folders.plan import PlanFolder
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify import analysis_checks, balance_checks, plan_checks, timing
 from jethr1_plan.verify.checks import RowCheck

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from jethr1_plan.geometry import SIDES
+from jethr1_plan.records.plan_columns import SWING
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T
 from jethr1_plan.verify.plan_rows import (
@@ -178,10 +179,10 @@ def _placed(x: RowData) -> list[Finding]:
     return out
 
 
-@check("swing sole off its sample", "the swing sole on the row's written sample", needs=("swing_x_m",))
+@check("swing sole off its sample", "the swing sole on the row's written sample", needs=(SWING[0],))
 def _on_sample(x: RowData) -> list[Finding]:
     c = x.c
-    sample = np.stack([c["swing_x_m"], c["swing_y_m"], c["swing_z_m"]], axis=1).astype(float)
+    sample = np.stack([c[k] for k in SWING], axis=1).astype(float)
     off = x.single & ~(np.isfinite(sample).all(axis=1) & (np.linalg.norm(x.swing_pos - sample, axis=1) <= TOL_M))
     return rows(off, lambda i: f"swing sole at {np.round(x.swing_pos[i], 6).tolist()} m, sample "
                 f"{np.round(sample[i], 6).tolist()} m")

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
+from jethr1_plan.records.plan_columns import PELVIS, TOLERANCE_SHARE, WINDOW
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import hull_edges, pad_edges, sole_edges, thrust_window, zmp_of_thrust
 from jethr1_plan.verify.motion import vertical_ground_force
@@ -23,7 +24,7 @@ __all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyli
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
 # empty (NaN) where there is no swing sole, no window, or no tolerance (the share: its own check)
-OPTIONAL = ("swing_", "thrust_window_", "tolerance_share")
+OPTIONAL = ("swing_", "thrust_window_", TOLERANCE_SHARE)
 
 
 class RowData:
@@ -93,7 +94,7 @@ class RowData:
         out: dict[str, Any] = {"feet": {s: np.zeros((n, 4, 4)) for s in SIDES},
                                "fans": np.zeros((n, nf, 2)), "com": np.zeros((n, 3)),
                                "tau": np.full((n, len(robot.joint_names)), np.nan), "kappa": np.full((n, 2), np.nan)}
-        pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]], axis=1).astype(float)
+        pelvis = np.stack([c[k] for k in PELVIS], axis=1).astype(float)
         posed = np.isfinite(pelvis).all(axis=1) & np.isfinite(self.q_written).all(axis=1)
         norms = np.array([math.sqrt(float(q @ q)) for q in self.quat])
         posed &= np.isfinite(norms) & (norms >= 1e-9)
@@ -183,7 +184,7 @@ class RowData:
         nf = len(robot.fans)
         fmax = np.array([f.max_thrust_n for f in robot.fans])
         lo, hi, computed = np.full(self.n, np.nan), np.full(self.n, np.nan), np.zeros(self.n, dtype=bool)
-        written = self.c["thrust_window_lo_n"].astype(float)
+        written = self.c[WINDOW[0]].astype(float)
         total = self.thrust.sum(axis=1)
         shares = np.zeros((self.n, nf))
         for i in np.flatnonzero(np.isfinite(self.zmp).all(axis=1) & np.isfinite(written)):
@@ -212,7 +213,7 @@ class RowData:
         None where the rate is unknown or a row's pose is not finite (those rows fail elsewhere)."""
         rate = self.rate_hz
         c = self.c
-        pelvis = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]], axis=1).astype(float)
+        pelvis = np.stack([c[k] for k in PELVIS], axis=1).astype(float)
         norms = np.linalg.norm(self.quat, axis=1) if self.n else np.zeros(0)
         if (rate is None or self.n < 3 or not np.isfinite(pelvis).all() or not np.isfinite(self.q_written).all()
                 or not np.isfinite(self.thrust).all() or not (np.isfinite(norms) & (norms >= 1e-9)).all()):

@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from jethr1_plan.geometry import SIDES, convex_hull, sole_polygon
+from jethr1_plan.records.plan_columns import PELVIS, TOLERANCE_SHARE
 from jethr1_plan.verify.checks import RowCheck, registrar
 from jethr1_plan.verify.plan_rows import RowData
 
@@ -64,7 +65,7 @@ def fastest_settings(x: RowData) -> dict | None:
 def _pose(x: RowData) -> np.ndarray:
     """(N, 4, 4) the written trunk poses (unit quaternions; the unit check reports the others)."""
     c = x.c
-    p = np.stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]], axis=1).astype(float)
+    p = np.stack([c[k] for k in PELVIS], axis=1).astype(float)
     qx, qy, qz, qw = (x.quat / np.maximum(np.linalg.norm(x.quat, axis=1), 1e-12)[:, None]).T
     T = np.zeros((x.n, 4, 4))
     T[:, 0] = np.stack([1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw), p[:, 0]], 1)
@@ -175,7 +176,7 @@ def _dynamic_findings(x: RowData) -> dict[str, list[tuple[int, str]]]:
     tol = (x.balance or {}).get("tolerance") or {}
     X0, Y0, E0 = (float(tol.get(k, 0.0) or 0.0) for k in ("thrust_error", "mass_error", "com_error_m"))
     margin = float((x.balance or {}).get("sole_margin_m") or 0.0) * kappa
-    shares = x.c["tolerance_share"].astype(float) if "tolerance_share" in x.c else np.full(x.n, np.nan)
+    shares = x.c[TOLERANCE_SHARE].astype(float) if TOLERANCE_SHARE in x.c else np.full(x.n, np.nan)
     v, a, Fd = _motion(x)
     w = r.wrapper()
     vmax = np.asarray(w.model.velocityLimit, dtype=float)[6:].copy()

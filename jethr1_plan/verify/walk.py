@@ -40,6 +40,9 @@ from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
 from jethr1_plan.io.input_file import read_input, read_input_text
+from jethr1_plan.records import topics as tp
+from jethr1_plan.records.plan_columns import PELVIS, ZMP
+from jethr1_plan.records.walk_columns import COM_REF
 from jethr1_plan.robot.load import load_robot
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
@@ -130,7 +133,8 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     Raises:
         InputError: an unreadable or malformed file or summary.
     """
-    from jethr1_plan.files.walk_folder import read_walk_csv, walk_columns
+    from jethr1_plan.files.walk_folder import read_walk_csv
+    from jethr1_plan.records.walk_columns import walk_columns
 
     src = str(folder / "summary.json")
     robot_ref = summary.get("robot_yaml") if isinstance(summary.get("robot_yaml"), str) and Path(
@@ -223,9 +227,9 @@ def _inverse_dynamics(c, robot: RobotModel, q, quat, rate: float) -> _Dynamics:
     over the soles down (as the written support says)."""
     n = len(q)
     unit = quat / np.linalg.norm(quat, axis=1)[:, None]
-    T = np.array([pose_from_quaternion([c["pelvis_x_m"][i], c["pelvis_y_m"][i], c["pelvis_z_m"][i]], unit[i])
+    T = np.array([pose_from_quaternion([c[k][i] for k in PELVIS], unit[i])
                   for i in range(n)])
-    pos = np.column_stack([c["pelvis_x_m"], c["pelvis_y_m"], c["pelvis_z_m"]])
+    pos = np.column_stack([c[k] for k in PELVIS])
     v, acc = row_motion(pos, unit, q, 1.0 / rate)
     w = robot.wrapper()
     d = _Dynamics(np.zeros((n, 3)), np.zeros((n, 2)), np.zeros(n), np.zeros_like(q), np.zeros((n, 2)),
@@ -262,7 +266,7 @@ def _check_rows(c, robot: RobotModel, q, quat, tl: Footsteps, rate: float, crite
     fail(np.flatnonzero(np.linalg.norm(com - written_com, axis=1) > TOL_M), "CoM",
          lambda i: f"written {np.round(written_com[i], 6).tolist()} m, forward kinematics "
                    f"{np.round(com[i], 6).tolist()} m")
-    lipm = np.column_stack([c["com_ref_x_m"], c["com_ref_y_m"]])
+    lipm = np.column_stack([c[k] for k in COM_REF])
     fail(np.flatnonzero(np.linalg.norm(com[:, :2] - lipm, axis=1) > criteria["com_tolerance_m"] + TOL_M), "CoM",
          lambda i: f"{1000 * np.linalg.norm(com[i, :2] - lipm[i]):.3f} mm from the LIPM's (tolerance "
                    f"{1000 * criteria['com_tolerance_m']:g} mm)")
@@ -317,7 +321,7 @@ def _check_dynamics(c, robot: RobotModel, d: _Dynamics, tl: Footsteps, criteria:
     zmp, tau, friction = d.zmp, d.tau, d.friction
     feet, air = tl.feet(c["time_s"])
     inner = np.arange(EDGE_ROWS, n - EDGE_ROWS)
-    written_zmp = np.column_stack([c["zmp_x_m"], c["zmp_y_m"]])
+    written_zmp = np.column_stack([c[k] for k in ZMP])
     fail(inner[np.linalg.norm(zmp - written_zmp, axis=1)[inner] > TOL_ZMP_M], "ZMP",
          lambda i: f"written {np.round(written_zmp[i], 5).tolist()} m, recomputed {np.round(zmp[i], 5).tolist()} m")
     written_tau = np.column_stack([c[f"{j}_tau_nm"] for j in robot.joint_names])
@@ -357,7 +361,7 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
 
     data = read_input(path, MAX_MCAP_BYTES, "a walk's MCAP")
     try:
-        messages = read_mcap(data, ["/joint_states"])
+        messages = read_mcap(data, [tp.JOINT_STATES])
     except Exception as exc:  # any corrupt MCAP is bad input, not a bug
         raise InputError(str(path), "", f"not a readable MCAP file ({type(exc).__name__}: {str(exc)[:80]})") from None
     states = [(m, ns) for _, _, m, ns in messages]
@@ -370,7 +374,7 @@ def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fai
             pos = np.asarray(m.position, dtype=float)
             names = list(m.name)
         except (AttributeError, TypeError, ValueError):
-            raise InputError(str(path), "/joint_states", "a message without name / position") from None
+            raise InputError(str(path), tp.JOINT_STATES, "a message without name / position") from None
         if names != list(robot.joint_names) or pos.shape != q[i].shape or np.any(pos != q[i]) \
                 or ns != expected_ns[i]:
             fail([i], "MCAP", "/joint_states differs from trajectory.csv's row")

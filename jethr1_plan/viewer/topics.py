@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from jethr1_plan.files.mcap import EPOCH_NS
+from jethr1_plan.records import topics as tp
+from jethr1_plan.records.plan_columns import ZMP_MARGIN
 
 __all__ = ["HANDLERS", "TIMELINE", "VIEW_EXTRA", "Scene", "ViewerMissing", "cloud_fields", "rerun", "since_start"]
 
@@ -96,7 +98,7 @@ def _transforms(rec: Any, path: str, times: list[int], msgs: list, prefix: str, 
     """``tf2_msgs/TFMessage``: per child frame, its parent → child transform over time (static for
     /tf_static)."""
     rr = rerun()
-    static = path.endswith("/tf_static")
+    static = path.endswith(tp.TF_STATIC)
     series: dict[str, dict[str, list]] = defaultdict(lambda: defaultdict(list))
     for t, msg in zip(times, msgs, strict=True):
         for ts in msg.transforms:
@@ -117,8 +119,8 @@ def _transforms(rec: Any, path: str, times: list[int], msgs: list, prefix: str, 
                                                         parent_frame=s["parent"], child_frame=[child] * len(s["t"])))
 
 
-_POINT_COLORS = {"/com": (230, 57, 70), "/zmp": (42, 157, 143), "/p_body": (120, 120, 120),
-                 "/swing_sole": (25, 150, 255), "/com_ref": (244, 162, 97), "/zmp_ref": (38, 70, 83),
+_POINT_COLORS = {tp.COM: (230, 57, 70), tp.ZMP: (42, 157, 143), tp.P_BODY: (120, 120, 120),
+                 tp.SWING_SOLE: (25, 150, 255), "/com_ref": (244, 162, 97), "/zmp_ref": (38, 70, 83),
                  "/sim/com": (230, 57, 70), "/sim/cop": (233, 196, 106)}
 
 
@@ -269,7 +271,7 @@ def _walk_analysis(rec: Any, path: str, times: list[int], msgs: list, prefix: st
     _plot(rec, "/plots/momentum/lower", times, col("h_lower_nms"), "lower body [N·m·s]", (31, 119, 180), scene)
     _plot(rec, "/plots/momentum/upper", times, col("h_upper_nms"), "arms [N·m·s]", (44, 160, 44), scene)
     _plot(rec, "/plots/kappa/kappa", times, col("kappa"), "κ(J_low)", (148, 103, 189), scene)
-    _plot(rec, "/plots/zmp_margin/walk", times, col("zmp_margin_m"), "ZMP margin [m]", (42, 157, 143), scene)
+    _plot(rec, "/plots/zmp_margin/walk", times, col(ZMP_MARGIN), "ZMP margin [m]", (42, 157, 143), scene)
 
 
 HANDLERS: dict[str, Callable[..., None]] = {

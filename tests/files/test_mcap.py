@@ -238,8 +238,8 @@ def test_the_json_rules_catch_the_defects_lichtblick_dropped(tmp_path):
 def test_same_input_same_bytes(files, written):
     """The plan written again from what its MCAP says: the same bytes (the fixed epoch, no versions,
     messages in log-time then declared-topic order; the table read back is the table written)."""
-    from jethr1_plan.files.plan_folder import read_plan
     from jethr1_plan.files.plan_mcap import table_mcap
+    from jethr1_plan.folders.plan import read_plan
 
     plan = read_plan(written["plan"])
     zmp_z = np.array([m.pose.position.z for topic, _, m, _ in read_mcap(files["trajectory"].read_bytes(), ["/zmp"])])

@@ -11,7 +11,8 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.plan_folder import folder_kind, read_plan
+from jethr1_plan.files.plan_folder import folder_kind
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.io.record import RECORD
 from tests.conftest import ROOT, rewritten
 

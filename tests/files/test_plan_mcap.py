@@ -13,9 +13,9 @@ import pytest
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.mcap import EPOCH_NS, Ros2Mcap, read_mcap
 from jethr1_plan.files.plan_csv import read_trajectory_csv
-from jethr1_plan.files.plan_folder import read_plan
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS, read_trajectory_mcap
 from jethr1_plan.files.plan_table import columns
+from jethr1_plan.folders.plan import read_plan
 from jethr1_plan.robot.urdf import urdf_joints
 
 

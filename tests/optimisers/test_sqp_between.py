@@ -10,6 +10,7 @@ import pytest
 
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import share_summary
+from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.robot.load import ROBOTS_DIR, forget_robots, load_robot
 from jethr1_plan.robot.variant import FanDesign, VariantDesign, variant_files
 from jethr1_plan.studies.ditch_curve import default_base, ditch_scenario
@@ -43,13 +44,14 @@ def test_a_narrow_ditch_plans_where_the_rows_once_failed_the_cone(tmp_path, fore
     result = plan(scenario, keep_going=True)
     rows = result.rows
     assert rows is not None
-    reasons = {str(r) for r, ok in zip(rows.array("reason"), rows.array("feasible"), strict=True) if not ok}
+    reasons = {str(r) for r, ok in zip(rows.array(RowField.REASON), rows.array(RowField.FEASIBLE), strict=True)
+               if not ok}
     assert all("friction ratio" in r for r in reasons), reasons
     assert share_summary(rows, scenario.balance.tolerance)["least"] >= least
-    swing = np.flatnonzero(rows.array("phase") == "swing")
+    swing = np.flatnonzero(rows.array(RowField.PHASE) == "swing")
     support = np.array([0.0, -0.1125])
-    com = rows.array("com")[swing, :2]
-    swing_xy = rows.array("swing")[swing, :2]
+    com = rows.array(RowField.COM_M)[swing, :2]
+    swing_xy = rows.array(RowField.SWING_M)[swing, :2]
     excess = np.array([float(edge_angle_excess(support, c, s, scenario.balance.rho_rad))
                        for c, s in zip(com, swing_xy, strict=True)])
     assert excess.max() <= 0.0

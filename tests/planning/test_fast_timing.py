@@ -85,7 +85,7 @@ def test_verify_restates_the_planners_dynamic_constraints(fast_trial, robot):
     """verify's own statement of the robust dynamic ZMP, grip and torques flags exactly the rows the planner's
     ``physics.path_dynamics`` finds over their limits, on the fast trial's rows held to less of the motion's budget
     (dynamic_share 0.95: a few hundred rows over)."""
-    from jethr1_plan.files.plan_folder import read_plan
+    from jethr1_plan.folders.plan import read_plan
     from jethr1_plan.geometry import SIDES, convex_hull, sole_polygon
     from jethr1_plan.physics.path_dynamics import Limits, path_constraints
     from jethr1_plan.physics.row_dynamics import row_derivatives

@@ -48,7 +48,7 @@ def test_summary_names_the_paced_swings_and_the_others_needed_no_pace(scattered)
     """summary.json's ``dynamics.paced_swings`` names each re-timed swing with its pace; pinocchio's margins of
     the written rows confirm it: a paced swing's least margin is the one recorded, and every swing not named
     keeps the multibody ZMP ``balance.sole_margin_m`` inside the sole under the minimum-jerk law."""
-    from jethr1_plan.planning.sequence import PACE_ACCEL
+    from jethr1_plan.planning.pacing import PACE_ACCEL
     from tests.oracles.plan_audit import audit_plan
 
     sc = load_scenario(SCATTERED)

@@ -1,0 +1,1 @@
+"""Written folders read back whole, with the scenario they were planned from."""
