@@ -249,10 +249,7 @@ def run_tasks(tasks: dict[str, Task], cache: Path, jobs: int = 1, executor: str 
 
 
 def default_cache(given: Path | str | None = None) -> Path:
-    """``given``, else $JETHR1_CACHE, else $XDG_CACHE_HOME/jethr1, else ~/.cache/jethr1."""
-    if given:
-        return Path(given)
-    if os.environ.get("JETHR1_CACHE"):
-        return Path(os.environ["JETHR1_CACHE"])
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "jethr1"
+    """``given``, else $JETHR1_CACHE, else $XDG_CACHE_HOME/jethr1, else ~/.cache/jethr1 (the maps' cache too)."""
+    from jethr1_plan.route.balance_map import cache_dir
+
+    return cache_dir(given)
