@@ -8,7 +8,8 @@ from typing import Protocol, TextIO
 
 import numpy as np
 
-from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic, cube_marker, point_cloud2
+from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic
+from jethr1_plan.files.messages import cube_marker, point_cloud2
 from jethr1_plan.io.csv_table import number_text as num
 from jethr1_plan.reasons import Reason, message
 from jethr1_plan.records.plan_columns import PELVIS, REASON

@@ -27,30 +27,12 @@ import numpy as np
 
 from jethr1_plan.files.cdr import CdrEncoder, parse_schema
 from jethr1_plan.files.messages import (
-    EPOCH_NS,
-    carton_markers,
-    cube_marker,
-    header,
-    joint_rotations,
-    joint_state,
-    joint_trajectory,
     log_times,
-    point_cloud2,
-    pose_stamped,
-    prefixed_urdf,
-    robot_transforms,
-    seconds,
-    stamps,
-    step_markers,
-    swing_path_markers,
-    urdf_message,
-    yaw_quaternions,
 )
 from jethr1_plan.files.ros2_msgs import MSGDEFS, schema_text
 from jethr1_plan.records.topics import MARKERS, POSE, STRING, TF, Topic
 
 __all__ = [
-    "EPOCH_NS",
     "MARKERS",
     "MCAP_MAGIC",
     "POSE",
@@ -59,27 +41,10 @@ __all__ = [
     "McapTooLarge",
     "Ros2Mcap",
     "Topic",
-    "carton_markers",
-    "cube_marker",
-    "header",
-    "joint_rotations",
-    "joint_state",
-    "joint_trajectory",
-    "log_times",
     "mcap_expanded_bytes",
-    "point_cloud2",
-    "pose_stamped",
-    "prefixed_urdf",
     "qos_profile",
     "read_mcap",
-    "robot_transforms",
-    "seconds",
-    "stamps",
-    "step_markers",
-    "swing_path_markers",
     "topics_markdown",
-    "urdf_message",
-    "yaw_quaternions",
 ]
 
 

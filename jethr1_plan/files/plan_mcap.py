@@ -10,15 +10,14 @@ from __future__ import annotations
 import numpy as np
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.mcap import (
+from jethr1_plan.files.mcap import Ros2Mcap, read_mcap
+from jethr1_plan.files.messages import (
     EPOCH_NS,
-    Ros2Mcap,
     carton_markers,
     header,
     joint_state,
     joint_trajectory,
     pose_stamped,
-    read_mcap,
     robot_transforms,
     seconds,
     swing_path_markers,

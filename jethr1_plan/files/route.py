@@ -14,16 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jethr1_plan.files.mcap import (
-    MARKERS,
-    Ros2Mcap,
-    Topic,
-    carton_markers,
-    cube_marker,
-    header,
-    point_cloud2,
-    swing_path_markers,
-)
+from jethr1_plan.files.mcap import MARKERS, Ros2Mcap, Topic
+from jethr1_plan.files.messages import carton_markers, cube_marker, header, point_cloud2, swing_path_markers
 from jethr1_plan.records import topics as tp
 from jethr1_plan.swing_path import Carton
 

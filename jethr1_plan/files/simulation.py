@@ -11,13 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.files.mcap import (
-    MARKERS,
-    POSE,
-    STRING,
-    TF,
-    Ros2Mcap,
-    Topic,
+from jethr1_plan.files.mcap import MARKERS, POSE, STRING, TF, Ros2Mcap, Topic
+from jethr1_plan.files.messages import (
     carton_markers,
     header,
     pose_stamped,

@@ -23,13 +23,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from jethr1_plan.files.mcap import (
-    MARKERS,
-    POSE,
-    STRING,
-    TF,
-    Ros2Mcap,
-    Topic,
+from jethr1_plan.files.mcap import MARKERS, POSE, STRING, TF, Ros2Mcap, Topic
+from jethr1_plan.files.messages import (
     cube_marker,
     header,
     joint_state,

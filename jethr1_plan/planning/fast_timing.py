@@ -48,15 +48,16 @@ CORNER_X_FLOOR = 1e-2  # the least ṡ² [samples²/s²] a corner's tangent is t
 class FastTiming:
     """The fastest timing's settings (``scenario.Timing``): ``dynamic_share`` of each row's tolerance share
     (and sole margin) held under the rows' motion, ``safety`` on the joint velocity, torque and friction
-    limits (the fans' lag ÷ it), the fans' spin-down allowance [N], the phases' floors and caps [s]."""
+    limits (the fans' lag ÷ it), the fans' spin-down allowance [N], the phases' floors and caps [s]; the
+    defaults are the scenario's."""
 
-    dynamic_share: float = 0.8
-    safety: float = 0.8
-    spin_down_n: float = 0.5
-    min_swing_s: float = 0.0
-    min_transfer_s: float = 0.0
-    max_swing_s: float = 300.0
-    max_transfer_s: float = 300.0
+    dynamic_share: float
+    safety: float
+    spin_down_n: float
+    min_swing_s: float
+    min_transfer_s: float
+    max_swing_s: float
+    max_transfer_s: float
 
     @classmethod
     def of(cls, timing) -> FastTiming:

@@ -357,7 +357,8 @@ def _worst(robot: RobotModel, tau: np.ndarray) -> str:
 
 def _check_mcap(path: Path, robot: RobotModel, q: np.ndarray, t: np.ndarray, fail) -> None:
     """The MCAP's ``/joint_states`` (decoded from the definitions it carries) against the CSV's rows."""
-    from jethr1_plan.files.mcap import log_times, read_mcap
+    from jethr1_plan.files.mcap import read_mcap
+    from jethr1_plan.files.messages import log_times
 
     data = read_input(path, MAX_MCAP_BYTES, "a walk's MCAP")
     try:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.files.mcap import EPOCH_NS
+from jethr1_plan.files.messages import EPOCH_NS
 from jethr1_plan.records import topics as tp
 from jethr1_plan.records.plan_columns import ZMP_MARGIN
 

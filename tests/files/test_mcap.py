@@ -16,7 +16,8 @@ import pytest
 import yaml
 
 from jethr1_plan.files.balance_space import BALANCE_SPACE_TOPICS
-from jethr1_plan.files.mcap import EPOCH_NS, Topic, read_mcap, topics_markdown
+from jethr1_plan.files.mcap import Topic, read_mcap, topics_markdown
+from jethr1_plan.files.messages import EPOCH_NS
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS
 from jethr1_plan.files.ros2_msgs import schema_text
 from jethr1_plan.files.route import ROUTE_TOPICS

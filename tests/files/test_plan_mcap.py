@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from jethr1_plan.errors import InputError
-from jethr1_plan.files.mcap import EPOCH_NS, Ros2Mcap, read_mcap
+from jethr1_plan.files.mcap import Ros2Mcap, read_mcap
+from jethr1_plan.files.messages import EPOCH_NS
 from jethr1_plan.files.plan_csv import read_trajectory_csv
 from jethr1_plan.files.plan_mcap import PLAN_TOPICS, read_trajectory_mcap
 from jethr1_plan.files.plan_table import columns

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from jethr1_plan.files.mcap import EPOCH_NS
+from jethr1_plan.files.messages import EPOCH_NS
 from jethr1_plan.files.walk_folder import read_walk_csv
 
 rosbags_highlevel = pytest.importorskip("rosbags.highlevel")

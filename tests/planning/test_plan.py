@@ -302,7 +302,7 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     read), times start at the documented epoch, every chunk's CRC is valid."""
     import datetime
 
-    from jethr1_plan.files.mcap import EPOCH_NS
+    from jethr1_plan.files.messages import EPOCH_NS
 
     msgs = read_mcap((planned / "trajectory.mcap").read_bytes())  # validates the CRCs
     desc = [m for m in msgs if m[0] == "/robot_description"]
