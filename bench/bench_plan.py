@@ -67,9 +67,9 @@ def default_against_gas(config: str = "jet_hr1_trial", repeats: int = 7) -> None
     print(f"{config}, whole plan (optimise, 50 Hz sequence, analysis, self-check, files), one core:")
     print(f"  default {result.method}: {best:.3f} s warm (best of {repeats}; median "
           f"{sorted(w[1] for w in warm)[repeats // 2]:.3f} s), {cold:.3f} s as the first plan in the process; "
-          f"{result.evaluations} evaluations; max {s['max_thrust_n']:.3f} N, mean {s['mean_thrust_n']:.3f} N, "
+          f"{result.evaluations} evaluations; max {s['peak_thrust_n']:.3f} N, mean {s['mean_thrust_n']:.3f} N, "
           f"Σ‖ΔP‖² {s['smoothness_m2']:.2e} m² (target < 1 s)")
-    print(f"  gas: {gas_best:.3f} s (best of 3), {gas.evaluations} evaluations; max {g['max_thrust_n']:.3f} N, "
+    print(f"  gas: {gas_best:.3f} s (best of 3), {gas.evaluations} evaluations; max {g['peak_thrust_n']:.3f} N, "
           f"mean {g['mean_thrust_n']:.3f} N, Σ‖ΔP‖² {g['smoothness_m2']:.2e} m²")
     print(f"  ratio gas / default: wall {gas_best / best:.1f}x, "
           f"evaluations {gas.evaluations / result.evaluations:.1f}x")
@@ -108,7 +108,7 @@ def main(config: str = "jet_hr1_trial", repeats: int = 5) -> None:
     s = plan_summary(result)
     print(f"{config}: {s['sample_count']} swing samples, {result.evaluations} evaluations "
           f"({n_ik} PlaCo IK runs; the {s['row_count']} output rows in closed form), feasible={s['feasible']}, "
-          f"max thrust {s['max_thrust_n']:.2f} N, mean {s['mean_thrust_n']:.2f} N")
+          f"max thrust {s['peak_thrust_n']:.2f} N, mean {s['mean_thrust_n']:.2f} N")
     print(f"best of {repeats} runs for each side:")
     print(f"planner wall time : {wall:6.2f} s (optimise + sequence {t_plan:.2f} s, write {wall - t_plan:.2f} s), "
           f"{result.evaluations / wall:,.0f} evaluations/s")

@@ -74,7 +74,7 @@ def route_one(terrain, maps, out: Path) -> dict:
     w1, c1 = clocks()
     rec = {"found": True, "steps": len(o.steps), "cost": summary["route"]["cost"], "replans": len(o.blacklisted),
            "wall_s": w1 - w0, "cpu_s": c1 - c0, "search_s": search, "plan_s": o.plan_s,
-           "max_thrust_n": summary["max_thrust_n"], "least_zmp_margin_m":
+           "peak_thrust_n": summary["peak_thrust_n"], "least_zmp_margin_m":
                summary.get("robustness", {}).get("least_zmp_margin_m"), "feasible": summary["feasible"]}
     rec["verify"] = verified(folder)
     rec["rehearsal"] = rehearse_nominal(folder)
@@ -200,15 +200,15 @@ def paper_a(maps_for, out: Path) -> list[dict]:
         res = plan(hand)
         s = plan_summary(res)
         folder, _ = write_plan(res, out / "hand", s, check=lambda text, res=res, s=s: self_check(text, res, s, False))
-        hand_rec = {"steps": len(hand.steps), "max_thrust_n": s["max_thrust_n"],
+        hand_rec = {"steps": len(hand.steps), "peak_thrust_n": s["peak_thrust_n"],
                     "least_zmp_margin_m": s["robustness"]["least_zmp_margin_m"], "wall_s": time.perf_counter() - w0,
                     "landings": [[st.swing, [round(v, 4) for v in st.landing_m.tolist()]] for st in hand.steps],
                     "rehearsal": rehearse_nominal(folder)}
         sc = load_scenario(out / "routes" / name / "route.yaml") if r["found"] else None
         r["landings"] = [[st.swing, [round(v, 4) for v in st.landing_m.tolist()]] for st in sc.steps] if sc else []
         rows.append({"terrain": name, "route": r, "hand": hand_rec})
-        print(f"{name}: route {r.get('steps')} steps {r['landings']} max {r.get('max_thrust_n')} N; Paper A "
-              f"{hand_rec['steps']} steps {hand_rec['landings']} max {hand_rec['max_thrust_n']:.2f} N", flush=True)
+        print(f"{name}: route {r.get('steps')} steps {r['landings']} max {r.get('peak_thrust_n')} N; Paper A "
+              f"{hand_rec['steps']} steps {hand_rec['landings']} max {hand_rec['peak_thrust_n']:.2f} N", flush=True)
     return rows
 
 

@@ -513,7 +513,7 @@ ROBOT_CASES = {
     "zero-trunk-mass.plan": ("plan", None, lambda u: _link_mass(u, "trunk", "0")),
     "unknown-key.show": ("show", lambda d: d.update(colour="red"), None),
     "zero-sole-length.plan": ("plan", lambda d: d["sole"].update(length_m=0.0), None),
-    "nan-fan-thrust.show": ("show", lambda d: d["fans"][0].update(max_thrust_n=float("nan")), None),
+    "nan-fan-thrust.show": ("show", lambda d: d["fans"][0].update(thrust_max_n=float("nan")), None),
     "negative-lag.show": ("show", lambda d: d["fans"][0].update(lag_s=-0.1), None),
 }
 for _cid, (_cmd, _ye, _ue) in ROBOT_CASES.items():
@@ -1488,9 +1488,9 @@ for _name, (_argv, _setup) in {
     "replan-steps.name-dots": (["replan-steps", "{W}/s.yaml", NP, "-o", "{W}/o"],
                                _scenario("s.yaml", lambda d: d.update(name=".."))),
     "verify.nan-in-summary": (["verify", "{W}/plan"], _all(_plan(), _summary_text(
-        "plan", lambda t: re.sub(r'"max_thrust_n": [\d.]+', '"max_thrust_n": NaN', t, count=1)))),
+        "plan", lambda t: re.sub(r'"peak_thrust_n": [\d.]+', '"peak_thrust_n": NaN', t, count=1)))),
     "simulate.nan-in-summary": (["simulate", "{W}/plan", NP], _all(_plan(), _summary_text(
-        "plan", lambda t: re.sub(r'"max_thrust_n": [\d.]+', '"max_thrust_n": NaN', t, count=1)))),
+        "plan", lambda t: re.sub(r'"peak_thrust_n": [\d.]+', '"peak_thrust_n": NaN', t, count=1)))),
     "robot.shank-1e30.show": (["robot", "show", "{W}/r/jethr1.yaml"],
                               _robot("r", urdf_edit=lambda u: _mass(_mass(u, "left_shank", "1e30"), "right_shank",
                                                                     "1e30"))),

@@ -289,7 +289,7 @@ def _optimiser(opt: dict, robot, src: str) -> OptimiserConfig:
 def _balance(bal: dict, robot, src: str) -> BalanceConfig:
     """``balance:``: the thrust limit (by default the robot's largest fan, never above it), the policy and its
     tolerance, the sole margin (leaving a support polygon)."""
-    fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)  # the limit caps every fan; by default none
+    fan_max = max((f.thrust_max_n for f in robot.fans), default=0.0)  # the limit caps every fan; by default none
     if bal.get("thrust_max_n", fan_max) > fan_max:
         raise InputError(src, "balance.thrust_max_n", f"{bal['thrust_max_n']:g} N is more than the robot's fans give "
                          f"({fan_max:g} N)")

@@ -102,7 +102,8 @@ SCHEMA = _obj({
                     "min_swing_s": {"type": "number", "minimum": 0, "maximum": 300},
                     "min_transfer_s": {"type": "number", "minimum": 0, "maximum": 300},
                     "max_swing_s": _duration, "max_transfer_s": _duration}),
-    "expect": _obj({"feasible": {"type": "boolean"}, "max_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
+    "expect": _obj({"feasible": {"type": "boolean"},
+                    "peak_thrust_n": {"type": "number", "minimum": 0, "maximum": 1e4}}),
 }, ("steps",))
 
 #: the YAML's names of a Tolerance's fields (``balance.robust``)

@@ -69,3 +69,19 @@ def test_files_importing_the_planner_fail(tmp_path):
     assert any("planted.py" in p and "jethr1_plan.planning.results" in p for p in found)
     assert any("planted_relative.py" in p and "jethr1_plan.scenario" in p for p in found)
     assert not any("planted_fine.py" in p for p in found)
+
+
+def test_the_retired_spelling_of_the_thrust_limit_fails(tmp_path):
+    """``max_thrust_n`` anywhere in the package, a shipped robot or a config fails, but where the input reader
+    names it as renamed."""
+    root = _tree(tmp_path)
+    for folder in ("robots", "configs"):
+        shutil.copytree(ROOT / folder, root / folder)
+    assert not cv.retired_spellings(root)
+    (root / "jethr1_plan" / "sim" / "planted.py").write_text("def f(fan):\n    return fan.max_thrust_n\n")
+    bot = root / "robots" / "jethr1" / "jethr1.yaml"
+    bot.write_text(bot.read_text().replace("thrust_max_n", "max_thrust_n", 1))
+    found = cv.problems(root, _vocabulary())
+    assert any("sim/planted.py:2: max_thrust_n" in p for p in found)
+    assert any("robots/jethr1/jethr1.yaml" in p and "max_thrust_n" in p for p in found)
+    assert not any(cv.RETIRED_HOME in p for p in found)

@@ -4,12 +4,16 @@
   (:data:`HOME`: ``records/plan_columns.py``); at most :data:`MAX_STRAYS` literals of those names elsewhere
   (docstrings aside; the names that are also ordinary words of other records, ``SHARED_WORDS`` there, are
   not counted);
-* ``files/`` serialises records and imports none of the planner's packages (:data:`PLANNER`).
+* ``files/`` serialises records and imports none of the planner's packages (:data:`PLANNER`);
+* the thrust limit has one spelling, ``thrust_max_n`` (a fan's and a scenario's), and the largest thrust a
+  plan uses is ``peak_thrust_n``: the retired spelling (:data:`RETIRED`) appears nowhere in the package, the
+  shipped robots or configs, but where the input reader names it as renamed (:data:`RETIRED_HOME`).
 """
 
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from collections import Counter
 from collections.abc import Iterable
@@ -19,6 +23,10 @@ HOME = "jethr1_plan/records/plan_columns.py"
 MAX_STRAYS = 10
 #: what ``files/`` may not import: the planner and the scenario it plans
 PLANNER = ("planning", "walking", "balance_space", "route", "scenario")
+RETIRED = ("max_thrust_n", "max_thrust_per_fan_n")
+RETIRED_HOME = "jethr1_plan/io/yaml_input.py"
+#: where the retired spellings are looked for: the package's code and data, the shipped robots and configs
+RETIRED_SCOPE = (("jethr1_plan", ("*.py", "*.json")), ("robots", ("*.yaml",)), ("configs", ("*.yaml",)))
 
 
 def _docstrings(tree: ast.AST) -> set[int]:
@@ -71,6 +79,21 @@ def planner_imports(root: Path) -> list[tuple[str, int, str]]:
     return out
 
 
+def retired_spellings(root: Path) -> list[tuple[str, int, str]]:
+    """(file, line, word) of every use of a :data:`RETIRED` spelling outside :data:`RETIRED_HOME`."""
+    word = re.compile(r"\b(" + "|".join(RETIRED) + r")\b")
+    out = []
+    for folder, patterns in RETIRED_SCOPE:
+        for pattern in patterns:
+            for p in sorted((root / folder).rglob(pattern)):
+                rel = p.relative_to(root).as_posix()
+                if rel == RETIRED_HOME or "__pycache__" in rel:
+                    continue
+                for k, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1):
+                    out += [(rel, k, m.group(1)) for m in word.finditer(line)]
+    return out
+
+
 def problems(root: Path, vocabulary: Iterable[str], max_strays: int = MAX_STRAYS) -> list[str]:
     vocabulary = set(vocabulary)
     out = []
@@ -85,6 +108,8 @@ def problems(root: Path, vocabulary: Iterable[str], max_strays: int = MAX_STRAYS
         out += [f"  {m}:{line}: {name!r}" for m, line, name in strays]
     for m, line, t in planner_imports(root):
         out.append(f"{m}:{line}: imports {t}: files/ serialises records and imports none of {', '.join(PLANNER)}")
+    for m, line, w in retired_spellings(root):
+        out.append(f"{m}:{line}: {w}: the thrust limit is thrust_max_n, the plan's largest thrust peak_thrust_n")
     return out
 
 
@@ -98,7 +123,8 @@ def main(root: Path) -> int:
         print(p)
     strays = len(stray_literals(root, vocabulary))
     print(f"vocabulary: {len(vocabulary)} plan column names, {strays} literals outside {HOME}, "
-          f"files/ imports no planner: " + ("ok" if not found else f"{len(found)} problems"))
+          "files/ imports no planner, one spelling of the thrust limit: "
+          + ("ok" if not found else f"{len(found)} problems"))
     return 1 if found else 0
 
 

@@ -47,7 +47,7 @@ class SweepSpec:
         if self.support_xyz is None:
             object.__setattr__(self, "support_xyz", tuple(float(v) for v in self.model.start_feet()[self.support_side]))
         if self.thrust_max_n is None:
-            object.__setattr__(self, "thrust_max_n", max((f.max_thrust_n for f in self.model.fans), default=0.0))
+            object.__setattr__(self, "thrust_max_n", max((f.thrust_max_n for f in self.model.fans), default=0.0))
 
     @property
     def model(self) -> RobotModel:

@@ -42,7 +42,7 @@ def _sweep_spec(robot, support, support_position, ranges, resolution, thrust_max
     x_range, y_range, z_range = ranges
     if support_position is None:
         support_position = tuple(float(v) for v in robot.start_feet()[support])
-    fan_max = max((f.max_thrust_n for f in robot.fans), default=0.0)
+    fan_max = max((f.thrust_max_n for f in robot.fans), default=0.0)
     if thrust_max is not None and thrust_max > fan_max:
         raise InputError("--thrust-max", f"{thrust_max:g}", f"more than the robot's fans give ({fan_max:g} N)")
     sx, sy, sz = support_position

@@ -64,7 +64,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
         raise
     code = batch_exit_code(records)
     doc: dict[str, Any] = {"exit_code": code, "scenarios": [{k: v for k, v in r.items() if k != "summary"} | {
-        "max_thrust_n": (r.get("summary") or {}).get("max_thrust_n"),
+        "peak_thrust_n": (r.get("summary") or {}).get("peak_thrust_n"),
         "mean_thrust_n": (r.get("summary") or {}).get("mean_thrust_n"),
         "feasible": (r.get("summary") or {}).get("feasible"),
         "wall_s": (r.get("summary") or {}).get("wall_s")} for r in records]}
@@ -78,7 +78,7 @@ def batch(scenarios, manifest, outdir, jobs, executor, scheduler, as_json, no_pr
         return "" if v is None else f"{v:.2f}"
 
     for r in doc["scenarios"]:
-        t.add_row(r["name"], r["status"], fmt(r["max_thrust_n"]), fmt(r["mean_thrust_n"]), fmt(r["wall_s"]),
+        t.add_row(r["name"], r["status"], fmt(r["peak_thrust_n"]), fmt(r["mean_thrust_n"]), fmt(r["wall_s"]),
                   "; ".join(r.get("expectations_failed") or []) or ("ok" if r.get("expect") else "-"))
     err_console.print(t)
     for r in records:

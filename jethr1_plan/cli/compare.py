@@ -94,7 +94,7 @@ def compare_cmd(scenario_path, outdir, methods, seed, reference, yaw_modes, pare
     for col in cols:
         t.add_column(col, justify="right")
     for name, m in doc["methods"].items():
-        row = [name, f"{m['max_thrust_n']:.3f}", f"{m['mean_thrust_n']:.3f}", f"{m['smoothness_m2']:.2e}",
+        row = [name, f"{m['peak_thrust_n']:.3f}", f"{m['mean_thrust_n']:.3f}", f"{m['smoothness_m2']:.2e}",
                f"{m['max_step_m']:.4f}", f"{m['max_thrust_jump_n']:.3f}", str(m["evaluations"]), f"{m['wall_s']:.2f}",
                str(m["feasible"]), _dynamic(m.get("dynamic_zmp_margin_m")), fmt(m["peak_yaw_rate_rad_s"], 4),
                fmt(m["peak_yaw_accel_rad_s2"], 4)]
@@ -128,15 +128,15 @@ def _pareto(scenario, names, seed, jobs, outdir, as_json, no_progress) -> None:
     for m, pts in doc["fronts"].items():
         for p in pts:
             t.add_row(m + (" (default)" if p["default"] else ""), f"{p['weight']:g}",
-                      f"{p['max_thrust_n']:.3f}" if p["max_thrust_n"] is not None else "",
+                      f"{p['peak_thrust_n']:.3f}" if p["peak_thrust_n"] is not None else "",
                       f"{p['mean_thrust_n']:.3f}" if p["mean_thrust_n"] is not None else "",
                       f"{p['smoothness_m2']:.2e}", str(p["evaluations"]), f"{p['wall_s']:.2f}",
                       "yes" if p["on_front"] else ("infeasible" if not p["feasible"] else ""))
     err_console.print(t)
     for m, v in doc.get("verdict", {}).items():
         word = "dominates" if v["dominates_gas"] else "does not dominate"
-        err_console.print(f"{m} at its default {word} GAS: max {v['max_thrust_n'][0]:.3f} vs "
-                          f"{v['max_thrust_n'][1]:.3f} N,"
+        err_console.print(f"{m} at its default {word} GAS: max {v['peak_thrust_n'][0]:.3f} vs "
+                          f"{v['peak_thrust_n'][1]:.3f} N,"
                           f" mean {v['mean_thrust_n'][0]:.3f} vs {v['mean_thrust_n'][1]:.3f} N, Σ‖ΔP‖² "
                           f"{v['smoothness_m2'][0]:.2e} vs {v['smoothness_m2'][1]:.2e} m², "
                           f"{v['evaluation_factor']:.1f}x fewer evaluations", markup=False)

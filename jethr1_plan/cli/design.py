@@ -83,7 +83,7 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     rows = variant_rows(spec, variants, keys, results, base.mass_kg)
     best = best_variants(rows, spec.best)
     base_info = {"name": base.name, "mass_kg": base.mass_kg,
-                 "fans": [{"name": f.name, "mount": f.mount, "max_thrust_n": f.max_thrust_n,
+                 "fans": [{"name": f.name, "mount": f.mount, "thrust_max_n": f.thrust_max_n,
                            "offset_m": list(f.offset_m)} for f in base.fans]}
     doc = design_doc(spec, base_info, rows, [r["variant"] for r in best])
     names = {k: v.name for v, k in zip(variants, keys, strict=True)}
@@ -125,5 +125,5 @@ def best_table(spec, best) -> Table:
     for r in best:
         w = r["result"]["widest"]
         t.add_row(r["variant"], *(f"{r['values'][a.name]:g}" for a in spec.axes), f"{r['added_mass_kg']:+.3f}",
-                  mm(w["whole"]), mm(w["half"]), mm(w["crossed"]), f"{w['whole']['max_thrust_n']:.2f}")
+                  mm(w["whole"]), mm(w["half"]), mm(w["crossed"]), f"{w['whole']['peak_thrust_n']:.2f}")
     return t

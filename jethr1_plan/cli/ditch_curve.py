@@ -112,5 +112,5 @@ def robustness_table(doc: dict) -> Table:
         held, at = r["tolerance"], r["share_at"]
         t.add_row(f"{r['gap_m']:.3f}", f"{r['share']:.3f}", f"±{100 * held['thrust_error']:.1f} %",
                   f"±{100 * held['mass_error']:.1f} %", f"{1000 * held['com_error_m']:.1f}",
-                  f"{at['phase']} row {at['row']}", f"{r['max_thrust_n']:.2f}", f"{r['mean_thrust_n']:.2f}")
+                  f"{at['phase']} row {at['row']}", f"{r['peak_thrust_n']:.2f}", f"{r['mean_thrust_n']:.2f}")
     return t

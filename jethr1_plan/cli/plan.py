@@ -96,7 +96,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
 
     c = err_console
     c.print(f"[green]feasible[/] {summary['scenario']}: {summary['sample_count']} swing samples, "
-            f"max thrust {summary['max_thrust_n']:.2f} N, mean {summary['mean_thrust_n']:.2f} N, "
+            f"max thrust {summary['peak_thrust_n']:.2f} N, mean {summary['mean_thrust_n']:.2f} N, "
             f"{summary['evaluations']} evaluations in {summary['wall_s']:.1f} s")
     b = summary["balance"]
     tol = b["tolerance"]

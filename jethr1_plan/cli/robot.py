@@ -50,7 +50,7 @@ def _print_robot(summary: dict) -> None:
     for col in ("fan", "frame", "on", "max thrust [N]", "offset in its mount [m]"):
         f.add_column(col)
     for fan in summary["fans"]:
-        f.add_row(fan["name"], fan["frame"], fan["mount"], f"{fan['max_thrust_n']:.1f}",
+        f.add_row(fan["name"], fan["frame"], fan["mount"], f"{fan['thrust_max_n']:.1f}",
                   ", ".join(f"{v:+.3f}" for v in fan["offset_m"]))
     out.print(f)
     sensors = [name for name in ("imu", "encoders", "soles") if summary["sensors"][name] is not None]

@@ -92,7 +92,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
         p = s["plan"] or {}
         at = [round(v, 4) for v in s["landing_m"]]
         line = (f"  {s['index'] + 1}. {s['swing']:5s} foot -> {s['carton']:>8s} at {at}: plan max "
-                f"{p.get('max_thrust_n', float('nan')):.2f} N, least ZMP margin "
+                f"{p.get('peak_thrust_n', float('nan')):.2f} N, least ZMP margin "
                 f"{1000 * (p.get('least_zmp_margin_m') or 0.0):.1f} mm")
         if p.get("least_tolerance_share") is not None:
             line += f", tolerance share {100 * p['least_tolerance_share']:.0f} %"

@@ -232,7 +232,7 @@ def _table(plan_dir, controller, runs, perturbations, track, executions) -> None
                   f"{1000 * float(np.hypot(*p['com_offset_m'])):.1f}", f"{p['fan_lag_s']:.3f}",
                   f"{p['servo_stiffness_scale']:.3f}", "yes" if inside else "no", verdict,
                   f"{r.max_trunk_tilt_deg:.2f}", "-" if not land else f"{land:.4f}", f"{r.support_max_slip_m:.4f}",
-                  "-" if r.least_cop_margin_m is None else f"{r.least_cop_margin_m:.4f}", f"{r.max_thrust_n:.2f}")
+                  "-" if r.least_cop_margin_m is None else f"{r.least_cop_margin_m:.4f}", f"{r.peak_thrust_n:.2f}")
     if shown:
         err_console.print(t)
     if executions is not None and len(runs) == 1:

@@ -88,7 +88,7 @@ class Controller:
         self.imu_law = ImuThrust(self.imu_gains)
         self.placing = law is not None and robot.sensors.imu is not None
         self.place = SwingPlacement(placement or PlacementGains(), len(robot.joint_names))
-        self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])
+        self.caps = np.array([min(f.thrust_max_n, thrust_max_n) for f in robot.fans])
         self.lag = np.array([f.lag_s for f in robot.fans])
         self.stiffness = robot.servo_stiffness_nm_per_rad
         self.legs = {s: np.array(robot.legs[s].index) for s in SIDES}

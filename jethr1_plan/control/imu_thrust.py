@@ -57,7 +57,8 @@ def imu_law(gains: ImuGains) -> dict:
                   "[rad/s]",
         "reference": "the planned trunk attitude; the direction from the planned support sole to the planned fan",
         "gains": asdict(gains),
-        "saturation": {"lower": "0", "upper": "each carrying fan's max_thrust_n and the plan's thrust_max_n"},
+        "saturation": {"lower": "0",
+                       "upper": "least of each carrying fan's thrust_max_n and the scenario's balance.thrust_max_n"},
         "active": "single support; in double support the planned thrust, the integral leaking away",
         "description": " ".join(__doc__.split("\n\n")[0].split()),
     }

@@ -75,7 +75,7 @@ def law(gains: Gains, thrust_error: float, mass_error: float, thrust_max_n: floa
                         "lag) and <joint>_cmd_rad (the posture plus the servos' sag under the row's static torque); "
                         "the thrust the law adds, ΔF, moves the swing leg's commands by J_fanᵀ·ΔF / stiffness",
         "gains": asdict(gains),
-        "saturation": {"lower": "0", "upper": f"min({thrust_max_n:g}, each carrying fan's max_thrust_n / its share)"},
+        "saturation": {"lower": "0", "upper": f"min({thrust_max_n:g}, each carrying fan's thrust_max_n / its share)"},
         "plan_tolerance": {"thrust_error": thrust_error, "mass_error": mass_error},
         "active": "single support; in double support the planned thrust alone",
         "description": __doc__.split("\n\n")[1].strip(),

@@ -90,14 +90,38 @@ def check_finite(doc, src: str, path=()) -> None:
         raise InputError(src, keypath(path), f"{doc} is not a finite number")
 
 
+#: keys an earlier version of the files spelled otherwise: the old spelling and its successors (the one the
+#: schema at that place knows is named). The thrust limit is ``thrust_max_n`` (a fan's, a scenario's cap); the
+#: largest thrust a plan uses is ``peak_thrust_n``.
+RENAMED_KEYS: dict[str, tuple[str, ...]] = {"max_thrust_n": ("thrust_max_n", "peak_thrust_n")}
+
+
+def renamed(err) -> tuple[str, str] | None:
+    """An unknown key that an earlier version spelled this way: (its key path, the problem naming its new
+    spelling)."""
+    if err.validator != "additionalProperties" or not isinstance(err.instance, dict):
+        return None
+    known = err.schema.get("properties", {})
+    for old in sorted(set(err.instance) & set(RENAMED_KEYS)):
+        new = [k for k in RENAMED_KEYS[old] if k in known]
+        if new:
+            return keypath([*err.absolute_path, old]), f"renamed: write {new[0]} instead"
+    return None
+
+
 def check_schema(doc: dict, src: str, schema: dict) -> None:
-    """The first violation of ``schema`` as one short InputError (unknown key, missing key, type, bound)."""
+    """The first violation of ``schema`` as one short InputError (unknown key, missing key, type, bound; a key
+    spelled as an earlier version did is named with its new spelling)."""
     import jsonschema
 
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
     if not errors:
         return
+    for e in errors:
+        old = renamed(e)
+        if old is not None:
+            raise InputError(src, *old)
     err = errors[0]
     # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
     while err.context:

@@ -285,7 +285,7 @@ def kernel_params(robot: RobotModel, support_side: str, support_xyz: np.ndarray,
         scalars=np.array([1.0 if support_side == "left" else -1.0, rho_rad, thrust_max_n, weight_n,
                           edge_penalty_n_per_deg, tolerance.thrust, tolerance.mass, tolerance.com_m,
                           math.tan(rho_rad) if rho_rad < math.pi / 2 else -1.0]),
-        fans=np.array([[float(f.on_trunk), f.offset_m[0], f.offset_m[1], f.max_thrust_n] for f in fans],
+        fans=np.array([[float(f.on_trunk), f.offset_m[0], f.offset_m[1], f.thrust_max_n] for f in fans],
                       dtype=float).reshape(len(fans), 4),
         arcs=limit_arcs(limits),
     )

@@ -146,7 +146,7 @@ def path_constraints(robot: RobotModel, base: np.ndarray, q: np.ndarray, dq: np.
     tmax = robot.servo_limit_nm * limits.safety
     mu = limits.friction * limits.safety
     lag = np.array([f.lag_s for f in robot.fans]) / limits.safety
-    fmax = np.array([f.max_thrust_n for f in robot.fans])
+    fmax = np.array([f.thrust_max_n for f in robot.fans])
     names = ([f"ZMP edge {k} mass {sgn}" for k in range(len(offsets)) for sgn in "+-"]
              + [f"friction {sx}x {sy}y" for sx in "+-" for sy in "+-"] + ["torsion +", "torsion -", "ground pulls"]
              + [f"torque {j} {sgn}" for j in robot.joint_names for sgn in "+-"])

@@ -304,7 +304,7 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
     rows.set_analysis(a["tau"], a["kappa"], a["yaw_momentum"],
                       servo_commands(q, a["tau"], robot.servo_stiffness_nm_per_rad, 1.0 / dt),
                       fan_commands(thrust, 1.0 / dt, np.array([f.lag_s for f in fans]),
-                                   np.array([f.max_thrust_n for f in fans])))
+                                   np.array([f.thrust_max_n for f in fans])))
     ratio = np.abs(a["tau"]) / robot.servo_limit_nm
     dyn = plan_row_dynamics(rows, robot, dt)
     rows.analysis = {"energy_j": a["energy_j"], "ratio": ratio, "dynamics": dyn}

@@ -52,7 +52,7 @@ def sample_problem(scenario: Scenario, robot: RobotModel, support: str, support_
                          support_polygon=poly, mass_kg=robot.mass_kg, thrust_max_n=scenario.balance.thrust_max_n,
                          rho_rad=scenario.balance.rho_rad, tolerance=scenario.balance.tolerance,
                          fan_on_trunk=np.array([f.on_trunk for f in fans], dtype=bool),
-                         fan_max_n=np.array([f.max_thrust_n for f in fans], dtype=float),
+                         fan_max_n=np.array([f.thrust_max_n for f in fans], dtype=float),
                          fan_index=np.array(index, dtype=np.int64))
 
 

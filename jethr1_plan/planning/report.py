@@ -121,7 +121,7 @@ def _step_summary(st) -> dict:
     fin = thrust[np.isfinite(thrust)]
     return {
         "index": st.index, "swing": st.swing, "support": st.support, "samples": len(st.samples),
-        "max_thrust_n": float(fin.max()) if len(fin) else None,
+        "peak_thrust_n": float(fin.max()) if len(fin) else None,
         "mean_thrust_n": float(fin.mean()) if len(fin) else None,
         **smoothness(st.p_body, thrust),
         "evaluations": int(sum(s.evaluations for s in st.samples)),
@@ -151,7 +151,7 @@ def plan_summary(result: PlanResult) -> dict:
         "first_infeasible": None if result.first_infeasible is None else result.first_infeasible.to_dict(),
         "sample_count": int(sum(len(st.samples) for st in result.steps)),
         "row_count": len(result.rows) if result.rows is not None else 0,
-        "max_thrust_n": float(thr.max()) if len(thr) else None,
+        "peak_thrust_n": float(thr.max()) if len(thr) else None,
         "mean_thrust_n": float(thr.mean()) if len(thr) else None,
         "thrust_max_n": sc.balance.thrust_max_n,
         "balance": {"policy": sc.balance.policy, "sole_margin_m": sc.balance.sole_margin_m,
@@ -181,8 +181,8 @@ def _rows_summary(result: PlanResult, rows: Rows) -> dict:
     per_fan = {f: rows.fan(f) for f in fans}
     out["trajectory"] = {"rows": len(rows), "rate_hz": sc.timing.rate_hz,
                          "duration_s": len(rows) / sc.timing.rate_hz,
-                         "max_thrust_n": float(max(v.max() for v in per_fan.values())),
-                         "max_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
+                         "peak_thrust_n": float(max(v.max() for v in per_fan.values())),
+                         "peak_thrust_per_fan_n": {f: float(v.max()) for f, v in per_fan.items()}}
     robustness = robustness_summary(rows)
     shares = share_summary(rows, sc.balance.tolerance)
     if shares is not None:

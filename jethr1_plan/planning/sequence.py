@@ -86,7 +86,7 @@ class SequenceBuilder:
         #: instead of linearly (a fastest timing: the trunk's path has no corner at a sample for the rows to feel)
         self.smooth_trunk = False
         self.linear_segments: set[int] = set()  # segments (i → i + 1) kept linear where the smooth trunk fails
-        self.caps = np.array([min(f.max_thrust_n, thrust_max_n) for f in robot.fans])  # per fan [N]
+        self.caps = np.array([min(f.thrust_max_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
     def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
         return sole_polygon(xyz[:2], 0.0, self.robot.sole_length_m, self.robot.sole_width_m, margin_m)
@@ -100,10 +100,10 @@ class SequenceBuilder:
         if len(carry) == 1:  # one fan: its own window (Paper A)
             k = int(carry[0])
             w_lo, w_hi = thrust_window(com_xy, fans_xy[k], polygon, self.robot.mass_kg)
-            lo, hi = float(w_lo), min(float(w_hi), self.robot.fans[k].max_thrust_n)
+            lo, hi = float(w_lo), min(float(w_hi), self.robot.fans[k].thrust_max_n)
         else:
             w_lo, w_hi = shared_window(com_xy, fans_xy[carry], share[carry], polygon, self.robot.mass_kg)
-            fmax = np.array([self.robot.fans[k].max_thrust_n for k in carry])
+            fmax = np.array([self.robot.fans[k].thrust_max_n for k in carry])
             lo, hi = float(w_lo), min(float(w_hi), float(np.min(fmax / share[carry])))
         return (lo, hi) if lo <= hi else (np.nan, np.nan)
 

@@ -240,7 +240,7 @@ def _fans(doc: dict, robot, legs: dict[str, Leg], trunk: str, frames: set[str], 
         axis = tuple(float(a) for a in fd.get("axis", [0, 0, 1]))
         if axis != (0.0, 0.0, 1.0):
             raise RobotModelError(src, f"{key}.axis", "only vertical thrust [0, 0, 1] is modelled")
-        fans.append(Fan(fd.get("name", frame), frame, mount, soles.get(mount), float(fd["max_thrust_n"]),
+        fans.append(Fan(fd.get("name", frame), frame, mount, soles.get(mount), float(fd["thrust_max_n"]),
                         (float(off[0]), float(off[1]), float(off[2])), float(fd.get("lag_s", 0.05))))
     for k, fan in enumerate(fans):
         if not fan.name.replace("_", "").isalnum():

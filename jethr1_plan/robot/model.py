@@ -90,7 +90,7 @@ class Fan:
     frame: str
     mount: str  # the frame it is fixed to: a leg's sole frame or the trunk frame
     leg: str | None  # the side whose sole carries it, or None on the trunk
-    max_thrust_n: float
+    thrust_max_n: float
     offset_m: tuple[float, float, float]  # thrust point in the mount frame [m]
     lag_s: float = 0.05  # time constant of the thrust's first-order response to a command [s]
 

@@ -3,7 +3,7 @@
 The file is read as scenarios are (:func:`jethr1_plan.io.yaml_input.read_document`: bounded size, no
 duplicate keys, aliases bounded, NaN and infinities refused), then checked against :data:`SCHEMA`;
 each problem is one :class:`~jethr1_plan.errors.RobotModelError` with the key's full path
-(``fans[0].max_thrust_n``). What the schema cannot say (frames and joints that exist in the URDF,
+(``fans[0].thrust_max_n``). What the schema cannot say (frames and joints that exist in the URDF,
 the trunk being its root) is checked by :func:`jethr1_plan.robot.load.load_robot`.
 """
 
@@ -49,9 +49,9 @@ SCHEMA = _obj({
         "mount": _name,
         "foot": _name,  # the mount's former name
         "axis": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
-        "max_thrust_n": _num(0, 1e4),
+        "thrust_max_n": _num(0, 1e4),
         "lag_s": _num(0, 10),  # the thrust's first-order time constant [s]
-    }, ("frame", "max_thrust_n"))},
+    }, ("frame", "thrust_max_n"))},
     "sole": _obj({"length_m": _num(0, 2, lo_open=True), "width_m": _num(0, 2, lo_open=True)},
                  ("length_m", "width_m")),
     "walking": _obj({

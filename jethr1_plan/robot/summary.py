@@ -31,7 +31,7 @@ def robot_summary(model: RobotModel) -> dict:
             )
         ],
         "fans": [
-            {"name": f.name, "frame": f.frame, "mount": f.mount, "max_thrust_n": f.max_thrust_n,
+            {"name": f.name, "frame": f.frame, "mount": f.mount, "thrust_max_n": f.thrust_max_n,
              "offset_m": list(f.offset_m), "lag_s": f.lag_s}
             for f in model.fans
         ],

@@ -46,7 +46,7 @@ class FanDesign:
     name: str
     mount: str
     offset_m: tuple[float, float, float]
-    max_thrust_n: float
+    thrust_max_n: float
     mass_kg: float
     lag_s: float = 0.05
     radius_m: float = DUCT_RADIUS_M
@@ -244,6 +244,6 @@ def variant_files(base_yaml: Path, design: VariantDesign, name: str, description
     if description:
         out["description"] = description
     out["fans"] = [{"name": f.name, "frame": f"{f.name}_fan", "mount": f.mount, "axis": [0.0, 0.0, 1.0],
-                    "max_thrust_n": float(f.max_thrust_n), "lag_s": float(f.lag_s)} for f in design.fans]
+                    "thrust_max_n": float(f.thrust_max_n), "lag_s": float(f.lag_s)} for f in design.fans]
     yaml_text = yaml.safe_dump(out, sort_keys=False, allow_unicode=True, width=100)
     return {f"{name}.urdf": urdf_text.encode(), f"{name}.yaml": yaml_text.encode()}

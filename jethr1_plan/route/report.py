@@ -54,7 +54,7 @@ def _per_step(result: PlanResult) -> list[dict]:
     for st in result.steps:
         at = step == st.index
         m = margin[at]
-        rec = {"max_thrust_n": float(np.max(total[at])) if at.any() else None,
+        rec = {"peak_thrust_n": float(np.max(total[at])) if at.any() else None,
                "mean_thrust_n": float(np.mean(total[at])) if at.any() else None,
                "least_zmp_margin_m": float(np.nanmin(m)) if np.isfinite(m).any() else None}
         if np.isfinite(share[at]).any():
@@ -141,7 +141,7 @@ def drawing(o: RouteOutcome, maps: dict[str, BalanceMap]) -> RouteDrawing:
     else:
         (x0, x1), (y0, y1) = t.goal.region  # type: ignore[misc]
         goal_rect = (x0, x1, y0, y1)
-    labels = [f"{st.swing:5s} -> {names[o.holds.carton[st.to]]}: plan {p['max_thrust_n']:5.2f} N, map "
+    labels = [f"{st.swing:5s} -> {names[o.holds.carton[st.to]]}: plan {p['peak_thrust_n']:5.2f} N, map "
               f"{st.edge.peak_n:5.2f} N, margin {1000 * st.edge.margin_m:3.0f} mm" for st, p in zip(o.steps, per,
                                                                                                   strict=True)]
     s = plan_summary_lite(o.result)

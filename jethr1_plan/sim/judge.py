@@ -45,7 +45,7 @@ class RunResult:
     least_cop_margin_at: dict | None
     landing_errors_m: list[dict]
     soles_on_cartons_at_end: dict[str, bool]
-    max_thrust_n: float
+    peak_thrust_n: float
     simulated_s: float
     wall_s: float
     record: dict | None = None

@@ -307,5 +307,5 @@ class TwinRun:
             max_trunk_tilt_deg=self.max_tilt, support_max_tilt_deg=self.sup_tilt, support_max_slip_m=self.sup_slip,
             least_cop_margin_m=None if math.isinf(self.least_margin) else self.least_margin,
             least_cop_margin_at=self.least_at, landing_errors_m=self.landings, soles_on_cartons_at_end=on_top,
-            max_thrust_n=self.max_thrust, simulated_s=self.t + SETTLE_S, wall_s=self.wall, record=self.rec,
+            peak_thrust_n=self.max_thrust, simulated_s=self.t + SETTLE_S, wall_s=self.wall, record=self.rec,
             law=self.law, steps=self.steps)

@@ -48,10 +48,10 @@ def check_expectations(expect: dict, summary: dict) -> list[str]:
     failed = []
     if "feasible" in expect and bool(summary.get("feasible")) != expect["feasible"]:
         failed.append(f"expected feasible={expect['feasible']}, got {summary.get('feasible')}")
-    if "max_thrust_n" in expect:
-        got = summary.get("max_thrust_n")
-        if got is None or got > expect["max_thrust_n"]:
-            failed.append(f"expected max thrust <= {expect['max_thrust_n']} N, got {got}")
+    if "peak_thrust_n" in expect:
+        got = summary.get("peak_thrust_n")
+        if got is None or got > expect["peak_thrust_n"]:
+            failed.append(f"expected max thrust <= {expect['peak_thrust_n']} N, got {got}")
     return failed
 
 

@@ -48,7 +48,7 @@ def run_method(scenario: Scenario, method: str, seed: int | None) -> dict:
     dyn = result.rows.analysis.get("dynamics") if result.rows is not None else None
     least = dyn.least()[1] if dyn is not None and len(dyn.margin) else None
     return {
-        "max_thrust_n": float(finite.max()) if len(finite) else None,
+        "peak_thrust_n": float(finite.max()) if len(finite) else None,
         "mean_thrust_n": float(finite.mean()) if len(finite) else None,
         "smoothness_m2": float(sum(s["smoothness_m2"] for s in sm)),
         "max_step_m": float(max(s["max_step_m"] for s in sm)),
@@ -105,7 +105,7 @@ def compare(scenario: Scenario, methods: tuple[str, ...] = ("gas", "ga", "gaex",
         if y != yaw_modes[0]:
             base = doc["methods"][m]
             r = doc["methods"][key]
-            r["thrust_cost_vs"] = {"against": m, "max_n": (r["max_thrust_n"] or 0) - (base["max_thrust_n"] or 0),
+            r["thrust_cost_vs"] = {"against": m, "max_n": (r["peak_thrust_n"] or 0) - (base["peak_thrust_n"] or 0),
                                    "mean_n": (r["mean_thrust_n"] or 0) - (base["mean_thrust_n"] or 0)}
         if progress:
             progress(key, k + 1, len(runs) + int(reference))
@@ -179,7 +179,7 @@ def comparison_pngs(doc: dict) -> dict[str, bytes]:
 GA_OMEGAS = (5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0)
 PARETO_WEIGHTS: dict[str, tuple[float, ...]] = {"gas": GA_OMEGAS, "ga": GA_OMEGAS, "gaex": GA_OMEGAS,
                                                 "sqp": (10.0, 1e3, 1e4, 3e4, 7e4, 1e5, 2e5, 5e5, 1e6)}
-MEASURES = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")  # what the fronts compare (lower is better)
+MEASURES = ("peak_thrust_n", "mean_thrust_n", "smoothness_m2")  # what the fronts compare (lower is better)
 #: what the Pareto verdict asks of a method against GAS at its default: fewer evaluations by this factor
 EVALUATION_FACTOR = 10.0
 
@@ -208,7 +208,7 @@ def dominates(a: dict, b: dict) -> bool:
 
 def _point(scenario: Scenario, method: str, weight: float, seed: int | None) -> dict:
     r = run_method(with_weight(scenario, method, weight), method, seed)
-    return {"weight": weight, **{k: r[k] for k in ("max_thrust_n", "mean_thrust_n", "smoothness_m2", "max_step_m",
+    return {"weight": weight, **{k: r[k] for k in ("peak_thrust_n", "mean_thrust_n", "smoothness_m2", "max_step_m",
                                                    "evaluations", "wall_s", "feasible")}}
 
 
@@ -255,7 +255,7 @@ def pareto(scenario: Scenario, methods: tuple[str, ...] = ("gas", "sqp"), seed: 
             factor = ref["evaluations"] / max(mine["evaluations"], 1)
             doc["verdict"][m] = {
                 "dominates_gas": bool(mine["feasible"] and dominates(mine, ref) and factor >= EVALUATION_FACTOR),
-                "max_thrust_n": [mine["max_thrust_n"], ref["max_thrust_n"]],
+                "peak_thrust_n": [mine["peak_thrust_n"], ref["peak_thrust_n"]],
                 "mean_thrust_n": [mine["mean_thrust_n"], ref["mean_thrust_n"]],
                 "smoothness_m2": [mine["smoothness_m2"], ref["smoothness_m2"]],
                 "evaluation_factor": factor,
@@ -271,7 +271,7 @@ def pareto_png(doc: dict) -> bytes:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
-    for ax, key, label in ((axes[0], "max_thrust_n", "max thrust [N]"), (axes[1], "mean_thrust_n", "mean thrust [N]")):
+    for ax, key, label in ((axes[0], "peak_thrust_n", "max thrust [N]"), (axes[1], "mean_thrust_n", "mean thrust [N]")):
         for m, pts in doc["fronts"].items():
             ok = [p for p in pts if p["feasible"]]
             line, = ax.plot([p["smoothness_m2"] for p in ok], [p[key] for p in ok], "o-", label=m, ms=4)

@@ -75,11 +75,11 @@ def _minimal_crossing(scenario) -> dict[str, Any]:
     try:
         result = plan(scenario)
     except InfeasiblePlan as exc:
-        return {"feasible": False, "max_thrust_n": None, "reason": str(exc)}
+        return {"feasible": False, "peak_thrust_n": None, "reason": str(exc)}
     rows = result.rows
     assert rows is not None
     peak = max(float(np.max(rows.fan(f.name))) for f in scenario.robot.fans)
-    return {"feasible": True, "max_thrust_n": peak, "reason": None}
+    return {"feasible": True, "peak_thrust_n": peak, "reason": None}
 
 
 def judge_robot(robot: RobotModel, judge: JudgeSettings) -> dict[str, Any]:
@@ -105,7 +105,7 @@ def judge_robot(robot: RobotModel, judge: JudgeSettings) -> dict[str, Any]:
                                  "next_failing_m": float(lattice[hi]) if hi < len(lattice) else None}
         if lo >= 0:
             r = planned[lo]
-            entry.update({"share": r["share"], "max_thrust_n": r["max_thrust_n"], "mean_thrust_n": r["mean_thrust_n"],
+            entry.update({"share": r["share"], "peak_thrust_n": r["peak_thrust_n"], "mean_thrust_n": r["mean_thrust_n"],
                           "energy_j": r["energy_j"], "impulse_ns": r["impulse_ns"]})
         widest[name] = entry
     ordered = sorted(shares)
@@ -119,10 +119,10 @@ def judge_robot(robot: RobotModel, judge: JudgeSettings) -> dict[str, Any]:
     for k in ordered:
         r = planned[k]
         gaps.append({"gap_m": float(lattice[k]), "share": r["share"],
-                     **({"max_thrust_n": r["max_thrust_n"], "mean_thrust_n": r["mean_thrust_n"],
+                     **({"peak_thrust_n": r["peak_thrust_n"], "mean_thrust_n": r["mean_thrust_n"],
                          "energy_j": r["energy_j"], "impulse_ns": r["impulse_ns"],
                          "least_at": r["share_at"]} if r["share"] is not None else {"reason": r["reason"]})})
-    fans = [{"name": f.name, "mount": f.mount, "max_thrust_n": f.max_thrust_n, "offset_m": list(f.offset_m)}
+    fans = [{"name": f.name, "mount": f.mount, "thrust_max_n": f.thrust_max_n, "offset_m": list(f.offset_m)}
             for f in robot.fans]
     return {"status": "ok", "mass_kg": robot.mass_kg, "fans": fans, "thrust_max_n": base.balance.thrust_max_n,
             "widest": widest, "minimal": minimal, "monotone": monotone, "plans": len(planned) + (minimal is not None),

@@ -32,10 +32,10 @@ COLUMNS = (
     "total_thrust_n",  # the sum of its fans' maximum thrusts
     "whole_gap_m",  # the widest ditch crossed with the whole tolerance on every row (empty: none)
     "whole_next_failing_m",  # the next gap planned beyond it, which fails (empty: the lattice's end)
-    "whole_max_thrust_n", "whole_mean_thrust_n", "whole_energy_j", "whole_impulse_ns",  # that crossing's
-    "half_gap_m", "half_next_failing_m", "half_share", "half_max_thrust_n",
-    "crossed_gap_m", "crossed_next_failing_m", "crossed_share", "crossed_max_thrust_n",
-    "minimal_max_thrust_n",  # Paper A's minimal plan at crossed_gap_m: its peak thrust (empty: infeasible)
+    "whole_peak_thrust_n", "whole_mean_thrust_n", "whole_energy_j", "whole_impulse_ns",  # that crossing's
+    "half_gap_m", "half_next_failing_m", "half_share", "half_peak_thrust_n",
+    "crossed_gap_m", "crossed_next_failing_m", "crossed_share", "crossed_peak_thrust_n",
+    "minimal_peak_thrust_n",  # Paper A's minimal plan at crossed_gap_m: its peak thrust (empty: infeasible)
     "plans",  # plans made to judge it
     "monotone",  # no wider gap held a level a narrower one failed (the bisection's premise)
     "pareto_mass",  # on the front of added mass against whole_gap_m
@@ -68,9 +68,9 @@ def variant_rows(spec: DesignSpec, variants: list[Variant], keys: list[str], res
         fan_mass = round(sum(f.mass_kg for f in v.design.fans), MASS_DIGITS)
         row: dict[str, Any] = {"variant": v.name, "values": dict(v.values),
                                "fans": len(v.design.fans), "fan_mass_kg": fan_mass,
-                               "total_thrust_n": sum(f.max_thrust_n for f in v.design.fans),
+                               "total_thrust_n": sum(f.thrust_max_n for f in v.design.fans),
                                "design": {"fans": [{"name": f.name, "mount": f.mount, "offset_m": list(f.offset_m),
-                                                    "max_thrust_n": f.max_thrust_n, "mass_kg": f.mass_kg,
+                                                    "thrust_max_n": f.thrust_max_n, "mass_kg": f.mass_kg,
                                                     "lag_s": f.lag_s, "radius_m": f.radius_m}
                                                    for f in v.design.fans],
                                           "trunk_mass_scale": v.design.trunk_mass_scale,
@@ -106,11 +106,11 @@ def design_csv(spec: DesignSpec, rows: list[dict[str, Any]]) -> str:
         cells = [row["variant"], *(_num(row["values"][a]) for a in axes), str(row["fans"]),
                  _num(row.get("mass_kg")), _num(row.get("added_mass_kg")), _num(row["fan_mass_kg"]),
                  _num(row["total_thrust_n"]),
-                 lv("whole", "gap_m"), lv("whole", "next_failing_m"), lv("whole", "max_thrust_n"),
+                 lv("whole", "gap_m"), lv("whole", "next_failing_m"), lv("whole", "peak_thrust_n"),
                  lv("whole", "mean_thrust_n"), lv("whole", "energy_j"), lv("whole", "impulse_ns"),
-                 lv("half", "gap_m"), lv("half", "next_failing_m"), lv("half", "share"), lv("half", "max_thrust_n"),
+                 lv("half", "gap_m"), lv("half", "next_failing_m"), lv("half", "share"), lv("half", "peak_thrust_n"),
                  lv("crossed", "gap_m"), lv("crossed", "next_failing_m"), lv("crossed", "share"),
-                 lv("crossed", "max_thrust_n"), _num(minimal.get("max_thrust_n")),
+                 lv("crossed", "peak_thrust_n"), _num(minimal.get("peak_thrust_n")),
                  str(r.get("plans", "")) if ok else "", ("true" if r.get("monotone") else "false") if ok else "",
                  "true" if row["pareto_mass"] else "false", "true" if row["pareto_thrust"] else "false",
                  row["status"] if ok else f"{row['status']}: {r.get('reason', '')}"]
@@ -237,14 +237,14 @@ def readme_text(spec: DesignSpec, row: dict[str, Any], name: str) -> str:
              "| fan | mount | offset [m] | max thrust [N] | mass [kg] |", "| --- | --- | --- | ---: | ---: |"]
     for f in d["fans"]:
         lines.append(f"| {f['name']} | {f['mount']} | {', '.join(f'{v:g}' for v in f['offset_m'])} | "
-                     f"{f['max_thrust_n']:g} | {f['mass_kg']:.4g} |")
+                     f"{f['thrust_max_n']:g} | {f['mass_kg']:.4g} |")
     lines += ["", f"Trunk mass × {d['trunk_mass_scale']:g}, leg length × {d['leg_length_scale']:g}; total mass "
               f"{row['mass_kg']:.4g} kg ({row['added_mass_kg']:+.4g} kg against the base).", "",
               "Widest ditch of Paper A's forward step (jethr1 ditch-curve's geometry):", ""]
     for level, what in (("whole", "with the whole tolerance"), ("half", "with half of it"), ("crossed", "at all")):
         gap = w[level]["gap_m"]
         lines.append(f"* {what}: " + ("none of the gaps judged" if gap is None else
-                                      f"{1000 * gap:.0f} mm (peak thrust {w[level]['max_thrust_n']:.2f} N)"))
+                                      f"{1000 * gap:.0f} mm (peak thrust {w[level]['peak_thrust_n']:.2f} N)"))
     lines += ["", f"Plan the crossing: `jethr1 plan scenarios/{name}_ditch_whole.yaml` (in the design's output folder) "
               "from the folder the design command ran in.", ""]
     return "\n".join(lines)
@@ -262,7 +262,7 @@ def best_folders(spec: DesignSpec, best: list[dict[str, Any]], outdir: Path) -> 
     for row in best:
         name = f"{spec.name}_{row['variant']}"
         d = row["design"]
-        design = VariantDesign(tuple(FanDesign(f["name"], f["mount"], tuple(f["offset_m"]), f["max_thrust_n"],
+        design = VariantDesign(tuple(FanDesign(f["name"], f["mount"], tuple(f["offset_m"]), f["thrust_max_n"],
                                                f["mass_kg"], f["lag_s"], f["radius_m"]) for f in d["fans"]),
                                d["trunk_mass_scale"], d["leg_length_scale"])
         files = variant_files(base.yaml_path, design, name, f"A design variant of {base.name} ({spec.name} "

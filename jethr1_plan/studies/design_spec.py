@@ -58,13 +58,13 @@ _axis = {"oneOf": [
 _fan = _obj({
     "name": {"type": "string", "pattern": "^[A-Za-z0-9_]+$", "maxLength": 100},
     "mount": {"type": "string", "minLength": 1, "maxLength": 200},
-    "max_thrust_n": _num_or_ref(0, 1e4),
+    "thrust_max_n": _num_or_ref(0, 1e4),
     "offset_m": {"type": "array", "items": _num_or_ref(-2, 2), "minItems": 3, "maxItems": 3},
     "mass_kg": _num_or_ref(0, 100),
     "lag_s": {"type": "number", "minimum": 0, "maximum": 10},
     "radius_m": {"type": "number", "exclusiveMinimum": 0, "maximum": 1},
     "present": _num_or_ref(0, 1),
-}, ("name", "mount", "max_thrust_n", "offset_m"))
+}, ("name", "mount", "thrust_max_n", "offset_m"))
 
 SCHEMA = _obj({
     "name": {"type": "string", "pattern": "^[A-Za-z0-9_.-]+$", "maxLength": 100},
@@ -228,14 +228,14 @@ class DesignSpec:
                     raise InputError(self.source, f"{key}.present", f"{present:g} {where}: expected 0 or 1")
                 if present == 0.0:
                     continue
-            thrust = self.value(fd["max_thrust_n"], values)
+            thrust = self.value(fd["thrust_max_n"], values)
             if not 0 <= thrust <= 1e4:
-                raise InputError(self.source, f"{key}.max_thrust_n", f"{thrust:g} N {where}: expected 0..10000 N")
+                raise InputError(self.source, f"{key}.thrust_max_n", f"{thrust:g} N {where}: expected 0..10000 N")
             offset = tuple(self.value(v, values) for v in fd["offset_m"])
             if any(abs(v) > 2 for v in offset):
                 raise InputError(self.source, f"{key}.offset_m", f"{offset} m {where}: expected within ±2 m")
             mass = (self.value(fd["mass_kg"], values) if "mass_kg" in fd
-                    else self.fan_mass_kg(thrust, f"{key}.max_thrust_n", where))
+                    else self.fan_mass_kg(thrust, f"{key}.thrust_max_n", where))
             if not mass > 0:
                 raise InputError(self.source, f"{key}.mass_kg" if "mass_kg" in fd else "fan_mass",
                                  f"{mass:g} kg {where}: a fan's mass is positive")
@@ -256,7 +256,7 @@ def _refs(doc: dict) -> list[tuple[str, str]]:
     """(key path, axis name) of every axis reference in the document."""
     out = []
     for k, fd in enumerate(doc["fans"]):
-        for name in ("max_thrust_n", "mass_kg", "present"):
+        for name in ("thrust_max_n", "mass_kg", "present"):
             if isinstance(fd.get(name), str):
                 out.append((f"fans[{k}].{name}", fd[name]))
         for i, v in enumerate(fd["offset_m"]):

@@ -88,7 +88,7 @@ def share_of_gap(scenario: Scenario, energy: bool = False) -> dict[str, Any]:
     shares = share_summary(rows, scenario.balance.tolerance)
     assert shares is not None  # a robust plan carries a share on every row
     out = {"share": shares["least"], "share_at": shares["least_at"], "tolerance": shares["tolerance"],
-           "rows_below_full": shares["rows_below_full"], "max_thrust_n": peak,
+           "rows_below_full": shares["rows_below_full"], "peak_thrust_n": peak,
            "mean_thrust_n": float(np.mean(swing[np.isfinite(swing)])), "reason": None}
     if energy:
         total = np.sum([rows.fan(f) for f in fans], axis=0)
@@ -158,7 +158,7 @@ def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_l
     rows: list[dict[str, Any]] = []
     for tol in tolerances:
         rows.append({"thrust_error": tol.thrust, "mass_error": tol.mass, "com_error_m": tol.com_m,
-                     "max_thrust_n": [None] * len(gaps_m), "reason": [None] * len(gaps_m)})
+                     "peak_thrust_n": [None] * len(gaps_m), "reason": [None] * len(gaps_m)})
     # one wave of gaps at a time per tolerance, so that a run of failures can stop a tolerance early
     pending = {t: 0 for t in range(len(tolerances))}
     misses = {t: 0 for t in range(len(tolerances))}
@@ -170,7 +170,7 @@ def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_l
                                                                      sole_length_m, min_share=1.0))
                             for t, g in batch)
             for (t, g), (thrust, reason) in zip(batch, outs, strict=True):
-                rows[t]["max_thrust_n"][g], rows[t]["reason"][g] = thrust, reason
+                rows[t]["peak_thrust_n"][g], rows[t]["reason"][g] = thrust, reason
                 misses[t] = 0 if thrust is not None else misses[t] + 1
                 pending[t] = g + 1
                 done += 1
@@ -182,9 +182,9 @@ def _fixed(base: Scenario, gaps_m: np.ndarray, scales: tuple[float, ...], sole_l
             if progress:
                 progress(f"{done}/{total} plans", done, total)
     for row in rows:
-        ok = [g for g, f in zip(gaps_m, row["max_thrust_n"], strict=True) if f is not None]
+        ok = [g for g, f in zip(gaps_m, row["peak_thrust_n"], strict=True) if f is not None]
         row["widest_gap_m"] = float(max(ok)) if ok else None
-        row["thrust_at_widest_n"] = (row["max_thrust_n"][list(gaps_m).index(max(ok))] if ok else None)
+        row["thrust_at_widest_n"] = (row["peak_thrust_n"][list(gaps_m).index(max(ok))] if ok else None)
     return rows
 
 
@@ -210,10 +210,10 @@ def curve_png(doc: dict) -> bytes:
     top.set_title(f"{doc['robot']}, {doc['optimiser']}: the most robust crossing of each ditch\n"
                   f"(shares of the tolerance {whole})")
     top.grid(alpha=0.3)
-    peak = np.array([np.nan if r["share"] is None else r["max_thrust_n"] for r in rob])
+    peak = np.array([np.nan if r["share"] is None else r["peak_thrust_n"] for r in rob])
     ax.plot(gaps * 1000, peak, "o-", ms=4, color="tab:green", lw=2, label="most robust plan (share above)")
     for row in doc["tolerances"]:
-        f = np.array([np.nan if v is None else v for v in row["max_thrust_n"]])
+        f = np.array([np.nan if v is None else v for v in row["peak_thrust_n"]])
         label = ("minimal (Paper A)" if row["thrust_error"] == 0 and row["mass_error"] == 0 and row["com_error_m"] == 0
                  else f"±{100 * row['thrust_error']:.1f} % F, ±{100 * row['mass_error']:.1f} % M, "
                       f"{1000 * row['com_error_m']:.1f} mm CoM")
@@ -239,7 +239,7 @@ def default_base(robot: RobotModel | None = None) -> Scenario:
     from jethr1_plan.scenario import BodyYaw
 
     robot = robot or load_robot("jethr1")
-    fans = [robot.fans[i].max_thrust_n for i in robot.swing_fans("left")]
+    fans = [robot.fans[i].thrust_max_n for i in robot.swing_fans("left")]
     return Scenario(source="ditch-curve", name="ditch", robot=robot, seed=1, start={}, cartons=(), steps=(),
                     optimiser=OptimiserConfig(),
                     balance=BalanceConfig(thrust_max_n=max(fans, default=0.0)), body_yaw=BodyYaw(),

@@ -96,7 +96,7 @@ def _fan_commands(x: RowData) -> list[Finding]:
     if rate is None or f"{x.robot.joint_names[0]}_cmd_rad" not in x.c:
         return []
     fans = x.fans
-    f_cmd = fan_commands(x.thrust, rate, np.array([f.lag_s for f in fans]), np.array([f.max_thrust_n for f in fans]))
+    f_cmd = fan_commands(x.thrust, rate, np.array([f.lag_s for f in fans]), np.array([f.thrust_max_n for f in fans]))
     written = np.column_stack([x.c[f"thrust_cmd_{f.name}_n"] for f in fans]).astype(float)
     return rows(~np.all(np.abs(written - f_cmd) <= 1e-9, axis=1), lambda i: f"written "
                 f"{np.round(written[i], 4).tolist()} N, recomputed {np.round(f_cmd[i], 4).tolist()} N")

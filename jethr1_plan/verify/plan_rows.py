@@ -38,7 +38,7 @@ class RowData:
         self.balance = balance if balance is not None else (summary or {}).get("balance")
         self.n = len(c["time_s"])
         self.fans = robot.fans
-        fmax = np.array([f.max_thrust_n for f in self.fans])
+        fmax = np.array([f.thrust_max_n for f in self.fans])
         limit = (summary or {}).get("thrust_max_n")
         self.fmax = np.minimum(fmax, float(limit)) if isinstance(limit, int | float) else fmax
         self.support = c["support"]
@@ -182,7 +182,7 @@ class RowData:
         and where it was computed (a row with a written window, a ZMP and a fan to share)."""
         robot = self.robot
         nf = len(robot.fans)
-        fmax = np.array([f.max_thrust_n for f in robot.fans])
+        fmax = np.array([f.thrust_max_n for f in robot.fans])
         lo, hi, computed = np.full(self.n, np.nan), np.full(self.n, np.nan), np.zeros(self.n, dtype=bool)
         written = self.c[WINDOW[0]].astype(float)
         total = self.thrust.sum(axis=1)

@@ -48,7 +48,7 @@ def test_mpc_plans_are_feasible_with_a_gentler_turn(tmp_path, capsys):
         summaries[mode] = json.loads(capsys.readouterr().out)
         assert run(["verify", str(tmp_path / "o" / mode)]) == 0
     assert summaries["mpc"]["yaw"]["peak_rate_rad_s"] < summaries["eq4"]["yaw"]["peak_rate_rad_s"]
-    assert summaries["mpc"]["max_thrust_n"] <= 23.0
+    assert summaries["mpc"]["peak_thrust_n"] <= 23.0
 
 
 def test_scientific_notation_in_scenarios(tmp_path):

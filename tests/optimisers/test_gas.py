@@ -90,5 +90,5 @@ def test_gas_takes_the_largest_share_where_the_tolerance_cannot_be_reached(tmp_p
     s = json.loads((out / "forward_ditch_450" / "summary.json").read_text())
     step = s["steps"][0]
     assert s["optimiser"] == "gas" and 0.2 < step["least_share"] < 0.9 and 3 <= step["samples_below_full_share"] <= 15
-    assert s["max_thrust_n"] <= 23.0 and s["robustness"]["tolerance_share"]["least_at"]["sample"] > 200
+    assert s["peak_thrust_n"] <= 23.0 and s["robustness"]["tolerance_share"]["least_at"]["sample"] > 200
     assert run(["verify", str(out / "forward_ditch_450")]) == 0

@@ -130,7 +130,7 @@ def test_sqp_crosses_the_ditch_with_a_20_5_n_fan_and_verify_agrees(tmp_path, cap
     assert run(["plan", str(path), "--optimiser", "sqp", "-o", str(out), "--json", "--no-progress"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["optimiser"] == "sqp"
-    assert summary["max_thrust_n"] <= 20.5
+    assert summary["peak_thrust_n"] <= 20.5
     assert run(["verify", str(out / path.stem)]) == 0
 
 

@@ -173,7 +173,7 @@ def replay(folder: Path, controller: str = "feedforward", stiffness_scale: float
     quat_wxyz = np.column_stack([column(f"pelvis_q{a}") for a in "wxyz"])
     q_plan = np.column_stack([column(f"{n}_rad") for n in names])
     q_cmd = np.column_stack([column(f"{n}_{'cmd_rad' if follow == 'cmd' else 'rad'}") for n in names])
-    fans = [(f["name"], f["frame"], f.get("mount", f.get("foot")), float(f["max_thrust_n"])) for f in rdoc["fans"]]
+    fans = [(f["name"], f["frame"], f.get("mount", f.get("foot")), float(f["thrust_max_n"])) for f in rdoc["fans"]]
     f_cmd = np.column_stack([column(f"thrust_{'cmd_' if follow == 'cmd' else ''}{name}_n") for name, *_ in fans])
     fan_body = [m.body(frame).id for _, frame, _, _ in fans]
     fan_side = [next((s for s in SIDES if rdoc["legs"][s]["sole"] == mount), None) for _, _, mount, _ in fans]

@@ -149,7 +149,7 @@ def replay(folder: Path, scenario_path: Path, robot_yaml: Path, stiffness_scale:
     q0 = np.column_stack([c[f"{n}_rad"] for n in joints])[0]
     fans = robot["fans"]
     f_cmd = np.column_stack([c[f"thrust_cmd_{f['name']}_n"] for f in fans])
-    fmax = np.array([min(f["max_thrust_n"], float((scenario.get("balance") or {}).get("thrust_max_n", 1e9)))
+    fmax = np.array([min(f["thrust_max_n"], float((scenario.get("balance") or {}).get("thrust_max_n", 1e9)))
                      for f in fans])
     lag = np.array([f.get("lag_s", 0.05) for f in fans])
     fan_body = [model.body(f["frame"]).id for f in fans]

@@ -59,7 +59,7 @@ def numpy_objective(ev: Evaluator, cells, idx: np.ndarray, P: np.ndarray):
     else:  # several fans: the least total (its own test holds it to HiGHS), within the maxima where it can be
         soles = {spec.support_side: ev.support, spec.swing_side: swing}
         fans = np.stack([fan_ground_xy(f, soles, P, yaw) for f in usable], axis=1)
-        caps = np.array([min(f.max_thrust_n, spec.thrust_max_n) for f in usable])
+        caps = np.array([min(f.thrust_max_n, spec.thrust_max_n) for f in usable])
         bounded, _ = least_thrust(com[:, :2], fans, ev.poly, robot.mass_kg, caps, spec.tolerance)
         free, _ = least_thrust(com[:, :2], fans, ev.poly, robot.mass_kg, None, spec.tolerance)
         above = np.isfinite(free) & ~np.isfinite(bounded)

@@ -33,7 +33,7 @@ def test_outputs_exist_and_summary_reports(planned):
                                                                             "trajectory.mcap"]
     s = json.loads((planned / "summary.json").read_text())
     assert s["feasible"] is True and s["optimiser"] == "sqp" and s["seed"] == 1  # sqp: the default
-    assert 0 < s["max_thrust_n"] <= 23.0
+    assert 0 < s["peak_thrust_n"] <= 23.0
     assert s["evaluations"] > 0 and s["wall_s"] > 0 and s["sample_count"] == 60
     for key in ("smoothness_m2", "max_step_m", "max_thrust_jump_n", "mean_thrust_n", "version", "steps"):
         assert key in s

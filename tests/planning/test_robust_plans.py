@@ -78,7 +78,7 @@ def test_every_swing_row_survives_every_error_within_the_tolerance(side_plans, r
 
 def test_robustness_costs_thrust(side_plans):
     r, m = (json.loads((side_plans[p] / "summary.json").read_text()) for p in ("robust", "minimal"))
-    assert r["max_thrust_n"] > m["max_thrust_n"] + 1.0 and r["mean_thrust_n"] > m["mean_thrust_n"]
+    assert r["peak_thrust_n"] > m["peak_thrust_n"] + 1.0 and r["mean_thrust_n"] > m["mean_thrust_n"]
     assert r["robustness"]["least_zmp_margin_m"] >= 0.01 - 1e-6 > m["robustness"]["least_zmp_margin_m"]
 
 
@@ -135,7 +135,7 @@ def test_the_450_ditch_takes_the_largest_share_its_samples_reach(ditch_450):
     the least and what it means in %, % and mm."""
     s = json.loads((ditch_450 / "summary.json").read_text())
     share = s["robustness"]["tolerance_share"]
-    assert s["feasible"] and s["balance"]["policy"] == "robust" and s["max_thrust_n"] <= 23.0
+    assert s["feasible"] and s["balance"]["policy"] == "robust" and s["peak_thrust_n"] <= 23.0
     assert 0.3 < share["least"] < 0.9 and share["rows_below_full"] > 20
     assert share["least_at"]["phase"] == "swing" and share["least_at"]["sample"] > 200  # near the landing
     assert share["tolerance"]["thrust_error"] == pytest.approx(0.1 * share["least"])
@@ -191,4 +191,4 @@ def test_min_share_refuses_a_plan_below_it_and_names_the_sample(tmp_path, capsys
     assert run(["plan", str(ROOT / "configs" / "forward_ditch_450.yaml"), "-o", str(tmp_path / "p"),
                 "--policy", "minimal", "--no-progress"]) == 0
     s = json.loads((tmp_path / "p" / "forward_ditch_450" / "summary.json").read_text())
-    assert "tolerance_share" not in s["robustness"] and s["max_thrust_n"] < 21.0
+    assert "tolerance_share" not in s["robustness"] and s["peak_thrust_n"] < 21.0

@@ -21,7 +21,7 @@ def test_table1_figures_from_the_loaded_model(robot):
     assert s["height_m"] == pytest.approx(0.608, abs=0.005)
     assert s["leg_length_m"] == pytest.approx(0.460, abs=0.003)
     assert [j["name"] for j in s["joints"]] == list(JOINT_NAMES)
-    assert [(f["frame"], f["max_thrust_n"]) for f in s["fans"]] == [("left_fan", 23.0), ("right_fan", 23.0)]
+    assert [(f["frame"], f["thrust_max_n"]) for f in s["fans"]] == [("left_fan", 23.0), ("right_fan", 23.0)]
 
 
 def test_fans_sit_outboard_of_their_feet(robot):

@@ -40,7 +40,7 @@ def test_renamed_robot_plans_the_same(tmp_path, side_step):
     robot_yaml = renamed_jethr1(tmp_path / "renamed", lambda n: f"q_{n}", {"left": "port", "right": "starboard"})
     code, summary, c = _plan(copy_scenario("side_step", tmp_path, robot_yaml), tmp_path / "out")
     assert code == 0
-    for key in ("max_thrust_n", "mean_thrust_n", "smoothness_m2", "evaluations"):
+    for key in ("peak_thrust_n", "mean_thrust_n", "smoothness_m2", "evaluations"):
         assert summary[key] == ref_summary[key], key
     np.testing.assert_array_equal(c["thrust_port_n"], ref["thrust_left_n"])
     np.testing.assert_array_equal(c["thrust_starboard_n"], ref["thrust_right_n"])
@@ -66,7 +66,7 @@ def test_legs_in_another_joint_order_plan_the_same(tmp_path, side_step):
     code, summary, c = _plan(copy_scenario("side_step", tmp_path, robot_yaml), tmp_path / "out")
     assert code == 0
     assert summary["evaluations"] == ref_summary["evaluations"]
-    assert summary["max_thrust_n"] == pytest.approx(ref_summary["max_thrust_n"], abs=1e-9)
+    assert summary["peak_thrust_n"] == pytest.approx(ref_summary["peak_thrust_n"], abs=1e-9)
     np.testing.assert_allclose(c["thrust_left_n"], ref["thrust_left_n"], atol=1e-9)
     for j in JOINT_NAMES:
         np.testing.assert_allclose(c[f"{rename(j)}_rad"], ref[f"{j}_rad"], atol=1e-9)
@@ -85,13 +85,13 @@ def test_a_third_fan_on_the_trunk_plans_the_ditch(tmp_path):
     assert left.max() <= 20.0 + 1e-9 and trunk.max() > 1.0
     shared = trunk > 1e-9
     np.testing.assert_allclose(left[shared & (c["phase"] == "swing")], 20.0, atol=1e-6)  # least total
-    per_fan = summary["trajectory"]["max_thrust_per_fan_n"]
+    per_fan = summary["trajectory"]["peak_thrust_per_fan_n"]
     assert per_fan["left"] == pytest.approx(20.0) and per_fan["trunk"] == pytest.approx(trunk.max())
     assert run(["verify", str(tmp_path / "out" / scenario.stem)]) == 0
     # sqp shares the thrust too (each fan its own variable)
     assert run(["plan", str(scenario), "-o", str(tmp_path / "sqp"), "--optimiser", "sqp", "--no-progress"]) == 0
     sqp = json.loads((tmp_path / "sqp" / scenario.stem / "summary.json").read_text())["trajectory"]
-    assert sqp["max_thrust_per_fan_n"]["left"] <= 20.0 + 1e-9 and sqp["max_thrust_per_fan_n"]["trunk"] > 1.0
+    assert sqp["peak_thrust_per_fan_n"]["left"] <= 20.0 + 1e-9 and sqp["peak_thrust_per_fan_n"]["trunk"] > 1.0
     # Jet-HR1 under the same cap
     doc = yaml.safe_load(scenario.read_text())
     doc["robot"] = "jethr1"
@@ -183,7 +183,7 @@ def test_robot_yaml_names_legs_by_role(tmp_path, capsys):
         "legs.right.joints.hip_roll": lambda d: d["legs"]["right"]["joints"].update(hip_roll="elbow"),
         "legs.left.sole": lambda d: d["legs"]["left"].update(sole="no_such_frame"),
         "trunk": lambda d: d.update(trunk="left_foot"),
-        "fans[2].mount": lambda d: d["fans"].append({"frame": "left_fan", "mount": "left_shank", "max_thrust_n": 5}),
+        "fans[2].mount": lambda d: d["fans"].append({"frame": "left_fan", "mount": "left_shank", "thrust_max_n": 5}),
     }
     for key, change in cases.items():
         doc = yaml.safe_load(src.read_text())

@@ -16,8 +16,8 @@ from tests.oracles.robot_copies import tampered_jethr1
 CASES = {
     "an unknown key": (lambda d: d.update(colour="red"), "colour: unknown key"),
     "an unknown key in a fan": (lambda d: d["fans"][1].update(colour="red"), r"fans\[1\]\.colour: unknown key"),
-    "NaN fan thrust": (lambda d: d["fans"][0].update(max_thrust_n=float("nan")),
-                       r"fans\[0\]\.max_thrust_n: nan is not a finite number"),
+    "NaN fan thrust": (lambda d: d["fans"][0].update(thrust_max_n=float("nan")),
+                       r"fans\[0\]\.thrust_max_n: nan is not a finite number"),
     "a negative lag": (lambda d: d["fans"][0].update(lag_s=-0.1), r"fans\[0\]\.lag_s: -0\.1 is below the smallest"),
     "a zero sole length": (lambda d: d["sole"].update(length_m=0.0), r"sole\.length_m: 0\.0: must be more than 0"),
     "servo stiffness 0": (lambda d: d["servos"].update(stiffness_nm_per_rad=0),
@@ -77,7 +77,7 @@ def test_a_key_given_twice_is_refused(tmp_path):
 def test_every_command_says_the_same(tmp_path, capsys, command):
     """A bad robot is the same one line from every command that loads it (through a scenario or a
     walk file: under its key ``robot``), exit 2, nothing written."""
-    path = tampered_jethr1(tmp_path / "bot", lambda d: d["fans"][0].update(max_thrust_n=-1.0))
+    path = tampered_jethr1(tmp_path / "bot", lambda d: d["fans"][0].update(thrust_max_n=-1.0))
     out = tmp_path / "out"
     if command in ("plan", "walk"):
         src = ROOT / "configs" / ("side_step.yaml" if command == "plan" else "walks/jethr1_walk.yaml")
@@ -90,7 +90,7 @@ def test_every_command_says_the_same(tmp_path, capsys, command):
         args = [command, "--robot", str(path)] + (["-o", str(out)] if command == "balance-space" else [])
     assert run(args) == 2
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and r"fans[0].max_thrust_n: -1.0 is below the smallest" in err
+    assert len(err.strip().splitlines()) == 1 and r"fans[0].thrust_max_n: -1.0 is below the smallest" in err
     assert not out.exists()
 
 

@@ -53,7 +53,7 @@ def test_the_base_fans_as_a_design_give_the_base_robot(tmp_path):
     base = load_robot("jethr1")
     v = written(tmp_path, VariantDesign(jethr1_fans()))
     assert v.mass_kg == pytest.approx(base.mass_kg, abs=1e-12)
-    assert [(f.name, f.mount, f.max_thrust_n) for f in v.fans] == [(f.name, f.mount, f.max_thrust_n) for f in base.fans]
+    assert [(f.name, f.mount, f.thrust_max_n) for f in v.fans] == [(f.name, f.mount, f.thrust_max_n) for f in base.fans]
     np.testing.assert_allclose([f.offset_m for f in v.fans], [f.offset_m for f in base.fans], atol=1e-12)
     assert (v.leg_length_m, v.thigh_m, v.hip_offset_m) == pytest.approx((base.leg_length_m, base.thigh_m,
                                                                          base.hip_offset_m), abs=1e-12)
@@ -70,7 +70,7 @@ def test_a_fan_s_mass_moves_the_com_as_a_point_mass_at_its_mount(tmp_path):
     v = written(tmp_path, VariantDesign(jethr1_fans(40.0, mass, fore, outboard)))
     assert v.mass_kg == pytest.approx(base.mass_kg + 2 * (mass - FAN_KG), abs=1e-12)
     assert v.fans[0].offset_m == pytest.approx((fore, outboard, 0.035), abs=1e-12)
-    assert v.fans[1].max_thrust_n == 40.0
+    assert v.fans[1].thrust_max_n == 40.0
     for q in postures(base):
         moment = base.mass_kg * com_at(base, q)
         for f_base, f_new in zip(base.fans, v.fans, strict=True):

@@ -28,7 +28,7 @@ def test_the_route_folder_is_a_plan_that_verify_accepts(small_route):
     r = summary["route"]
     assert len(r["steps"]) == len(summary["steps"]) >= 2
     for step in r["steps"]:
-        assert step["plan"]["max_thrust_n"] <= 23.0 and step["map"]["peak_thrust_n"] <= 23.0
+        assert step["plan"]["peak_thrust_n"] <= 23.0 and step["map"]["peak_thrust_n"] <= 23.0
         assert step["plan"]["least_zmp_margin_m"] >= 0.0
     sc = load_scenario(small_route / "route.yaml")
     feet = dict(sc.start)

@@ -122,7 +122,7 @@ def test_the_feedback_law_saves_a_weak_fan(plans, robot):
     ff, fb = rehearse(track, "feedforward", weak), rehearse(track, "feedback", weak)
     assert ff.fell is not None and not ff.survived
     assert fb.law == {"jethr1": "imu_tilt_pid", "jethr1_ft": "cop_edge_pi"}[robot]
-    assert fb.survived and fb.max_thrust_n > track.thrust_cmd.max() + 1.0
+    assert fb.survived and fb.peak_thrust_n > track.thrust_cmd.max() + 1.0
 
 
 def test_the_law_uses_the_whole_thrust_on_a_plan_at_its_limit(tmp_path):
@@ -140,7 +140,7 @@ def test_the_law_uses_the_whole_thrust_on_a_plan_at_its_limit(tmp_path):
     assert r.law == "cop_edge_pi"
     assert r.survived
     assert r.least_cop_margin_m is not None and r.least_cop_margin_m < ctl.Gains.of(track.robot).band_margin_m
-    assert r.max_thrust_n == pytest.approx(track.thrust_max_n) and track.thrust_max_n == 23.0
+    assert r.peak_thrust_n == pytest.approx(track.thrust_max_n) and track.thrust_max_n == 23.0
     # the command as the fan's output shows it (applied / gain, behind the fan's lag) against the row's window
     t = np.asarray(r.record["t"])
     rows = np.clip(np.round(t * track.rate_hz).astype(int), 0, len(track) - 1)

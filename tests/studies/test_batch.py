@@ -26,7 +26,7 @@ def _small(tmp_path, name, **changes):
 
 
 def test_all_expectations_hold(tmp_path, capsys):
-    a = _small(tmp_path, "a", expect={"feasible": True, "max_thrust_n": 23.0})
+    a = _small(tmp_path, "a", expect={"feasible": True, "peak_thrust_n": 23.0})
     b = _small(tmp_path, "b", expect={"feasible": False}, balance={"thrust_max_n": 0.0})
     out = tmp_path / "out"
     assert run(["batch", str(a), str(b), "-o", str(out), "--no-progress", "-j", "2"]) == 0
@@ -37,7 +37,7 @@ def test_all_expectations_hold(tmp_path, capsys):
 
 
 def test_failed_expectation_is_exit_4(tmp_path):
-    a = _small(tmp_path, "a", expect={"max_thrust_n": 0.5})
+    a = _small(tmp_path, "a", expect={"peak_thrust_n": 0.5})
     assert run(["batch", str(a), "-o", str(tmp_path / "o"), "--no-progress", "-j", "1"]) == 4
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert "max thrust" in s["scenarios"][0]["expectations_failed"][0]

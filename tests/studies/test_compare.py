@@ -32,7 +32,7 @@ def test_compare_reports_and_reference(tmp_path, capsys):
         t = np.array(m["thrust_n"][0], dtype=float)
         # the reported figures follow from the reported samples
         assert abs(m["smoothness_m2"] - np.sum(np.diff(p, axis=0) ** 2)) < 1e-15
-        assert m["max_thrust_n"] == t.max() and abs(m["mean_thrust_n"] - t.mean()) < 1e-12
+        assert m["peak_thrust_n"] == t.max() and abs(m["mean_thrust_n"] - t.mean()) < 1e-12
         assert m["max_step_m"] == np.linalg.norm(np.diff(p, axis=0), axis=1).max()
         assert m["evaluations"] > 0 and m["wall_s"] > 0 and m["feasible"]
         # the rows' own motion judged too: a multibody ZMP margin [m] within the sole's half-width
@@ -67,7 +67,7 @@ def test_yaw_modes_report_the_cost_of_smoothing(tmp_path, capsys):
     assert set(d["methods"]) == {"gas", "gas+mpc"}
     eq4, mpc = d["methods"]["gas"], d["methods"]["gas+mpc"]
     assert eq4["yaw_mode"] == "eq4" and mpc["yaw_mode"] == "mpc"
-    assert mpc["thrust_cost_vs"]["max_n"] == mpc["max_thrust_n"] - eq4["max_thrust_n"]
+    assert mpc["thrust_cost_vs"]["max_n"] == mpc["peak_thrust_n"] - eq4["peak_thrust_n"]
     assert eq4["peak_yaw_rate_rad_s"] is not None and mpc["peak_yaw_rate_rad_s"] is not None
 
 
@@ -111,7 +111,7 @@ def test_pareto_fronts_and_verdict(tmp_path, capsys, monkeypatch):
     assert (tmp_path / "p" / "pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     sqp, gas = d["fronts"]["sqp"], d["fronts"]["gas"]
     assert [p["weight"] for p in sqp] == [10.0, 7e4, 1e6] and [p["default"] for p in sqp] == [False, True, False]
-    keys = ("max_thrust_n", "mean_thrust_n", "smoothness_m2")
+    keys = ("peak_thrust_n", "mean_thrust_n", "smoothness_m2")
     for p in sqp:
         beaten = any(q is not p and all(q[k] <= p[k] for k in keys) and any(q[k] < p[k] for k in keys) for q in sqp)
         assert p["on_front"] == (p["feasible"] and not beaten)
@@ -121,4 +121,4 @@ def test_pareto_fronts_and_verdict(tmp_path, capsys, monkeypatch):
     assert verdict["dominates_gas"] == expected
     assert verdict["evaluation_factor"] == ref["evaluations"] / mine["evaluations"]
     # the price never raises the path's maximum above the least thrust's path (ε = 10)
-    assert all(p["max_thrust_n"] <= sqp[0]["max_thrust_n"] + 1e-3 for p in sqp[1:])
+    assert all(p["peak_thrust_n"] <= sqp[0]["peak_thrust_n"] + 1e-3 for p in sqp[1:])

@@ -19,12 +19,12 @@ from jethr1_plan.studies.design_spec import load_design
 
 FANS = """fan_mass: {kg_per_n: 0.0100869565217391}
 fans:
-  - {name: left, mount: left_foot, max_thrust_n: $thrust_n, offset_m: [0.0, 0.095, 0.035]}
-  - {name: right, mount: right_foot, max_thrust_n: $thrust_n, offset_m: [0.0, -0.095, 0.035]}
+  - {name: left, mount: left_foot, thrust_max_n: $thrust_n, offset_m: [0.0, 0.095, 0.035]}
+  - {name: right, mount: right_foot, thrust_max_n: $thrust_n, offset_m: [0.0, -0.095, 0.035]}
 """
 #: two variants, 18 N and Jet-HR1's 23 N, both fans of Jet-HR1's 0.232 kg, on five gaps 40 mm apart
 SPEC = "name: two\naxes:\n  thrust_n: {values: [18.0, 23.0]}\n" + \
-       FANS.replace("max_thrust_n: $thrust_n,", "max_thrust_n: $thrust_n, mass_kg: 0.232,") + \
+       FANS.replace("thrust_max_n: $thrust_n,", "thrust_max_n: $thrust_n, mass_kg: 0.232,") + \
        "judge: {gaps_m: [0.34, 0.50], resolution_m: 0.04}\nbest: 2\n"
 FILES = ("design.csv", "design.json", "design.png")
 
@@ -54,9 +54,9 @@ def test_more_thrust_never_narrows_the_widest_ditch(swept):
         a, b = weak["widest"][level]["gap_m"], strong["widest"][level]["gap_m"]
         assert a is None or (b is not None and b >= a), level
     assert strong["widest"]["crossed"]["gap_m"] > weak["widest"]["crossed"]["gap_m"]
-    assert all(g.get("max_thrust_n") is None or g["max_thrust_n"] <= 18.0 + 1e-6 for g in weak["gaps"])
+    assert all(g.get("peak_thrust_n") is None or g["peak_thrust_n"] <= 18.0 + 1e-6 for g in weak["gaps"])
     for r in (weak, strong):
-        assert r["minimal"]["feasible"] and r["minimal"]["max_thrust_n"] <= r["thrust_max_n"] + 1e-6
+        assert r["minimal"]["feasible"] and r["minimal"]["peak_thrust_n"] <= r["thrust_max_n"] + 1e-6
         # the widest gap at each level is crossed, and the next gap planned beyond it is not (the bisection's answer)
         for level, share in LEVELS.items():
             w = r["widest"][level]
@@ -81,7 +81,7 @@ def test_jethr1_s_fans_as_a_design_cross_what_jethr1_crosses(swept):
     g = next(g for g in r["gaps"] if g["share"] is not None and g["share"] < 1)
     ref = share_of_gap(ditch_scenario(base, g["gap_m"], base.balance.robust, 0.16))
     assert g["share"] == pytest.approx(ref["share"], abs=1e-6)
-    assert g["max_thrust_n"] == pytest.approx(ref["max_thrust_n"], abs=1e-6)
+    assert g["peak_thrust_n"] == pytest.approx(ref["peak_thrust_n"], abs=1e-6)
 
 
 def test_the_files_and_a_best_variant_ready_for_plan(swept):
@@ -235,7 +235,7 @@ def test_latin_hypercube_is_seeded_and_stratified(tmp_path):
 
 
 @pytest.mark.parametrize("bad, key", [
-    ("axes:\n  thrust_n: {values: [18.0]}\n" + FANS.replace("$thrust_n", "$thrust"), "fans[0].max_thrust_n"),
+    ("axes:\n  thrust_n: {values: [18.0]}\n" + FANS.replace("$thrust_n", "$thrust"), "fans[0].thrust_max_n"),
     ("axes:\n  thrust_n: {values: [18.0]}\n  spare: {values: [1.0]}\n" + FANS, "axes.spare"),
     ("sampling: {method: lhs, samples: 4}\naxes:\n  thrust_n: {range: [15.0, 40.0], count: 3}\n" + FANS,
      "axes.thrust_n.count"),

@@ -36,11 +36,11 @@ def test_wider_ditches_need_more_thrust_and_tolerance_narrows_them(tmp_path, cap
     minimal, robust = doc["tolerances"]
     assert minimal["thrust_error"] == 0 and robust["thrust_error"] == 0.1 and robust["com_error_m"] == 0.01
     # Paper A's policy crosses all three; thrust grows with the gap
-    f = minimal["max_thrust_n"]
+    f = minimal["peak_thrust_n"]
     assert all(v is not None for v in f) and f[0] < f[1] < f[2] <= 23.0
     assert minimal["widest_gap_m"] == 0.44 and minimal["thrust_at_widest_n"] == f[2]
     # the robust policy needs more thrust for the same gap and cannot cross 0.44 m
-    assert robust["max_thrust_n"][0] > f[0] and robust["max_thrust_n"][2] is None
+    assert robust["peak_thrust_n"][0] > f[0] and robust["peak_thrust_n"][2] is None
     assert robust["widest_gap_m"] in (0.30, 0.37) and "infeasible" in robust["reason"][2]
     assert (out / "ditch_curve.png").read_bytes()[:4] == b"\x89PNG"
     assert json.loads((out / "ditch_curve.json").read_text()) == doc
@@ -66,7 +66,7 @@ def test_the_share_reported_for_a_gap_is_one_a_plan_holds_and_wider_gaps_hold_le
     shares = [r["share"] for r in rob]
     assert all(s is not None and 0.0 < s < 1.0 for s in shares), shares
     assert shares[0] >= shares[1] >= shares[2], shares
-    assert all(r["max_thrust_n"] <= 23.0 + 1e-9 and r["mean_thrust_n"] < r["max_thrust_n"] for r in rob)
+    assert all(r["peak_thrust_n"] <= 23.0 + 1e-9 and r["mean_thrust_n"] < r["peak_thrust_n"] for r in rob)
     held = rob[2]["tolerance"]
     assert held["thrust_error"] == pytest.approx(0.1 * shares[2])
     assert held["com_error_m"] == pytest.approx(0.01 * shares[2])
