@@ -158,6 +158,9 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
             f"({rtf:.0f}x real time); wrote {plan_dir}/{', '.join(written)}"
             + (f" and {doc['executed']['folder']}/" if executions is not None else ""))
     err_console.print(f"[{'green' if ok == len(runs) else 'red'}]{line}[/]")
+    if ok < len(runs) and controller == "feedforward" and track.robot.feedback_law is not None:
+        err_console.print(f"simulate: that was the plan's commands alone (feedforward); the law the robot runs on "
+                          f"its own sensors ({track.robot.feedback_law}) with --controller feedback", highlight=False)
     return ok == len(runs)
 
 

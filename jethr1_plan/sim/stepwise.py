@@ -217,6 +217,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
             break
     out.run = run.result()
     for rec_k, judged in zip(out.steps, out.run.steps, strict=False):  # the footholds the robot aimed for
+        judged["step"] = rec_k["step"]  # the scenario's step (the judge counts within each executed segment)
         judged["foothold_m"] = rec_k["landing_m"]
         if "landing_error_m" in rec_k:
             judged["foothold_error_m"] = rec_k["landing_error_m"]

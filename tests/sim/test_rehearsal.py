@@ -108,8 +108,11 @@ def test_a_robust_plan_survives_and_a_minimal_one_falls(plans, capsys):
     assert json.loads((plans / "side_step" / "simulation.json").read_text()) == doc
     # Paper A's minimal plan puts the ZMP on the sole's edge: the twin tips it over
     assert run(["simulate", str(plans / "forward_ditch_450"), "--json", "--no-progress"]) == 6
-    r = json.loads(capsys.readouterr().out)["runs"][0]
+    out = capsys.readouterr()
+    r = json.loads(out.out)["runs"][0]
     assert not r["survived"] and "tilted" in r["fell"]["reason"] and r["fell"]["phase"] == "swing"
+    # the plan alone fell: the user is told which law the robot runs on its own sensors, and how to run it
+    assert "plan's commands alone (feedforward)" in out.err and "(imu_tilt_pid) with --controller feedback" in out.err
 
 
 @pytest.mark.parametrize("robot", ["jethr1", "jethr1_ft"])
