@@ -266,7 +266,7 @@ def test_an_interrupt_during_the_commit_waits_until_the_set_is_whole(tmp_path, m
     def replace_then_interrupt(src, dst):
         calls.append(dst)
         if len(calls) == 1:
-            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C between two files of the set
+            signal.raise_signal(signal.SIGINT)  # Ctrl-C between two files of the set (to this thread: no race)
         return real(src, dst)
 
     monkeypatch.setattr(atomic.os, "replace", replace_then_interrupt)
