@@ -126,7 +126,7 @@ def decompose(folder: Path, controller: str, scale: float, follow: str = "cmd") 
         return min(n_settle + round(t[row] / dt) - 1, len(axy) - 1)
 
     out = []
-    for s, p, a, b, j, i0 in swings(phase, support, step):
+    for s, p, _, b, j, i0 in swings(phase, support, step):
         w = 1 - p
         rec = {"step": s, "support": oracle.SIDES[p], "fell": res.fell}
         r_plan = _rot(-pyaw[j, p]) @ (pxy[j, w] - pxy[j, p])
@@ -167,7 +167,8 @@ def show(folder: Path, controller: str, scale: float, follow: str) -> None:
         print(f"{r['step']:>2} {r['support']:>5} {1000 * np.hypot(*r['err']):5.1f} {f(r['err'])} {f(r['sup_err'])} "
               f"{f(r['turn_part'])} {f(r['rel_part'])} | {f(r.get('rel_lift', (0, 0)))} / "
               f"{f(r.get('rel_touch', (0, 0)))} / {f(r.get('rel_land', (0, 0)))} | "
-              f"{r.get('trunk_yaw_lift', 0):+5.2f}/{r.get('trunk_yaw_touch', 0):+5.2f}/{r.get('trunk_yaw_land', 0):+5.2f}"
+              f"{r.get('trunk_yaw_lift', 0):+5.2f}/{r.get('trunk_yaw_touch', 0):+5.2f}/"
+              f"{r.get('trunk_yaw_land', 0):+5.2f}"
               f"  sup turn {r['sup_turn_deg']:+5.2f}")
     print("world errors [mm] of the swing sole / the support sole at lift-off, touchdown, judge; yaw errors [deg]")
     for r in rows:

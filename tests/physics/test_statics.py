@@ -130,7 +130,7 @@ def test_load_split_gives_the_whole_load_to_the_sole_under_the_zmp(robot):
         b = np.array([0.0, 0.0, weight, weight * zmp[1], -weight * zmp[0], 0.0])
         return load_split(a, b, [left, right], [0.0, 0.0], robot.sole_length_m, robot.sole_width_m)
 
-    np.testing.assert_allclose(beta(left[:2] + [0.02, -0.01]), [1.0, 0.0])
+    np.testing.assert_allclose(beta(left[:2] + np.array([0.02, -0.01])), [1.0, 0.0])
     np.testing.assert_allclose(beta(right[:2]), [0.0, 1.0])
     np.testing.assert_allclose(beta(0.5 * (left[:2] + right[:2])), [0.5, 0.5], atol=1e-12)
     path = [beta(left[:2] + s * (right[:2] - left[:2]))[1] for s in np.linspace(0.0, 1.0, 41)]
@@ -144,7 +144,7 @@ def test_double_support_wrench_balances_and_is_the_single_support_one_at_a_sole(
     from jethr1_plan.kinematics.closed_form import solve_postures
 
     feet = {"left": (np.array([0.0, 0.09, 0.0]), 0.0), "right": (np.array([0.12, -0.09, -0.02]), 0.0)}
-    target = feet["right"][0][:2] + [0.0, 0.03]  # inside the right sole, 15 mm from its inner edge
+    target = feet["right"][0][:2] + np.array([0.0, 0.03])  # inside the right sole, 15 mm from its inner edge
     p = np.array([[0.06, 0.0, 0.33]])
     for _ in range(20):  # P_body moved until the CoM stands over the target
         q, com, status = solve_postures(robot, p, np.zeros(1), feet)
