@@ -5,9 +5,11 @@ it is stiff. Servos of stiffness k sag by τ/k under a torque τ, and fans follo
 a first-order lag. The commands undo both, from the plan's own rows:
 
 * servos: q_cmd = q + τ_f/k, with τ the row's static torque (``statics``: gravity, thrust, support
-  reaction), τ_f τ through a first-order low-pass of ``SAG_FILTER_S`` (the static torques jump where
-  a transfer, whose feet share the load by a least-norm split, hands over to a swing), and k each
-  joint's stiffness from the robot YAML (``servos.stiffness_nm_per_rad`` × servos × gear²);
+  reaction), τ_f τ through a first-order low-pass of ``SAG_FILTER_S`` (it smooths the commands where
+  the torques change fast: a transfer moves the load from one sole to the other with the ZMP,
+  ``physics.statics``), and k the stiffness the caller gives: each joint's from the robot YAML
+  (``servos.stiffness_nm_per_rad`` × servos × gear²), a plan's scaled to the stiffest servo within
+  ±25 % (``planning.plan.SAG_STIFFNESS_SCALE``);
 * fans: F_cmd = F + τ_fan·dF/dt (the lag's inverse; dF/dt by central differences), within
   [0, F_max], τ_fan the fan's ``lag_s``.
 

@@ -22,7 +22,8 @@ vertical thrust F_i(s) at p_i(s) (fixed along the path: the plan's thrust), the 
   (1 + X)·Σ F_i − (1 − Y)·f_z ≤ 0; on one sole also its **torsion**: the yaw moment about the sole's
   centre c, n_z − c_x·f_y + c_y·f_x (the fans add none), within μ·r_t·f_g,z (r_t :data:`TORSION_RADIUS_M`).
 * **Joint torques**: the joint rows of the inverse dynamics less the fans' and the support's share
-  (one sole: exact; both: the least-norm split, as ``statics``), linear in the same way: ±τ_j ≤ τ_max,j.
+  (one sole: exact; both: the least-norm split: a bound on the motion's extra torque, not the static load
+  transfer of ``statics``), linear in the same way: ±τ_j ≤ τ_max,j.
 * **Velocity bounds** (on ṡ, so on ṡ² = x): joints |q'_j|·ṡ ≤ q̇_max,j; a fan of lag τ follows a thrust
   F(s) when its lead command F + τ·F'·ṡ stays within [−ΔF, F_max]: rising ṡ ≤ (F_max − F)/(τ·F'),
   falling ṡ ≤ (F + ΔF)/(τ·|F'|) (ΔF the spin-down allowance: the fan may stay that far above the plan

@@ -2,10 +2,18 @@
 energy (B-44) and yaw angular momentum (B-41).
 
 * Static torques: with gravity, the fans' vertical thrust and the ground reaction, the equations of
-  motion at rest read g(q) = Sᵀτ + J_cᵀ w_c + J_fᵀ w_f. The six floating-base rows fix the support
-  wrench w_c (one foot: exactly; both feet: the least-norm split, one of the infinitely many
-  internal-force distributions), and the joint rows give τ. PlaCo (pinocchio) supplies g(q) and the
-  Jacobians (world-aligned at each frame).
+  motion at rest read g(q) = Sᵀτ + J_cᵀ w_c + J_fᵀ w_f. The six floating-base rows A w_c = b fix the
+  support wrench w_c (one foot: exactly), and the joint rows give τ. PlaCo (pinocchio) supplies g(q)
+  and the Jacobians (world-aligned at each frame).
+* Both feet down: A w = b has infinitely many solutions (the internal forces between the feet), and
+  the one the servo commands are built on is the one the robot carries (``control.commands``: at the
+  servos' stiffness the sag compensation realises it). It is the load transfer's split (:func:`load_split`):
+  the weighted least-norm w = W Aᵀ (A W Aᵀ)⁻¹ b, W = diag(β_l I₆, β_r I₆), with each sole's weight
+  β_s = d_o / (d_l + d_r) from the distances d_s ≥ 0 of the ZMP (of gravity and thrust) outside each
+  sole's rectangle (o the other sole). While the ZMP lies in one sole that sole carries everything
+  (the other's weight is 0): a transfer starts and ends exactly as the single support next to it, so the
+  torques, and the commands, do not jump where a foot lands or lifts; between, the load moves over
+  continuously with the ZMP (β_l = β_r = ½ is the plain least-norm split).
 * κ(J) = σ_max / σ_min of each leg's 6 × 6 Jacobian of the sole relative to the trunk (B-45):
   large near the stretched-knee singularity where long steps live.
 * E_con = Σ_i ∫ max(τ_i·q̇_i, 0) dt (B-44), with q̇ from central differences of the rows.
@@ -19,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from jethr1_plan.geometry import SIDES
+from jethr1_plan.geometry import SIDES, polygon_margin, sole_polygon
 from jethr1_plan.robot.model import RobotModel
 
 __all__ = [
@@ -29,6 +37,7 @@ __all__ = [
     "energy_consumption",
     "generalized_velocities",
     "leg_condition_numbers",
+    "load_split",
     "static_torques",
 ]
 
@@ -49,9 +58,33 @@ def static_torques(robot: RobotModel, wrapper, thrust_n: np.ndarray, supports: t
         if f:
             rhs -= wrapper.frame_jacobian(fan.frame, "local_world_aligned").T @ (f * FORCE_DIRECTION)
     Jc = np.vstack([wrapper.frame_jacobian(robot.legs[s].sole, "local_world_aligned") for s in supports])
-    w, *_ = np.linalg.lstsq(Jc[:, :6].T, rhs[:6], rcond=None)
+    a = Jc[:, :6].T
+    if len(supports) == 1:
+        w, *_ = np.linalg.lstsq(a, rhs[:6], rcond=None)
+    else:
+        poses = [wrapper.get_T_world_frame(robot.legs[s].sole) for s in supports]
+        beta = load_split(a, rhs[:6], [T[:3, 3] for T in poses], [float(np.arctan2(T[1, 0], T[0, 0])) for T in poses],
+                          robot.sole_length_m, robot.sole_width_m)
+        weight = np.repeat(beta, 6)
+        w = weight * (a.T @ np.linalg.solve((a * weight) @ a.T, rhs[:6]))
     tau = rhs[6:] - Jc[:, 6:].T @ w
     return tau, w
+
+
+def load_split(a: np.ndarray, b: np.ndarray, soles_xyz: list, soles_yaw: list, length_m: float,
+               width_m: float) -> np.ndarray:
+    """Each sole's weight β (2,) in the double-support split (module docstring): the ZMP of the support
+    wrench (the single-support solution on the first sole, A₁ w₁ = b: its CoP p + (−m_y, m_x)/f_z, the
+    resultant being vertical) and its distances d_s [m] beyond each sole rectangle at ``soles_xyz``,
+    ``soles_yaw`` [rad]; β_s = d_o / (d_l + d_r), ½ each where both are 0."""
+    w1 = np.linalg.solve(a[:, :6], b)
+    fz = w1[2] if abs(w1[2]) > 1e-9 else 1e-9
+    zmp = np.asarray(soles_xyz[0][:2]) + np.array([-w1[4], w1[3]]) / fz
+    d = np.array([max(0.0, -float(polygon_margin(zmp, sole_polygon(p[:2], y, length_m, width_m))))
+                  for p, y in zip(soles_xyz, soles_yaw, strict=True)])
+    if d.sum() <= 0.0:
+        return np.array([0.5, 0.5])
+    return d[::-1] / d.sum()
 
 
 def leg_condition_numbers(robot: RobotModel, wrapper) -> dict[str, float]:

@@ -33,6 +33,7 @@ from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.scenario import Scenario
 
 __all__ = [
+    "SAG_STIFFNESS_SCALE",
     "STANDING_HEIGHT_FRACTION",
     "Sequence",
     "StepJob",
@@ -52,6 +53,15 @@ __all__ = [
 
 
 Progress = Callable[[str, int, int], None]  # progress(label, done, total)
+
+#: The servo commands undo the sag of the stiffest servo the robot may have, s_max = 1.25 times the robot
+#: YAML's stiffness k (a real robot knows its stiffness within ±25 %): q_cmd = q + τ_f/(s_max·k). A servo of
+#: stiffness s·k then holds q_cmd − τ/(s·k) = q + (τ/k)(1/s_max − 1/s): for every s ≤ s_max each joint yields
+#: along its load, never against it, so the legs never stand taller than planned and a swing sole reaches its
+#: carton by the planned touchdown (early, in the final vertical descent, where the servos are softer). Undoing
+#: the nominal sag instead leaves the legs (τ/k)(1 − 1/s) too long at s > 1: the sole then hangs above its
+#: carton while the transfer already moves the trunk over it, and lands where the trunk drags it.
+SAG_STIFFNESS_SCALE = 1.25
 
 
 @dataclass(frozen=True)
@@ -302,7 +312,7 @@ def add_analysis(rows: Rows, robot: RobotModel, dt: float, strict_torque: bool) 
                      dtype=float), q, thrust, np.asarray(c[RowField.SUPPORT]), dt)
     fans = robot.fans
     rows.set_analysis(a["tau"], a["kappa"], a["yaw_momentum"],
-                      servo_commands(q, a["tau"], robot.servo_stiffness_nm_per_rad, 1.0 / dt),
+                      servo_commands(q, a["tau"], SAG_STIFFNESS_SCALE * robot.servo_stiffness_nm_per_rad, 1.0 / dt),
                       fan_commands(thrust, 1.0 / dt, np.array([f.lag_s for f in fans]),
                                    np.array([f.thrust_max_n for f in fans])))
     ratio = np.abs(a["tau"]) / robot.servo_limit_nm

@@ -8,7 +8,7 @@ import numpy as np
 
 from jethr1_plan.records.plan_columns import KAPPA
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
-from jethr1_plan.verify.commands import PLAN_SAG_FILTER_S, fan_commands, servo_commands
+from jethr1_plan.verify.commands import PLAN_SAG_FILTER_S, PLAN_SAG_STIFFNESS_SCALE, fan_commands, servo_commands
 from jethr1_plan.verify.plan_rows import RowData
 
 __all__ = ["CHECKS"]
@@ -80,7 +80,7 @@ def _servo_commands(x: RowData) -> list[Finding]:
         return []
     r = x.robot
     tau = np.stack([x.c[f"{j}_tau_nm"] for j in r.joint_names], axis=1).astype(float)
-    q_cmd = servo_commands(x.q, tau, r.servo_stiffness_nm_per_rad, rate, PLAN_SAG_FILTER_S)
+    q_cmd = servo_commands(x.q, tau, PLAN_SAG_STIFFNESS_SCALE * r.servo_stiffness_nm_per_rad, rate, PLAN_SAG_FILTER_S)
     written = np.stack([x.c[f"{j}_cmd_rad"] for j in r.joint_names], axis=1).astype(float)
     out = []
     for i in np.flatnonzero(~np.all(np.abs(written - q_cmd) <= 1e-9, axis=1)):

@@ -3,7 +3,9 @@ send", the ``_cmd`` columns of docs/contract.md) and not from the planner's code
 
 * a position servo of stiffness k sags by τ/k under a torque τ, so it is sent q + τ_f/k, τ_f the
   written torque through a first-order low-pass of time constant ``filter_s`` that starts at the first
-  row (a plan: :data:`PLAN_SAG_FILTER_S`; a walk, whose torques are continuous: none);
+  row (a plan: :data:`PLAN_SAG_FILTER_S`; a walk, whose torques are continuous: none), k the robot
+  YAML's stiffness times :data:`PLAN_SAG_STIFFNESS_SCALE` for a plan (the sag of the stiffest servo
+  within ±25 %, so that no leg stands taller than planned), times 1 for a walk;
 * a fan of first-order lag τ_fan is sent F + τ_fan·dF/dt, dF/dt by central differences between the
   rows around (one-sided at the ends), within [0, F_max].
 
@@ -17,13 +19,14 @@ import math
 
 import numpy as np
 
-__all__ = ["PLAN_SAG_FILTER_S", "WALK_SAG_FILTER_S", "fan_commands", "servo_commands"]
+__all__ = ["PLAN_SAG_FILTER_S", "PLAN_SAG_STIFFNESS_SCALE", "WALK_SAG_FILTER_S", "fan_commands", "servo_commands"]
 
-#: a plan's sag compensation is low-passed with this time constant [s] (its static torques jump where a
-#: transfer hands over to a swing)
+#: a plan's sag compensation is low-passed with this time constant [s]
 PLAN_SAG_FILTER_S = 0.2
 #: a walk's is not filtered [s]
 WALK_SAG_FILTER_S = 0.0
+#: a plan's commands undo the sag of servos this many times the robot YAML's stiffness
+PLAN_SAG_STIFFNESS_SCALE = 1.25
 
 
 def servo_commands(q_rad: np.ndarray, tau_nm: np.ndarray, stiffness_nm_per_rad: np.ndarray, rate_hz: float,

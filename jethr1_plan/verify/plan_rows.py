@@ -125,7 +125,8 @@ class RowData:
         if statics and len(rows_posed):
             thrust = np.where(np.isfinite(self.thrust), self.thrust, 0.0)
             tau, kappa = batched_statics(robot, gravity[rows_posed], {s: jac[s][rows_posed] for s in SIDES},
-                                         fan_z[rows_posed], thrust[rows_posed], self.support[rows_posed])
+                                         fan_z[rows_posed], thrust[rows_posed], self.support[rows_posed],
+                                         {s: feet[s][rows_posed] for s in SIDES})
             out["tau"][rows_posed], out["kappa"][rows_posed] = tau, kappa
         return out
 
@@ -306,14 +307,38 @@ def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
     return float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
 
 
+def _transfer_weights(robot: RobotModel, a: np.ndarray, b: np.ndarray, feet: dict[str, np.ndarray],
+                      at: np.ndarray) -> np.ndarray:
+    """(k, 2) each sole's weight in a double-support split (``physics.statics.load_split``, restated): the
+    ZMP from the wrench the right sole alone would carry (its CoP: the sole's centre plus (−m_y, m_x)/f_z),
+    its distance beyond each sole rectangle measured along that sole's heading, max(|x| − L/2, |y| − W/2, 0),
+    and β_s = d_other / (d_l + d_r) (½ each where both are 0)."""
+    w_right = np.linalg.solve(a[:, :, 6:], b[..., None])[..., 0]  # (k, 6)
+    fz = np.where(np.abs(w_right[:, 2]) > 1e-9, w_right[:, 2], 1e-9)
+    zmp = feet["right"][at, :2, 3] + np.stack([-w_right[:, 4], w_right[:, 3]], axis=1) / fz[:, None]
+    half = np.array([robot.sole_length_m / 2, robot.sole_width_m / 2])
+    d = np.empty((len(at), 2))
+    for k, s in enumerate(SIDES):
+        yaw = np.arctan2(feet[s][at, 1, 0], feet[s][at, 0, 0])  # the sole's heading (its x axis seen from above)
+        rel = zmp - feet[s][at, :2, 3]
+        local = np.stack([np.cos(yaw) * rel[:, 0] + np.sin(yaw) * rel[:, 1],
+                          -np.sin(yaw) * rel[:, 0] + np.cos(yaw) * rel[:, 1]], axis=1)
+        d[:, k] = np.maximum(np.max(np.abs(local) - half, axis=1), 0.0)
+    total = d.sum(axis=1)
+    return np.where(total[:, None] > 0, d[:, ::-1] / np.where(total > 0, total, 1.0)[:, None], 0.5)
+
+
 def batched_statics(robot: RobotModel, gravity: np.ndarray, jac: dict[str, np.ndarray], fan_z: np.ndarray,
-                    thrust_n: np.ndarray, support: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                    thrust_n: np.ndarray, support: np.ndarray, feet: dict[str, np.ndarray]
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Static torques (m, J) [N·m] and each leg's κ (m, 2) of m postures at once, from PlaCo's
     generalised gravity (m, 6+J), the soles' world-aligned Jacobians (m, 6, 6+J) per side and the
     vertical-force row of each fan's (m, F, 6+J), under thrusts (m, F) [N] with ``support`` (m,) on the
     ground: the equations of ``physics.statics.static_torques`` (the six floating-base rows fix the
-    support wrench, exactly on one sole, least-norm on both) and ``leg_condition_numbers``. A row whose
-    support is neither sole nor both keeps NaN torques."""
+    support wrench, exactly on one sole; on both the load transfer's weighted least norm, the weights
+    from the ZMP's distances beyond the soles at ``feet`` (m, 4, 4) per side: :func:`_transfer_weights`)
+    and ``leg_condition_numbers``. A row whose support is neither sole nor
+    both keeps NaN torques."""
     m, nj = len(gravity), gravity.shape[1] - 6
     rhs = gravity - np.einsum("mf,mfv->mv", thrust_n, fan_z)
     tau = np.full((m, nj), np.nan)
@@ -324,9 +349,12 @@ def batched_statics(robot: RobotModel, gravity: np.ndarray, jac: dict[str, np.nd
         jc = np.concatenate([jac[s][at] for s in (SIDES if sup == "both" else (sup,))], axis=1)  # (k, 6c, 6+J)
         a = np.transpose(jc[:, :, :6], (0, 2, 1))  # (k, 6, 6c): base rows of J_cᵀ
         b = rhs[at, :6]
-        if sup == "both":  # the least-norm wrench: w = Aᵀ (A Aᵀ)⁻¹ b
-            y = np.linalg.solve(a @ np.transpose(a, (0, 2, 1)), b[..., None])
-            w = (np.transpose(a, (0, 2, 1)) @ y)[..., 0]
+        if sup == "both":  # the weighted least-norm wrench: w = W Aᵀ (A W Aᵀ)⁻¹ b, W = diag(β_l I₆, β_r I₆)
+            beta = _transfer_weights(robot, a, b, feet, at)
+            wt = np.repeat(beta, 6, axis=1)  # (k, 12)
+            aw = a * wt[:, None, :]
+            y = np.linalg.solve(aw @ np.transpose(a, (0, 2, 1)), b[..., None])
+            w = wt * (np.transpose(a, (0, 2, 1)) @ y)[..., 0]
         else:
             w = np.linalg.solve(a, b[..., None])[..., 0]
         tau[at] = rhs[at, 6:] - np.einsum("kcj,kc->kj", jc[:, :, 6:], w)

@@ -104,3 +104,63 @@ def test_energy_counts_only_positive_power():
     e = energy_consumption(tau, q, 0.01)
     # ∫ max(2·q̇, 0) dt = 2 × (total rise of sin over one period) = 2 × 2
     assert e == pytest.approx(4.0, rel=2e-3)
+
+
+def _two_soles(p_left, p_right):
+    """The floating-base rows A (6, 12) of two sole wrenches [f; m] at ``p_left``, ``p_right``: the
+    resultant force and its moment about the origin, Σ (f_s, m_s + p_s × f_s)."""
+    def block(p):
+        x, y, z = p
+        skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        return np.block([[np.eye(3), np.zeros((3, 3))], [skew, np.eye(3)]])
+    return np.hstack([block(p_left), block(p_right)])
+
+
+def test_load_split_gives_the_whole_load_to_the_sole_under_the_zmp(robot):
+    """A vertical load W at the ZMP: a ZMP inside one sole puts all the weight there (the other's weight 0,
+    so a transfer's ends equal the single supports beside them), halfway between the soles half each, and
+    the weight moves over monotonically as the ZMP crosses the gap."""
+    from jethr1_plan.physics.statics import load_split
+
+    left, right = np.array([0.0, 0.1, 0.0]), np.array([0.3, -0.1, -0.03])
+    a = _two_soles(left, right)
+    weight = robot.mass_kg * GRAVITY
+
+    def beta(zmp):
+        b = np.array([0.0, 0.0, weight, weight * zmp[1], -weight * zmp[0], 0.0])
+        return load_split(a, b, [left, right], [0.0, 0.0], robot.sole_length_m, robot.sole_width_m)
+
+    np.testing.assert_allclose(beta(left[:2] + np.array([0.02, -0.01])), [1.0, 0.0])
+    np.testing.assert_allclose(beta(right[:2]), [0.0, 1.0])
+    np.testing.assert_allclose(beta(0.5 * (left[:2] + right[:2])), [0.5, 0.5], atol=1e-12)
+    path = [beta(left[:2] + s * (right[:2] - left[:2]))[1] for s in np.linspace(0.0, 1.0, 41)]
+    assert np.all(np.diff(path) >= -1e-12) and path[0] == 0.0 and path[-1] == 1.0
+
+
+def test_double_support_wrench_balances_and_is_the_single_support_one_at_a_sole(robot):
+    """Both soles down with the ZMP (the CoM, without thrust) inside the right sole: the split still
+    balances the weight (A w = b), the left sole carries nothing, and the torques are those of the right
+    support alone."""
+    from jethr1_plan.kinematics.closed_form import solve_postures
+
+    feet = {"left": (np.array([0.0, 0.09, 0.0]), 0.0), "right": (np.array([0.12, -0.09, -0.02]), 0.0)}
+    target = feet["right"][0][:2] + np.array([0.0, 0.03])  # inside the right sole, 15 mm from its inner edge
+    p = np.array([[0.06, 0.0, 0.33]])
+    for _ in range(20):  # P_body moved until the CoM stands over the target
+        q, com, status = solve_postures(robot, p, np.zeros(1), feet)
+        assert status[0] == 0
+        p[0, :2] += target - com[0, :2]
+    q, com, _ = solve_postures(robot, p, np.zeros(1), feet)
+    assert np.linalg.norm(com[0, :2] - target) < 0.002
+    wrapper = robot.wrapper()
+    T = np.eye(4)
+    T[:3, 3] = p[0]
+    wrapper.set_T_world_fbase(T)
+    wrapper.state.q[7:] = q[0]
+    wrapper.update_kinematics()
+    none = np.zeros(len(robot.fans))
+    tau2, w2 = static_torques(robot, wrapper, none, ("left", "right"))
+    tau1, _ = static_torques(robot, wrapper, none, ("right",))
+    assert w2.reshape(2, 6)[:, 2].sum() == pytest.approx(robot.mass_kg * GRAVITY, abs=1e-9)
+    np.testing.assert_allclose(w2[:6], 0.0, atol=1e-9)
+    np.testing.assert_allclose(tau2, tau1, atol=1e-9)

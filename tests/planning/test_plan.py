@@ -311,3 +311,16 @@ def test_the_mcap_shows_the_robot_by_itself(planned, robot):
     first = min(m[3] for m in msgs)
     assert first == EPOCH_NS
     assert datetime.datetime.fromtimestamp(first / 1e9, datetime.UTC).isoformat() == "2000-01-01T00:00:00+00:00"
+
+
+def test_torques_do_not_jump_where_a_foot_lands_or_lifts(planned, robot):
+    """The double-support split moves the load over with the ZMP (``physics.statics.load_split``): a
+    transfer starts on the sole the swing before stood on and ends on the one the next swing stands on, so
+    the static torques, and the servo commands built on them, change across a touchdown or a lift-off no
+    more than between two rows of one phase (a least-norm split jumps by a large part of the knee's load)."""
+    c = read_trajectory_csv((planned / "trajectory.csv").read_text())
+    tau = np.stack([c[f"{j}_tau_nm"] for j in JOINT_NAMES], axis=1)
+    step = np.abs(np.diff(tau, axis=0)).max(axis=1)
+    change = c["phase"][1:] != c["phase"][:-1]
+    assert change.sum() >= 2  # a touchdown and a lift-off at least
+    assert step[change].max() <= max(0.05, 2.0 * step[~change].max())

@@ -17,6 +17,7 @@ def test_batched_statics_match_the_row_by_row_solution(robot):
     gravity, jac, fan_z = np.zeros((m, nv)), {s: np.zeros((m, 6, nv)) for s in SIDES}, np.zeros((m, nf, nv))
     thrust = rng.uniform(0.0, 15.0, (m, nf))
     thrust[1, 0] = 0.0
+    feet = {s: np.zeros((m, 4, 4)) for s in SIDES}
     expected_tau, expected_kappa = np.full((m, len(robot.joint_names)), np.nan), np.zeros((m, 2))
     for i, sup in enumerate(supports):
         T = np.eye(4)
@@ -30,6 +31,7 @@ def test_batched_statics_match_the_row_by_row_solution(robot):
         gravity[i] = wrapper.generalized_gravity()
         for side in SIDES:
             jac[side][i] = wrapper.frame_jacobian(robot.legs[side].sole, "local_world_aligned")
+            feet[side][i] = wrapper.get_T_world_frame(robot.legs[side].sole)
         for k, fan in enumerate(robot.fans):
             fan_z[i, k] = wrapper.frame_jacobian(fan.frame, "local_world_aligned")[2]
         on = SIDES if sup == "both" else ((sup,) if sup in SIDES else ())
@@ -37,7 +39,7 @@ def test_batched_statics_match_the_row_by_row_solution(robot):
             expected_tau[i], _ = static_torques(robot, wrapper, thrust[i], on)
         kappa = leg_condition_numbers(robot, wrapper)
         expected_kappa[i] = kappa["left"], kappa["right"]
-    tau, kappa = batched_statics(robot, gravity, jac, fan_z, thrust, supports)
+    tau, kappa = batched_statics(robot, gravity, jac, fan_z, thrust, supports, feet)
     assert np.isnan(tau[-1]).all()  # no sole on the ground: no static torques
     np.testing.assert_allclose(tau[:-1], expected_tau[:-1], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(kappa, expected_kappa, rtol=1e-9)
