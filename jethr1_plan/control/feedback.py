@@ -90,6 +90,7 @@ class Controller:
         self.place = SwingPlacement(placement or PlacementGains(), len(robot.joint_names))
         self.caps = np.array([min(f.thrust_max_n, thrust_max_n) for f in robot.fans])
         self.lag = np.array([f.lag_s for f in robot.fans])
+        self.lag_step = np.minimum(1.0, 1.0 / (self.rate_hz * self.lag))  # a tick's share of each fan's lag
         self.stiffness = robot.servo_stiffness_nm_per_rad
         self.legs = {s: np.array(robot.legs[s].index) for s in SIDES}
         self.weight_n = GRAVITY * robot.mass_kg
@@ -164,7 +165,7 @@ class Controller:
             q += self.place.offset
         # the thrust the law adds, as the robot estimates the fans deliver it (their nominal lag): the servos
         # that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
-        self.extra += (thrust - ff - self.extra) * np.minimum(1.0, 1.0 / (self.rate_hz * self.lag))
+        self.extra += (thrust - ff - self.extra) * self.lag_step
         if self.compensate:
             for f in np.flatnonzero(np.abs(self.extra) > 1e-6):
                 q -= kin.fan_lift_jacobian(int(f)) * self.extra[f] / self.stiffness

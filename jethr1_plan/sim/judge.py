@@ -78,15 +78,15 @@ def sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.ndar
                     side = side_of.get(g)
                     if side is not None:
                         picked[side].append(j)
+        frames, f = contact.frame[:n].tolist(), d.efc_force.tolist()
     out = {}
     for side, idx in picked.items():
         force = 0.0  # [N]
         if idx:
-            a = np.array([adr[j] for j in idx])
-            frames = contact.frame[idx]
-            f = d.efc_force
-            # the world z component of each contact's force (its frame's rows are the normal and tangents)
-            z = np.abs(frames[:, 2] * f[a] + frames[:, 5] * f[a + 1] + frames[:, 8] * f[a + 2])
+            # the world z component of each contact's force (its frame's rows are the normal and tangents), element
+            # by element in floats as numpy's elementwise products and sums give them
+            z = np.array([abs(frames[j][2] * f[adr[j]] + frames[j][5] * f[adr[j] + 1] + frames[j][8] * f[adr[j] + 2])
+                          for j in idx])
             force = float(z.sum())
             if force > 1e-9:
                 out[side] = (force, (z @ contact.pos[idx]) / force)  # Σ force · contact point / Σ force [m]

@@ -39,6 +39,8 @@ from jethr1_plan.sim.twin import Twin, build_twin
 
 __all__ = ["OwnKinematics", "SensorDraw", "SensorModel", "rotation_vector"]
 
+NOISE_BLOCK = 4096  # standard normals drawn ahead at a time (:meth:`SensorModel._noise`)
+
 
 def rotation_vector(v: np.ndarray) -> np.ndarray:
     """The rotation (3, 3) of the rotation vector ``v`` (3,) [rad] (Rodrigues)."""
@@ -94,6 +96,8 @@ class SensorModel:
     def __init__(self, twin: Twin, sensors: Sensors, draw: SensorDraw, period_s: float) -> None:
         self.twin, self.sensors, self.draw, self.period = twin, sensors, draw, period_s
         self.rng = np.random.default_rng([draw.noise_seed, 0])
+        self._normals = np.zeros(0)  # standard normals drawn ahead from ``rng``, used in order (:meth:`_noise`)
+        self._used = 0
         n = len(twin.robot.joint_names)
         self.offset = np.asarray(draw.encoder_offset_rad, dtype=float) if draw.encoder_offset_rad else np.zeros(n)
 
@@ -133,6 +137,17 @@ class SensorModel:
                 out[s] = (0.0, np.zeros(2))
         return out
 
+    def _noise(self, sigma: float, n: int) -> np.ndarray:
+        """``n`` draws of white noise of standard deviation ``sigma``: ``rng.normal(0, sigma, n)``'s numbers (each is
+        ``0 + sigma·z`` of the generator's next standard normal z), taken from a block of standard normals drawn
+        ahead, so that a tick costs no call into the generator."""
+        if self._used + n > len(self._normals):
+            rest = self._normals[self._used:]
+            self._normals, self._used = np.concatenate([rest, self.rng.standard_normal(max(NOISE_BLOCK, n))]), 0
+        z = self._normals[self._used:self._used + n]
+        self._used += n
+        return 0.0 + sigma * z
+
     def read(self, d, time_s: float) -> Measurement:
         """The reading at this tick of the twin's state ``d`` (a ``mujoco.MjData``)."""
         import mujoco
@@ -146,22 +161,22 @@ class SensorModel:
                              d.qpos[twin.qpos_adr] if enc else None,
                              self._sole_truth(d) if sole is not None else None))
         last = len(self.history) - 1
-        rng, draw = self.rng, self.draw
+        draw = self.draw
         rotation = rate = joints = None
         soles = None
         if imu is not None:
             truth = self.history[max(0, last - self.lag["imu"])]
             err = np.array([draw.imu_tilt_bias_rad[0], draw.imu_tilt_bias_rad[1], draw.yaw_drift_rad_s * time_s])
             if imu.attitude_noise_rad > 0:
-                err += rng.normal(0.0, imu.attitude_noise_rad, 3)
+                err += self._noise(imu.attitude_noise_rad, 3)
             rotation = rotation_vector(err) @ truth[0]
             rate = truth[1] + np.asarray(draw.gyro_bias_rad_s)
             if imu.rate_noise_rad_s > 0:
-                rate += rng.normal(0.0, imu.rate_noise_rad_s, 3)
+                rate += self._noise(imu.rate_noise_rad_s, 3)
         if enc is not None:
             joints = self.history[max(0, last - self.lag["encoders"])][2] + self.offset
             if enc.noise_rad > 0:
-                joints += rng.normal(0.0, enc.noise_rad, len(joints))
+                joints += self._noise(enc.noise_rad, len(joints))
             if enc.resolution_rad > 0:
                 joints = np.round(joints / enc.resolution_rad) * enc.resolution_rad
         if sole is not None:
@@ -170,9 +185,9 @@ class SensorModel:
             for s in SIDES:
                 f, cop = truth_soles[s]
                 if sole.force_noise_n > 0:
-                    f = max(0.0, f + float(rng.normal(0.0, sole.force_noise_n)))
+                    f = max(0.0, f + float(self._noise(sole.force_noise_n, 1)[0]))
                 if sole.cop_noise_m > 0:
-                    cop = cop + rng.normal(0.0, sole.cop_noise_m, 2)
+                    cop = cop + self._noise(sole.cop_noise_m, 2)
                 soles[s] = SoleReading(f, cop)
         return Measurement(time_s, rotation, rate, joints, soles)
 
