@@ -100,6 +100,7 @@ class SensorModel:
         self._used = 0
         n = len(twin.robot.joint_names)
         self.offset = np.asarray(draw.encoder_offset_rad, dtype=float) if draw.encoder_offset_rad else np.zeros(n)
+        self.gyro_bias = np.asarray(draw.gyro_bias_rad_s)  # [rad/s]
 
         def ticks(given: float | None, declared) -> int:
             delay = given if given is not None else (declared.delay_s if declared is not None else 0.0)
@@ -170,7 +171,7 @@ class SensorModel:
             if imu.attitude_noise_rad > 0:
                 err += self._noise(imu.attitude_noise_rad, 3)
             rotation = rotation_vector(err) @ truth[0]
-            rate = truth[1] + np.asarray(draw.gyro_bias_rad_s)
+            rate = truth[1] + self.gyro_bias
             if imu.rate_noise_rad_s > 0:
                 rate += self._noise(imu.rate_noise_rad_s, 3)
         if enc is not None:
