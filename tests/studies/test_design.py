@@ -125,7 +125,7 @@ def test_a_best_variant_plans_and_walks_its_ditch_in_the_twin(swept, tmp_path):
                 "--no-progress"]) == 0
     folder = tmp_path / f"{name}_ditch_whole"
     summary = json.loads((folder / "summary.json").read_text())
-    assert summary["feasible"] and summary["max_thrust_n"] <= summary["thrust_max_n"] + 1e-9
+    assert summary["feasible"] and summary["peak_thrust_n"] <= summary["thrust_max_n"] + 1e-9
     assert run(["simulate", str(folder), "--controller", "feedback", "--no-progress"]) == 0
     sim = json.loads((folder / "simulation.json").read_text())
     r = sim["runs"][0]
