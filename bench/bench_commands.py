@@ -11,7 +11,7 @@ candidate, three IK iterations (``update_kinematics`` + ``solve``) on the two so
 ``update_kinematics`` + ``com_world`` (docs/benchmarks.md). Target: ``jethr1 plan`` of the trial at
 most 1 unit.
 
-Usage: ``python bench/bench_commands.py [--repeats N] [--jethr1 PREFIX] [--baseline PREFIX]``: a prefix is
+Usage: ``python bench/bench_commands.py [--repeats N] [--jethr1 PREFIX] [--baseline PREFIX] [--only TEXT]``: a prefix is
 the command that runs a jethr1 (default: this venv's); ``--baseline`` times a second one (another checkout,
 e.g. ``"env PYTHONPATH=/path/to/old .venv/bin/python -P -c 'from jethr1_plan.cli import entry; entry()'"``;
 ``-P``: the commands run in this repository, whose own package ``python -c`` would import first) in the same
@@ -202,6 +202,8 @@ def main() -> None:
     ap.add_argument("--first-runs", choices=["yes", "no", "only"], default="yes",
                     help="also time each command's first run on a fresh install, after jethr1 warm-up (only: nothing "
                          "else)")
+    ap.add_argument("--only", default=None, help="time only the whole commands whose name holds this text (e.g. "
+                    "simulate; the trial's plan is still written first, untimed)")
     ap.add_argument("--before", action="store_true", help="with the first runs, also each one without the warm-up "
                     "(a fresh numba cache each: minutes)")
     args = ap.parse_args()
@@ -228,6 +230,8 @@ def main() -> None:
             for kind in kinds:
                 for name, argv in cmds[kind].items():
                     if kind == "baseline" and name.startswith(("imports only", "floor")):
+                        continue
+                    if args.only and args.only not in name:
                         continue
                     wall, cpu, _ = run_command(argv, ROOT)
                     if (kind, name) not in best or wall < best[kind, name][0]:

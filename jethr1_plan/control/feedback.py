@@ -90,6 +90,7 @@ class Controller:
         self.place = SwingPlacement(placement or PlacementGains(), len(robot.joint_names))
         self.caps = np.array([min(f.thrust_max_n, thrust_max_n) for f in robot.fans])
         self.lag = np.array([f.lag_s for f in robot.fans])
+        self.lag_step = np.minimum(1.0, 1.0 / (self.rate_hz * self.lag))  # a tick's share of each fan's lag
         self.stiffness = robot.servo_stiffness_nm_per_rad
         self.legs = {s: np.array(robot.legs[s].index) for s in SIDES}
         self.weight_n = GRAVITY * robot.mass_kg
@@ -126,11 +127,11 @@ class Controller:
             # the law acts on the total thrust of the fans that carry it, in their planned shares; without
             # planned thrust, on the swing sole's first fan. Its saturation: the whole thrust the fans are given
             total_ff = float(ff.sum())
-            carry = (np.flatnonzero(ff > 0) if total_ff > 0
+            carry = ((ff > 0).nonzero()[0] if total_ff > 0
                      else np.array(self.robot.swing_fans(other_side(sup))[:1], dtype=int))
             share = ff[carry] / total_ff if total_ff > 0 else np.ones(len(carry))
             if len(carry):
-                top = float(np.min(self.caps[carry] / share))
+                top = float((self.caps[carry] / share).min())
                 if self.law_name == "cop_edge_pi":
                     assert m.soles is not None
                     p_s, r_s = kin.sole(sup)
@@ -164,9 +165,9 @@ class Controller:
             q += self.place.offset
         # the thrust the law adds, as the robot estimates the fans deliver it (their nominal lag): the servos
         # that carry it unload, so their sag compensation follows (q_cmd − J_fanᵀ·ΔF/k)
-        self.extra += (thrust - ff - self.extra) * np.minimum(1.0, 1.0 / (self.rate_hz * self.lag))
+        self.extra += (thrust - ff - self.extra) * self.lag_step
         if self.compensate:
-            for f in np.flatnonzero(np.abs(self.extra) > 1e-6):
+            for f in (np.abs(self.extra) > 1e-6).nonzero()[0].tolist():
                 q -= kin.fan_lift_jacobian(int(f)) * self.extra[f] / self.stiffness
-        self.last = Diagnostics(single, error, float(np.sum(thrust - ff)))
+        self.last = Diagnostics(single, error, float((thrust - ff).sum()))
         return Command(q, thrust)

@@ -10,7 +10,7 @@ carton tops (on the ground where the scenario has no cartons).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -54,7 +54,8 @@ class RunResult:
     stopped: str | None = None  # why the robot stopped before the plan's end without falling (step by step)
 
     def as_dict(self) -> dict:
-        out = asdict(self)
+        """The verdict and measurements as plain data, without the recorded states (not copied)."""
+        out = asdict(replace(self, record=None))  # the record's states are not deep-copied to be dropped
         out.pop("record")
         return out
 
@@ -64,25 +65,34 @@ def sole_loads(twin: Twin, d, buf: np.ndarray) -> dict[str, tuple[float, np.ndar
     (the sole's centre where it carries nothing). The contact forces are the constraint solver's: the
     twin's elliptic cones keep each contact's force in its frame (normal, then tangential) at its
     ``efc_address`` (what ``mj_contactForce`` reads)."""
-    force = {s: 0.0 for s in twin.sole_geoms}  # [N]
-    moment = {s: np.zeros(3) for s in twin.sole_geoms}  # Σ force · contact point [N·m]
     n = d.ncon
+    picked: dict[str, list[int]] = {s: [] for s in twin.sole_geoms}
     if n:
+        # which sole each contact touches, in plain Python (a handful of contacts: cheaper than masks per sole)
         contact = d.contact
-        geoms = contact.geom[:n]
-        adr = contact.efc_address[:n]
-        for side, g in twin.sole_geoms.items():
-            idx = np.flatnonzero(((geoms[:, 0] == g) | (geoms[:, 1] == g)) & (adr >= 0))
-            if not len(idx):
+        adr = contact.efc_address[:n].tolist()
+        side_of = twin.sole_of_geom
+        for j, (g0, g1) in enumerate(contact.geom[:n].tolist()):
+            if adr[j] >= 0:
+                for g in (g0, g1) if g0 != g1 else (g0,):
+                    side = side_of.get(g)
+                    if side is not None:
+                        picked[side].append(j)
+        frames, f = contact.frame[:n].tolist(), d.efc_force.tolist()
+    out = {}
+    for side, idx in picked.items():
+        force = 0.0  # [N]
+        if idx:
+            # the world z component of each contact's force (its frame's rows are the normal and tangents), element
+            # by element in floats as numpy's elementwise products and sums give them
+            z = np.array([abs(frames[j][2] * f[adr[j]] + frames[j][5] * f[adr[j] + 1] + frames[j][8] * f[adr[j] + 2])
+                          for j in idx])
+            force = float(z.sum())
+            if force > 1e-9:
+                out[side] = (force, (z @ contact.pos[idx]) / force)  # Σ force · contact point / Σ force [m]
                 continue
-            a = adr[idx]
-            frames = contact.frame[idx]
-            f = d.efc_force
-            # the world z component of each contact's force (its frame's rows are the normal and tangents)
-            z = np.abs(frames[:, 2] * f[a] + frames[:, 5] * f[a + 1] + frames[:, 8] * f[a + 2])
-            force[side] = float(z.sum())
-            moment[side] = z @ contact.pos[idx]
-    return {s: (f, moment[s] / f if f > 1e-9 else d.xpos[twin.foot_bodies[s]].copy()) for s, f in force.items()}
+        out[side] = (force, d.xpos[twin.foot_bodies[side]].copy())
+    return out
 
 
 class StepJudge:

@@ -26,7 +26,7 @@ from jethr1_plan.control.imu_thrust import ImuGains
 from jethr1_plan.control.measurement import Measurement, Reference
 from jethr1_plan.control.swing_placement import PlacementGains, yaw_of
 from jethr1_plan.errors import InputError
-from jethr1_plan.geometry import GRAVITY, SIDES, other_side, polygon_margin, sole_polygon
+from jethr1_plan.geometry import GRAVITY, SIDES, halfplanes, other_side, sole_polygon
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.robot.sensors import LAW_SENSORS
 from jethr1_plan.sim.judge import FALL_DROP_M, FALL_TILT_DEG, RunResult, StepJudge, landing_rows, on_cartons, sole_loads
@@ -96,14 +96,20 @@ class _Following:
         self.target = ref_track.q_cmd if compensate else ref_track.q
         self.thrust_ff = ref_track.thrust_cmd if compensate else ref_track.thrust
 
-    def reference(self, t: float, i: int, a: float, sup: str, active: bool) -> tuple[np.ndarray, Reference]:
-        """(the joints' target [rad], the loop's reference) at the track's time ``t`` [s]."""
-        r, j = self.track, i + 1
+    def commands(self, t: float, i: int, a: float, active: bool) -> tuple[np.ndarray, np.ndarray]:
+        """(the joints' target [rad], the fans' feed-forward [N]) at the track's time ``t`` [s]."""
+        j = i + 1
         q_ref = (1 - a) * self.target[i] + a * self.target[j]
         if self.blend_from is not None and t < BLEND_S:
             w = max(0.0, t) / BLEND_S
             q_ref = (1 - w) * self.blend_from + w * q_ref
         thrust = ((1 - a) * self.thrust_ff[i] + a * self.thrust_ff[j]) if active else np.zeros(self.n_fans)
+        return q_ref, thrust
+
+    def reference(self, t: float, i: int, a: float, sup: str, active: bool) -> tuple[np.ndarray, Reference]:
+        """(the joints' target [rad], the loop's reference) at the track's time ``t`` [s]."""
+        r = self.track
+        q_ref, thrust = self.commands(t, i, a, active)
         return q_ref, Reference(t, sup, q_ref, thrust, r.trunk_rot[i], r.feet[i], r.feet_yaw[i], r.fans_m[i], active)
 
 
@@ -151,6 +157,7 @@ class TwinRun:
         self.landings: list[dict] = []
         self.steps: list[dict] = []
         self.last_q: np.ndarray | None = None
+        self._margin_edges: tuple | None = None  # ((row, sole), normals, offsets) of the last support sole asked
         self.wall = 0.0
         self.started = False
 
@@ -194,42 +201,46 @@ class TwinRun:
         n_settle, n_plan, n_hold = round(settle_s / dt), round(float(track.time_s[-1]) / dt) + 1, round(hold_s / dt)
         record_every = max(1, round(1.0 / (RECORD_HZ * dt)))
         follow = _Following(ref_track, self.compensate, self.last_q, len(self.robot.fans))
-        nothing = Measurement(0.0, None, None, None, None)
         t0 = self.t + settle_s  # the run's clock at the track's first row
         wall0 = time.perf_counter()
         landings: list[dict] = []
+        feed_forward = self.law is None  # the plan's commands alone: no measurement, no loop state to keep
+        time_s, rate_hz, support = track.time_s, track.rate_hz, track.support
         for k in range(n_settle + n_plan + n_hold):
             t = (k - n_settle) * dt  # the track's clock
             if k < n_settle:
                 i, a = 0, 0.0
             else:
-                x = min(max(t * track.rate_hz, 0.0), n_rows - 1.0)
+                x = min(max(t * rate_hz, 0.0), n_rows - 1.0)
                 i = min(int(x), n_rows - 2)
                 a = x - i
             active = k >= n_settle
-            sup = track.support[i]
-            q_ref, ref = follow.reference(t, i, a, sup, active)
+            sup = support[i]
             self.t = t0 + t
-            cmd = loop.step(self.sensors.read(d, self.t) if self.law is not None else nothing, ref)
-            d.ctrl[:] = cmd.q
+            if feed_forward:  # what Controller.step returns without a law: the reference's commands
+                q_ref, thrust = follow.commands(t, i, a, active)
+            else:
+                q_ref, ref = follow.reference(t, i, a, sup, active)
+                cmd = loop.step(self.sensors.read(d, self.t), ref)
+                thrust = cmd.thrust
+            d.ctrl[:] = q_ref if feed_forward else cmd.q
             self.last_q = q_ref
             loads = sole_loads(twin, d, self.buf)
-            total = sum(f for f, _ in loads.values())
-            cop = np.asarray(sum(f * c for f, c in loads.values()) / total) if total > 1e-9 else None
             self._cop_margin(track, i, sup, loads)
-            self._thrust(cmd.thrust, dt)
+            self._thrust(thrust, dt)
             mujoco.mj_step(m, d, self.nsub)
             if self._fallen(track, i, a, sup):
                 break
             if active:
                 judge_steps.tick(d, i, t, {s: f for s, (f, _) in loads.items()}, self.applied)
-            while judge and active and t >= track.time_s[judge[0][0]] - 1e-9:
+            while judge and active and t >= time_s[judge[0][0]] - 1e-9:
                 row, step, sole = judge.pop(0)
                 err = d.xpos[twin.foot_bodies[sole]] - track.feet[row, SIDES.index(sole)]
                 landings.append({"step": step, "sole": sole, "xy_m": float(np.hypot(err[0], err[1])),
                                  "z_m": float(err[2])})
             if self.rec is not None and active and (k - n_settle) % record_every == 0:
-                self._record(cop)
+                total = sum(f for f, _ in loads.values())
+                self._record(np.asarray(sum(f * c for f, c in loads.values()) / total) if total > 1e-9 else None)
         self.wall += time.perf_counter() - wall0
         self.landings += landings
         self.steps += judge_steps.done
@@ -242,9 +253,13 @@ class TwinRun:
                  and loads[other_side(sup)][0] < UNLOADED * self.weight)
         if alone:
             k = SIDES.index(sup)
-            poly = sole_polygon(track.feet[i, k, :2], track.feet_yaw[i, k], self.robot.sole_length_m,
-                                self.robot.sole_width_m)
-            margin = float(polygon_margin(loads[sup][1][:2], poly))
+            if self._margin_edges is None or self._margin_edges[0] != (i, k):
+                poly = sole_polygon(track.feet[i, k, :2], track.feet_yaw[i, k], self.robot.sole_length_m,
+                                    self.robot.sole_width_m)
+                self._margin_edges = ((i, k), *halfplanes(poly))
+            _, normals, offsets = self._margin_edges
+            # polygon_margin's signed distance, the sole's edges kept over the ticks of one row
+            margin = float((offsets - np.asarray(loads[sup][1][:2], dtype=float) @ normals.T).min(axis=-1))
             if margin < self.least_margin:
                 self.least_margin, self.least_at = margin, {**track.where(i), "run_time_s": self.t}
 
@@ -254,30 +269,31 @@ class TwinRun:
         d, p = self.data, self.p
         self.applied += (p.thrust_gain * command - self.applied) * (dt / p.fan_lag_s)
         self.max_thrust = max(self.max_thrust, float(command.max(initial=0.0)))
-        d.xfrc_applied[:] = 0.0
-        for f_idx, body in enumerate(self.fan_ids):
-            fz = float(self.applied[f_idx])
-            d.xfrc_applied[body, :3] = (0.0, 0.0, fz)
+        xfrc, xpos, xipos = d.xfrc_applied, d.xpos, d.xipos
+        for fz, body in zip(self.applied.tolist(), self.fan_ids, strict=True):
             # the moment about the body's CoM of the vertical force at its origin: r × (0, 0, fz), written out as
             # np.cross computes it (the same floats, without its per-call cost)
-            rx, ry, rz = (d.xpos[body] - d.xipos[body]).tolist()
-            d.xfrc_applied[body, 3:] = (ry * fz - rz * 0.0, rz * 0.0 - rx * fz, rx * 0.0 - ry * 0.0)
+            (px, py, pz), (cx, cy, cz) = xpos[body].tolist(), xipos[body].tolist()
+            rx, ry, rz = px - cx, py - cy, pz - cz
+            xfrc[body] = (0.0, 0.0, fz, ry * fz - rz * 0.0, rz * 0.0 - rx * fz, rx * 0.0 - ry * 0.0)
 
     def _fallen(self, track: PlanTrack, i: int, a: float, sup: str) -> bool:
         """After a physics step: the trunk's and the support soles' tilt and slip measured; whether the robot fell
         (the trunk tilted over ``FALL_TILT_DEG``, the pelvis ``FALL_DROP_M`` below the plan), noted in ``fell``."""
         d, twin = self.data, self.twin
-        R = d.xmat[twin.trunk]
-        tilt = math.degrees(math.acos(min(1.0, max(-1.0, R[8]))))
+        xmat, xpos = d.xmat, d.xpos
+        tilt = math.degrees(math.acos(min(1.0, max(-1.0, float(xmat[twin.trunk, 8])))))
         self.max_tilt = max(self.max_tilt, tilt)
         for s in (SIDES if sup == "both" else (sup,)):
-            b = twin.foot_bodies[s]
-            self.sup_tilt = max(self.sup_tilt, math.degrees(math.acos(min(1.0, max(-1.0, d.xmat[b][8])))))
-            self.sup_slip = max(self.sup_slip, float(np.hypot(*(d.xpos[b][:2] - track.feet[i, SIDES.index(s), :2]))))
-        z_plan = (1 - a) * track.pelvis[i, 2] + a * track.pelvis[i + 1, 2]
-        if tilt > FALL_TILT_DEG or d.qpos[2] < z_plan - FALL_DROP_M:
+            b, k = twin.foot_bodies[s], SIDES.index(s)
+            self.sup_tilt = max(self.sup_tilt, math.degrees(math.acos(min(1.0, max(-1.0, float(xmat[b, 8]))))))
+            (x, y), (fx, fy) = xpos[b, :2].tolist(), track.feet[i, k, :2].tolist()
+            self.sup_slip = max(self.sup_slip, float(np.hypot(x - fx, y - fy)))
+        z_plan = (1 - a) * float(track.pelvis[i, 2]) + a * float(track.pelvis[i + 1, 2])
+        z = float(d.qpos[2])
+        if tilt > FALL_TILT_DEG or z < z_plan - FALL_DROP_M:
             reason = (f"trunk tilted {tilt:.1f} deg" if tilt > FALL_TILT_DEG
-                      else f"pelvis {z_plan - d.qpos[2]:.3f} m below the plan")
+                      else f"pelvis {z_plan - z:.3f} m below the plan")
             self.fell = {**track.where(i), "run_time_s": self.t, "reason": reason}
             return True
         return False

@@ -39,6 +39,8 @@ from jethr1_plan.sim.twin import Twin, build_twin
 
 __all__ = ["OwnKinematics", "SensorDraw", "SensorModel", "rotation_vector"]
 
+NOISE_BLOCK = 4096  # standard normals drawn ahead at a time, whole readings' worth (:meth:`SensorModel._noise`)
+
 
 def rotation_vector(v: np.ndarray) -> np.ndarray:
     """The rotation (3, 3) of the rotation vector ``v`` (3,) [rad] (Rodrigues)."""
@@ -95,7 +97,19 @@ class SensorModel:
         self.twin, self.sensors, self.draw, self.period = twin, sensors, draw, period_s
         self.rng = np.random.default_rng([draw.noise_seed, 0])
         n = len(twin.robot.joint_names)
+        # a reading's white noise, in the order it is drawn: (σ, count) per noisy signal (:meth:`_noise`)
+        imu, enc, sole = sensors.imu, sensors.encoders, sensors.soles
+        parts = [(imu.attitude_noise_rad, 3) if imu is not None else (0.0, 0),
+                 (imu.rate_noise_rad_s, 3) if imu is not None else (0.0, 0),
+                 (enc.noise_rad, len(twin.qpos_adr)) if enc is not None else (0.0, 0)]
+        parts += [(sole.force_noise_n, 1), (sole.cop_noise_m, 2)] * len(SIDES) if sole is not None else []
+        sigma = [np.full(k if sd > 0 else 0, sd) for sd, k in parts]
+        self._sigma = np.concatenate(sigma)  # [rad, rad/s, rad, N, m] per draw of a reading
+        self._at = np.cumsum([0] + [len(x) for x in sigma])  # where each signal's draws start in a reading's row
+        self._rows = np.zeros((0, len(self._sigma)))  # readings' noise drawn ahead (:meth:`_noise`)
+        self._row = 0
         self.offset = np.asarray(draw.encoder_offset_rad, dtype=float) if draw.encoder_offset_rad else np.zeros(n)
+        self.gyro_bias = np.asarray(draw.gyro_bias_rad_s)  # [rad/s]
 
         def ticks(given: float | None, declared) -> int:
             delay = given if given is not None else (declared.delay_s if declared is not None else 0.0)
@@ -133,6 +147,17 @@ class SensorModel:
                 out[s] = (0.0, np.zeros(2))
         return out
 
+    def _noise(self) -> np.ndarray:
+        """This reading's white noise, one draw per entry of ``_sigma``: the numbers of ``rng.normal(0, σ, n)`` called
+        signal by signal in reading order (each is ``0 + σ·z`` of the generator's next standard normal z), taken
+        from the rows of readings drawn ahead, so that a reading costs no call into the generator."""
+        if self._row == len(self._rows):
+            k = len(self._sigma)
+            rows = max(1, NOISE_BLOCK // max(k, 1))
+            self._rows, self._row = 0.0 + self._sigma * self.rng.standard_normal(rows * k).reshape(rows, k), 0
+        self._row += 1
+        return self._rows[self._row - 1]
+
     def read(self, d, time_s: float) -> Measurement:
         """The reading at this tick of the twin's state ``d`` (a ``mujoco.MjData``)."""
         import mujoco
@@ -146,33 +171,34 @@ class SensorModel:
                              d.qpos[twin.qpos_adr] if enc else None,
                              self._sole_truth(d) if sole is not None else None))
         last = len(self.history) - 1
-        rng, draw = self.rng, self.draw
+        draw = self.draw
         rotation = rate = joints = None
         soles = None
+        noise, at = self._noise(), self._at
         if imu is not None:
             truth = self.history[max(0, last - self.lag["imu"])]
             err = np.array([draw.imu_tilt_bias_rad[0], draw.imu_tilt_bias_rad[1], draw.yaw_drift_rad_s * time_s])
             if imu.attitude_noise_rad > 0:
-                err += rng.normal(0.0, imu.attitude_noise_rad, 3)
+                err += noise[at[0]:at[1]]
             rotation = rotation_vector(err) @ truth[0]
-            rate = truth[1] + np.asarray(draw.gyro_bias_rad_s)
+            rate = truth[1] + self.gyro_bias
             if imu.rate_noise_rad_s > 0:
-                rate += rng.normal(0.0, imu.rate_noise_rad_s, 3)
+                rate += noise[at[1]:at[2]]
         if enc is not None:
             joints = self.history[max(0, last - self.lag["encoders"])][2] + self.offset
             if enc.noise_rad > 0:
-                joints += rng.normal(0.0, enc.noise_rad, len(joints))
+                joints += noise[at[2]:at[3]]
             if enc.resolution_rad > 0:
                 joints = np.round(joints / enc.resolution_rad) * enc.resolution_rad
         if sole is not None:
             truth_soles = self.history[max(0, last - self.lag["soles"])][3]
             soles = {}
-            for s in SIDES:
+            for k, s in enumerate(SIDES):
                 f, cop = truth_soles[s]
                 if sole.force_noise_n > 0:
-                    f = max(0.0, f + float(rng.normal(0.0, sole.force_noise_n)))
+                    f = max(0.0, f + float(noise[at[3 + 2 * k]]))
                 if sole.cop_noise_m > 0:
-                    cop = cop + rng.normal(0.0, sole.cop_noise_m, 2)
+                    cop = cop + noise[at[4 + 2 * k]:at[5 + 2 * k]]
                 soles[s] = SoleReading(f, cop)
         return Measurement(time_s, rotation, rate, joints, soles)
 

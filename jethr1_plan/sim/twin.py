@@ -21,6 +21,7 @@ Units: SI throughout.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,6 +62,11 @@ class Twin:
     foot_bodies: dict[str, int]  # side -> body id of the leg's sole frame (the sole centre)
     sole_geoms: dict[str, int]  # side -> geom id of the sole's contact box
     total_mass_kg: float
+
+    @functools.cached_property
+    def sole_of_geom(self) -> dict[int, str]:
+        """geom id of a sole's contact box -> its side (the inverse of ``sole_geoms``)."""
+        return {g: s for s, g in self.sole_geoms.items()}
 
 
 def _with_compiler_options(urdf_text: str) -> str:

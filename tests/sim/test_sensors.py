@@ -109,6 +109,41 @@ def _rotvec(R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R).as_rotvec()
 
 
+def test_the_noise_is_the_declared_generators_draws_in_reading_order():
+    """Every reading's white noise is ``default_rng([noise_seed, 0]).normal(0, σ, n)`` drawn in the order the module
+    docstring states (the attitude, the gyro, the encoders, then each sole's force and centre of pressure), to the
+    bit, over more readings than one block of draws holds."""
+    import mujoco
+
+    from jethr1_plan.sim.sensors import NOISE_BLOCK
+
+    robot = load_robot("jethr1")
+    twin, d = _posed(robot)
+    spec = Sensors(ImuSpec("trunk", attitude_noise_rad=0.002, rate_noise_rad_s=0.01, delay_s=0.0),
+                   EncoderSpec(noise_rad=0.001, resolution_rad=0.0, delay_s=0.0),
+                   SoleSensorSpec(force_noise_n=0.5, cop_noise_m=0.002, delay_s=0.0))
+    draw = SensorDraw(gyro_bias_rad_s=(0.01, 0.0, -0.02), noise_seed=11)
+    model = SensorModel(twin, spec, draw, 0.002)
+    n_joints = len(twin.qpos_adr)
+    ticks = 3 * NOISE_BLOCK // (6 + n_joints + 6) + 7  # past three blocks, ending inside one
+    reads = [model.read(d, 0.0) for _ in range(ticks)]
+    rng = np.random.default_rng([11, 0])
+    rotation, vel = d.xmat[twin.trunk].reshape(3, 3), np.zeros(6)
+    mujoco.mj_objectVelocity(twin.model, d, mujoco.mjtObj.mjOBJ_XBODY, twin.trunk, vel, 1)
+    soles = model._sole_truth(d)
+    for m in reads:
+        np.testing.assert_array_equal(m.trunk_rotation, rotation_vector(np.zeros(3) + rng.normal(0.0, 0.002, 3))
+                                      @ rotation)
+        np.testing.assert_array_equal(m.trunk_rate_rad_s, vel[:3] + np.asarray(draw.gyro_bias_rad_s)
+                                      + rng.normal(0.0, 0.01, 3))
+        np.testing.assert_array_equal(m.joints_rad, d.qpos[twin.qpos_adr] + np.zeros(n_joints)
+                                      + rng.normal(0.0, 0.001, n_joints))
+        for side in ("left", "right"):
+            force, cop = soles[side]
+            assert m.soles[side].force_n == max(0.0, force + float(rng.normal(0.0, 0.5)))
+            np.testing.assert_array_equal(m.soles[side].cop_m, cop + rng.normal(0.0, 0.002, 2))
+
+
 def test_rotation_vector_is_rodrigues():
     from scipy.spatial.transform import Rotation
 

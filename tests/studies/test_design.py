@@ -114,6 +114,26 @@ def test_the_files_and_a_best_variant_ready_for_plan(swept):
     assert result.feasible and share_summary(result.rows, scenario.balance.tolerance)["least"] >= 1 - 1e-9
 
 
+def test_a_best_variant_plans_and_walks_its_ditch_in_the_twin(swept, tmp_path):
+    """The best variant's folder and crossing, as a user runs them: ``jethr1 plan`` of its scenario writes a feasible
+    plan within the variant's fans, and ``jethr1 simulate`` with the robot's own feedback law (its IMU and encoders,
+    with their noise) crosses the ditch in the MuJoCo twin: no fall, the trunk within 5 deg of level, both soles
+    on carton tops, the landing within 10 mm of the plan's."""
+    root, _, doc = swept
+    name = f"two_{doc['best'][0]}"
+    assert run(["plan", str(root / "j1" / "scenarios" / f"{name}_ditch_whole.yaml"), "-o", str(tmp_path),
+                "--no-progress"]) == 0
+    folder = tmp_path / f"{name}_ditch_whole"
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["feasible"] and summary["peak_thrust_n"] <= summary["thrust_max_n"] + 1e-9
+    assert run(["simulate", str(folder), "--controller", "feedback", "--no-progress"]) == 0
+    sim = json.loads((folder / "simulation.json").read_text())
+    r = sim["runs"][0]
+    assert sim["law"] == "imu_tilt_pid" and r["survived"] and r["fell"] is None
+    assert r["max_trunk_tilt_deg"] < 5.0 and all(r["soles_on_cartons_at_end"].values())
+    assert r["landing_errors_m"] and max(e["xy_m"] for e in r["landing_errors_m"]) < 0.010
+
+
 def test_run_again_judges_nothing_and_writes_the_same_bytes(swept, tmp_path):
     root, spec, _ = swept
     assert design(spec, tmp_path / "again", root / "cache", "-j", "2") == 0
