@@ -125,12 +125,16 @@ class TwinRun:
                  controller: str = "feedforward", perturbation: Perturbation | None = None,
                  gains: ctl.Gains | None = None, imu_gains: ImuGains | None = None,
                  placement: PlacementGains | None = None, compensate: bool = True, seed: int = 0,
-                 params: TwinParams | None = None, record: bool = False) -> None:
+                 params: TwinParams | None = None, record: bool = False, estimating: bool = False) -> None:
         import mujoco
 
         self.p = perturbation or Perturbation()
         self.robot, self.cartons, self.controller, self.compensate = robot, cartons, controller, compensate
         self.law = law_of(robot, controller)
+        # the sensors are read at every control tick where a law reads them or where the robot estimates between
+        # plans where it stands (``measure``): a delayed reading is the state that many ticks before, never an
+        # older reading taken at the previous estimate
+        self.sensing = self.law is not None or estimating
         gains = gains or ctl.Gains.of(robot)
         imu_gains = imu_gains or ImuGains.of(robot)
         self.twin = build_twin(robot, cartons, params)
@@ -219,6 +223,8 @@ class TwinRun:
             self.t = t0 + t
             if feed_forward:  # what Controller.step returns without a law: the reference's commands
                 q_ref, thrust = follow.commands(t, i, a, active)
+                if self.sensing:
+                    self.sensors.read(d, self.t)
             else:
                 q_ref, ref = follow.reference(t, i, a, sup, active)
                 cmd = loop.step(self.sensors.read(d, self.t), ref)

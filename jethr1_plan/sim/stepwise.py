@@ -171,7 +171,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
     b = scenario.balance
     thrust_max = thrust_max_n if thrust_max_n is not None else b.thrust_max_n
     tolerance = {"thrust_error": b.tolerance.thrust, "mass_error": b.tolerance.mass, "com_error_m": b.tolerance.com_m}
-    run = TwinRun(robot, scenario.cartons, thrust_max, controller, p, seed=seed, record=record)
+    run = TwinRun(robot, scenario.cartons, thrust_max, controller, p, seed=seed, record=record, estimating=True)
     kin = OwnKinematics(robot)
     noise_seed = p.sensors.noise_seed if p.sensors is not None else seed
     perception = np.random.default_rng([noise_seed, 1])

@@ -104,3 +104,28 @@ def test_the_same_draw_gives_the_same_run(two_steps):
     p = Perturbation.draw(np.random.default_rng([5, 0]), sc.robot.sensors, len(sc.robot.joint_names))
     a, b = (execute(sc, nominal.steps, "feedback", p) for _ in range(2))
     assert a.steps == b.steps and a.run.max_trunk_tilt_deg == b.run.max_trunk_tilt_deg
+
+
+def test_a_feedforward_robot_reads_its_sensors_every_tick_while_it_estimates(two_steps, monkeypatch):
+    """Executed step by step, the plan's commands alone still estimate between plans where the soles stand: the
+    sensors are read at every control tick, so a delayed reading is the state that many ticks before, not the
+    reading taken at the previous estimate (which, on a plan of four steps, put the third step's swing sole 0.31 m
+    from where it stood, and the robot fell). Replayed whole, nothing reads them."""
+    from jethr1_plan.sim import sensors as sensors_mod
+
+    sc, nominal = two_steps
+    reads = []
+    real = sensors_mod.SensorModel.read
+    monkeypatch.setattr(sensors_mod.SensorModel, "read", lambda self, d, t: reads.append(t) or real(self, d, t))
+    ex = execute(sc, nominal.steps, "feedforward")
+    ticks = np.diff(reads)
+    assert ex.run.survived and len(reads) > 1000 and np.all(ticks >= 0) and np.max(ticks) < 0.0021
+    # the second step starts from its swing sole estimated where it stands (it has not moved since the start)
+    est = np.asarray(ex.steps[1]["estimated_start_m"]["right"])
+    assert np.hypot(*(est[:2] - sc.start["right"][:2])) < 0.003
+    from jethr1_plan.files.plan_table import plan_table
+
+    reads.clear()
+    rehearse(track_of(plan_table(sc.robot, nominal.rows), sc.robot, sc.cartons, 50.0, 23.0,
+                      {"thrust_error": 0.1, "mass_error": 0.05, "com_error_m": 0.01}), "feedforward")
+    assert reads == []
