@@ -11,12 +11,21 @@ import pytest
 from jethr1_plan.scenario import load_scenario
 from tests.conftest import ROOT
 
-SCATTERED = ROOT / "configs" / "scattered_steps.yaml"
+SHIPPED = ROOT / "configs" / "scattered_steps.yaml"
 
 
 @pytest.fixture(scope="module")
-def scattered(plan_of):
-    return plan_of(SCATTERED.stem)
+def scattered(tmp_path_factory):
+    """scattered_steps with plain arcs (the shipped swings' 20 mm vertical ends taken off): a robust plan whose
+    first swing, timed by the minimum-jerk law, turns sharply enough at a sample to need pacing."""
+    from jethr1_plan.cli import run
+
+    out = tmp_path_factory.mktemp("scattered_arcs")
+    text = SHIPPED.read_text().replace(", lift_m: 0.02, descent_m: 0.02}", "}")
+    assert "lift_m" not in text
+    (out / "scattered_steps.yaml").write_text(text)
+    assert run(["plan", str(out / "scattered_steps.yaml"), "-o", str(out), "--no-progress"]) == 0
+    return out / "scattered_steps"
 
 
 def test_a_paced_robust_plan_keeps_the_multibody_zmp_on_the_sole(scattered):
@@ -36,7 +45,7 @@ def test_a_paced_robust_plan_keeps_the_multibody_zmp_on_the_sole(scattered):
 def test_a_paced_swing_keeps_the_scenarios_rows(scattered):
     """Pacing changes when each row passes along the swing, not how many rows there are: every swing
     keeps the scenario's duration."""
-    sc = load_scenario(SCATTERED)
+    sc = load_scenario(scattered.parent / "scattered_steps.yaml")
     with open(scattered / "trajectory.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     for k in range(len(sc.steps)):
@@ -51,7 +60,7 @@ def test_summary_names_the_paced_swings_and_the_others_needed_no_pace(scattered)
     from jethr1_plan.planning.pacing import PACE_ACCEL
     from tests.oracles.plan_audit import audit_plan
 
-    sc = load_scenario(SCATTERED)
+    sc = load_scenario(scattered.parent / "scattered_steps.yaml")
     dyn = json.loads((scattered / "summary.json").read_text())["dynamics"]
     paced = {p["step"]: p for p in dyn["paced_swings"]}
     assert list(paced) == [0]  # the first swing, whose minimum-jerk rows left the sole by 3.7 mm
