@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import numpy as np
 
 from jethr1_plan.walking.arm_swing import arm_rates, box_qp
@@ -19,17 +22,41 @@ def _kkt(H, g, lo, hi, u, tol=1e-9) -> bool:
                 and np.all(grad[at_hi & ~at_lo] <= 1e-8 * scale))
 
 
-def test_the_active_set_answer_is_the_box_optimum() -> None:
-    rng = np.random.default_rng(4)
-    for _ in range(200):
-        n = int(rng.integers(1, 7))
+def _box_problems(seed: int, count: int, n_max: int, lo_m: float, hi_m: float):
+    """``count`` random convex box QPs (H, g, lo, hi) of 1..n_max variables, bounds of size lo_m..hi_m."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        n = int(rng.integers(1, n_max + 1))
         M = rng.normal(size=(n, n))
         H = M @ M.T + 0.1 * np.eye(n)
         g = rng.normal(size=n) * 3
-        lo = -rng.uniform(0.0, 1.0, size=n)
-        hi = rng.uniform(0.0, 1.0, size=n)
+        lo = -rng.uniform(lo_m, hi_m, size=n)
+        hi = rng.uniform(lo_m, hi_m, size=n)
+        yield H, g, lo, hi
+
+
+def test_the_active_set_answer_is_the_box_optimum() -> None:
+    for H, g, lo, hi in _box_problems(4, 200, 6, 0.0, 1.0):
         u = box_qp(H, g, lo, hi)
         assert _kkt(H, g, lo, hi, u)
+
+
+def test_the_answer_is_the_best_of_every_active_set() -> None:
+    """box_qp against enumeration of the active sets (each variable free, at its lower or its upper
+    bound): the same minimiser on random convex problems."""
+    for H, g, lo, hi in _box_problems(3, 60, 4, 0.1, 1.5):
+        best, best_u = math.inf, None
+        for pattern in itertools.product((0, -1, 1), repeat=len(g)):
+            u = np.where(np.array(pattern) == -1, lo, np.where(np.array(pattern) == 1, hi, 0.0))
+            free = np.array(pattern) == 0
+            if free.any():
+                rhs = -(g[free] + H[np.ix_(free, ~free)] @ u[~free])
+                u[free] = np.linalg.solve(H[np.ix_(free, free)], rhs)
+            if np.all(u >= lo - 1e-12) and np.all(u <= hi + 1e-12):
+                f = 0.5 * u @ H @ u + g @ u
+                if f < best:
+                    best, best_u = f, u
+        assert np.allclose(box_qp(H, g, lo, hi), best_u, atol=1e-8)
 
 
 def test_without_bounds_it_solves_the_linear_system() -> None:

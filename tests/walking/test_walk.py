@@ -3,7 +3,6 @@ walk and `jethr1 walk-sweep` as a user runs them."""
 
 from __future__ import annotations
 
-import itertools
 import json
 import math
 from dataclasses import replace
@@ -75,34 +74,6 @@ def test_com_mpc_obeys_the_lipm_and_keeps_the_zmp_in_the_support(dyros_spec):
     margins = [polygon_margin(plan.zmp[i], tl.support_polygon(float(plan.t[i]))) for i in range(len(plan.t))]
     assert min(margins) >= spec.com.zmp_margin_m - 1e-4
     assert np.allclose(plan.vel[0], 0.0) and np.allclose(plan.pos[0], 0.0, atol=1e-9)  # from rest between the feet
-
-
-def test_arm_swing_qp_is_the_exact_box_optimum():
-    """box_qp against enumeration of the active sets (each variable free, at its lower or its upper
-    bound): the same minimiser on random convex problems."""
-    from jethr1_plan.walking.arm_swing import box_qp
-
-    rng = np.random.default_rng(3)
-    for _ in range(60):
-        n = int(rng.integers(1, 5))
-        M = rng.normal(size=(n, n))
-        H = M @ M.T + 0.1 * np.eye(n)
-        g = rng.normal(size=n) * 3
-        lo = -rng.uniform(0.1, 1.5, n)
-        hi = rng.uniform(0.1, 1.5, n)
-        best, best_u = math.inf, None
-        for pattern in itertools.product((0, -1, 1), repeat=n):
-            u = np.where(np.array(pattern) == -1, lo, np.where(np.array(pattern) == 1, hi, 0.0))
-            free = np.array(pattern) == 0
-            if free.any():
-                rhs = -(g[free] + H[np.ix_(free, ~free)] @ u[~free])
-                u[free] = np.linalg.solve(H[np.ix_(free, free)], rhs)
-            if np.all(u >= lo - 1e-12) and np.all(u <= hi + 1e-12):
-                f = 0.5 * u @ H @ u + g @ u
-                if f < best:
-                    best, best_u = f, u
-        got = box_qp(H, g, lo, hi)
-        assert np.allclose(got, best_u, atol=1e-8)
 
 
 def test_reference_yaw_turns_the_leading_hip_forward():
