@@ -116,7 +116,8 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
         from jethr1_plan.studies.step_by_step import execution_record, nominal_plan, run_steps, write_executed
 
         summary = json.loads((Path(plan_dir) / "summary.json").read_text())
-        scenario, nominal = nominal_plan(Path(plan_dir), summary, track)
+        scenario, nominal = nominal_plan(Path(plan_dir), summary, track, note=lambda why: err_console.print(
+            f"simulate: {why}", highlight=False, markup=False))
         with Progress(progress, label) as bar:
             executions = run_steps(Path(plan_dir), summary, scenario, nominal, controller, perturbations, jobs, bar,
                                    seed)

@@ -19,6 +19,7 @@ import numpy as np
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_csv import table_csv
 from jethr1_plan.files.plan_mcap import MAX_MCAP_BYTES, trajectory_mcap
+from jethr1_plan.files.plan_steps import OPTIMISED_STEPS
 from jethr1_plan.files.plan_table import columns, plan_table
 from jethr1_plan.io.atomic import staged_directory
 from jethr1_plan.io.csv_table import MAX_CSV_BYTES
@@ -56,7 +57,7 @@ __all__ = [
 #: the files ``jethr1 simulate`` writes into a plan folder (both, or neither)
 SIMULATION_FILES = frozenset({"simulation.json", "simulation.mcap"})
 #: the files ``jethr1`` writes into a plan folder (any other file there is the user's and is kept)
-PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json"}) | SIMULATION_FILES
+PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", OPTIMISED_STEPS}) | SIMULATION_FILES
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.mcap")
 #: the files ``jethr1 plan`` writes (checked before the work: :func:`~jethr1_plan.io.record.check_writable`)
 PLAN_WRITES = (*TRAJECTORY_FILES, "summary.json")
@@ -110,10 +111,13 @@ def plan_folder(outdir: Path, scenario: _Source) -> Path:
 
 def write_plan(result: WrittenPlan, outdir: Path, summary: dict, trajectory: bool = True,
                check: Callable[[str], None] | None = None, folder: Path | None = None,
-               extra: Mapping[str, bytes] | None = None, own: frozenset[str] = PLAN_FILES) -> tuple[Path, list[str]]:
+               extra: Mapping[str, bytes] | None = None, own: frozenset[str] = PLAN_FILES,
+               steps_key: str | None = None) -> tuple[Path, list[str]]:
     """Write summary.json (and the trajectory files) into OUTDIR/<stem>/ (or ``folder``) atomically,
     with the ``extra`` files (name → bytes: a route's own files) in the same commit; ``own`` names every
     file the command writes into such a folder (:func:`~jethr1_plan.io.atomic.staged_directory`).
+    With ``steps_key`` (:func:`~jethr1_plan.files.plan_steps.steps_key`), a feasible plan's optimised steps
+    go with it (:data:`~jethr1_plan.files.plan_steps.OPTIMISED_STEPS`, bound to its trajectory.csv).
 
     ``check`` is given the CSV text of a feasible plan before anything is written (the self-check);
     if it raises, nothing is written. Returns the folder and the names of files in it that jethr1
@@ -131,6 +135,11 @@ def write_plan(result: WrittenPlan, outdir: Path, summary: dict, trajectory: boo
                      "trajectory.mcap": trajectory_mcap(result.robot, result.rows, result.scenario.cartons,
                                                         [st.path_m for st in result.steps], table)}
             summary[DIGESTS_KEY] = file_digests(files)  # the folder is one thing: the summary names its files
+            if steps_key is not None and result.feasible:
+                from jethr1_plan.files.plan_steps import optimised_steps_json
+
+                files[OPTIMISED_STEPS] = optimised_steps_json(
+                    result.steps, steps_key, str(summary[DIGESTS_KEY]["trajectory.csv"]["sha256"]))  # type: ignore[arg-type]
             for name, data in files.items():
                 (tmp / name).write_bytes(data)
         (tmp / "summary.json").write_text(json_text(summary))

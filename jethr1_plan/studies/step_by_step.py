@@ -4,14 +4,18 @@ scenario first): each step planned again from where the robot estimates its sole
 (:mod:`jethr1_plan.sim.stepwise`), in one continuous twin run; randomised trials of it; and the steps
 executed, written as a plan folder of their own (``PLAN_DIR/executed/``).
 
-The steps' own optimised postures are the plan's: the plan folder's scenario is planned again here
-(``planning.plan``, its optimiser and seed from ``summary.json``), and its rows must be the folder's, or
-the folder is not the plan its scenario makes now (another version, other options): bad input.
+The steps' own optimised postures are the plan's: those ``jethr1 plan`` kept in the folder
+(``optimised_steps.json``, :mod:`jethr1_plan.files.plan_steps`) where they are the folder's plan's;
+else (a folder of an earlier jethr1, a route's, a file that is stale or does not read) the plan folder's
+scenario is planned again here (``planning.plan``, its optimiser and seed from ``summary.json``), and its
+rows must be the folder's, or the folder is not the plan its scenario makes now (another version, other
+options): bad input.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +23,7 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
+from jethr1_plan.files.plan_steps import steps_key, stored_steps
 from jethr1_plan.files.plan_table import joint_matrix, plan_table
 from jethr1_plan.folders.plan import plan_scenario
 from jethr1_plan.planning.plan import plan
@@ -34,9 +39,11 @@ EXECUTED = "executed"  # the executed steps' plan folder, inside the plan folder
 EXECUTED_FILES = PLAN_FILES | {"executed.yaml"}
 
 
-def nominal_plan(folder: Path, summary: dict, track: PlanTrack) -> tuple[Scenario, list[StepResult]]:
+def nominal_plan(folder: Path, summary: dict, track: PlanTrack, note: Callable[[str], None] | None = None
+                 ) -> tuple[Scenario, list[StepResult]]:
     """The plan folder's scenario (its policy as ``summary.json`` states it) and its steps as the planner
-    optimises them now.
+    optimised them: those the folder keeps where they are its plan's, else optimised again now (``note`` is
+    told why, in one line).
 
     Raises:
         InputError: no scenario to plan from, or its plan is not the folder's.
@@ -47,7 +54,15 @@ def nominal_plan(folder: Path, summary: dict, track: PlanTrack) -> tuple[Scenari
     policy = (summary.get("balance") or {}).get("policy")
     if policy in ("robust", "minimal") and policy != scenario.balance.policy:
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
-    result = plan(scenario, method=summary.get("optimiser"), seed=summary.get("seed"))
+    method, seed = summary.get("optimiser"), summary.get("seed")
+    if isinstance(method, str) and type(seed) is int:
+        key = steps_key(scenario.text, scenario.balance.policy, scenario.timing.mode, scenario.robot, method, seed)
+        steps, why = stored_steps(folder, summary, key, len(scenario.robot.joint_names))
+        if steps is not None:
+            return scenario, steps
+        if note is not None:
+            note(f"{why}; optimising the plan's steps again")
+    result = plan(scenario, method=method, seed=seed)
     assert result.rows is not None
     again = joint_matrix(plan_table(result.robot, result.rows), result.robot)
     if again.shape != track.q.shape or float(np.max(np.abs(again - track.q))) > 1e-9:
