@@ -83,6 +83,7 @@ def files_section() -> list[str]:
     from jethr1_plan.files.balance_space import BALANCE_SPACE_COLUMNS, BALANCE_SPACE_TOPICS
     from jethr1_plan.files.plan_folder import DIGESTS_KEY, PLAN_FILES
     from jethr1_plan.files.plan_mcap import PLAN_TOPICS
+    from jethr1_plan.files.plan_steps import OPTIMISED_STEPS
     from jethr1_plan.files.plan_table import columns
     from jethr1_plan.files.route import ROUTE_FILES, ROUTE_TOPICS
     from jethr1_plan.files.simulation import SIMULATION_TOPICS
@@ -107,6 +108,14 @@ def files_section() -> list[str]:
            "`simulate`, `verify`, `view` and `replan-steps` refuse a folder whose files are not those (and a "
            f"`summary.json` other than the one `{RECORD}` names). `simulation.json` records the same digests of the "
            "plan it rehearsed (`plan_files`).", "",
+           f"`{OPTIMISED_STEPS}` (a feasible plan's, written by `plan`, `batch` and `replan-steps`, not by `route`; "
+           "`jethr1_plan/files/plan_steps.py`): each step's swing "
+           "samples as the planner optimised them (the trunk position, posture, CoM, thrust and its split, ZMP, "
+           "tolerance share of each sample), numbers that read back to the bit, bound to the folder's "
+           "`trajectory.csv` (`trajectory_sha256`) and keyed (`key`) by the SHA-256 of the scenario's text, its "
+           "balance policy and timing mode, the robot YAML and URDF, the optimiser and the seed. `simulate` of a "
+           "plan of several steps executes these steps; where the file is missing, of another key or trajectory, "
+           "changed since written or unreadable, it says so in one line and optimises the steps again.", "",
            "#### `trajectory.csv` (Jet-HR1)", "", *columns_table(columns(jethr1)),
            "#### `trajectory.mcap`", "", *topics_table(PLAN_TOPICS),
            "#### `simulation.mcap` (`simulate`)", "", *topics_table(SIMULATION_TOPICS),

@@ -144,7 +144,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
             held = "" if pace["margin_held"] else ", nearer the edge than balance.sole_margin_m"
             c.print(f"paced: step {pace['step']}'s swing re-timed ({law}, same samples and duration): its dynamic "
                     f"ZMP {1000 * pace['least_zmp_margin_m']:.1f} mm inside{held}")
-    c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json")
+    c.print(f"wrote {folder}/trajectory.csv, trajectory.mcap, summary.json, optimised_steps.json")
     c.print(f"Foxglove/Lichtblick: open trajectory.mcap and import the layout {LAYOUT} (the robot comes from the "
             "file's /robot_description; its rehearsal, simulation.mcap, plays beside it); Rerun: jethr1 view "
             f"{folder}", markup=False)

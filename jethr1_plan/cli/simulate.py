@@ -117,7 +117,7 @@ def simulate_folder(plan_dir: Path, controller: str, *, trials: int | None = Non
 
         summary = json.loads((Path(plan_dir) / "summary.json").read_text())
         scenario, nominal = nominal_plan(Path(plan_dir), summary, track, note=lambda why: err_console.print(
-            f"simulate: {why}", highlight=False, markup=False))
+            f"simulate: {why}", highlight=False, markup=False, soft_wrap=True))
         with Progress(progress, label) as bar:
             executions = run_steps(Path(plan_dir), summary, scenario, nominal, controller, perturbations, jobs, bar,
                                    seed)

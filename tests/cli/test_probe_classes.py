@@ -258,4 +258,4 @@ def test_inputs_that_are_not_files_are_said_as_such(tmp_path, capfd):
 def test_a_record_is_written_beside_every_output(side_step_plan):
     record = json.loads((side_step_plan / RECORD).read_text())
     assert record["written_by"] == "jethr1"
-    assert set(record["files"]) == {"trajectory.csv", "trajectory.mcap", "summary.json"}
+    assert set(record["files"]) == {"trajectory.csv", "trajectory.mcap", "summary.json", "optimised_steps.json"}

@@ -83,8 +83,8 @@ def test_a_killed_runs_staging_folder_is_removed_and_foreign_files_are_kept(tmp_
     assert (folder / "notes.txt").read_text() == "tested on the robot, 2026-11-20"
     assert not (folder / "simulation.json").exists()
     assert "kept notes.txt" in capsys.readouterr().err
-    assert sorted(p.name for p in folder.iterdir()) == [record.RECORD, "notes.txt", "summary.json",
-                                                       "trajectory.csv", "trajectory.mcap"]
+    assert sorted(p.name for p in folder.iterdir()) == [record.RECORD, "notes.txt", "optimised_steps.json",
+                                                       "summary.json", "trajectory.csv", "trajectory.mcap"]
 
 
 @pytest.mark.parametrize("target", ["file", "under a file"])

@@ -76,3 +76,24 @@ def test_an_infeasible_plan_writes_its_summary_alone(tmp_path: Path) -> None:
     first = summary["first_infeasible"]
     assert first["step"] == 0 and first["reason"]
     assert info.value.written
+
+
+def test_a_feasible_plan_keeps_its_optimised_steps_bound_to_its_trajectory(planned, tmp_path) -> None:
+    import shutil
+
+    from jethr1_plan.files.plan_steps import OPTIMISED_STEPS, steps_key, stored_steps
+    from tests.files.test_plan_steps import assert_same_steps
+
+    result, summary, folder, _ = planned
+    sc = result.scenario
+    key = steps_key(sc.text, sc.balance.policy, sc.timing.mode, result.robot, result.method, result.seed)
+    doc = json.loads((folder / OPTIMISED_STEPS).read_text())
+    assert doc["key"] == key and doc["trajectory_sha256"] == summary["files"]["trajectory.csv"]["sha256"]
+    steps, why = stored_steps(folder, summary, key, len(result.robot.joint_names))
+    assert why == "" and steps is not None
+    assert_same_steps(steps, result.steps)
+    # planned again, infeasible: the kept steps go with the plan they were of
+    shutil.copytree(folder, tmp_path / "side_step")
+    with pytest.raises(InfeasiblePlan):
+        pipeline.plan_to_folder(_side_step(thrust_max_n=0.5), tmp_path)
+    assert not (tmp_path / "side_step" / OPTIMISED_STEPS).exists()

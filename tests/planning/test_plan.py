@@ -29,8 +29,8 @@ def planned(plan_of):
 
 
 def test_outputs_exist_and_summary_reports(planned):
-    assert sorted(p.name for p in planned.iterdir() if p.name != RECORD) == ["summary.json", "trajectory.csv",
-                                                                            "trajectory.mcap"]
+    assert sorted(p.name for p in planned.iterdir() if p.name != RECORD) == ["optimised_steps.json", "summary.json",
+                                                                            "trajectory.csv", "trajectory.mcap"]
     s = json.loads((planned / "summary.json").read_text())
     assert s["feasible"] is True and s["optimiser"] == "sqp" and s["seed"] == 1  # sqp: the default
     assert 0 < s["peak_thrust_n"] <= 23.0

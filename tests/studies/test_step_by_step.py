@@ -92,3 +92,94 @@ def test_replan_steps_plans_then_executes_step_by_step(tmp_path, capsys):
     bad.write_text("name: x\nsteps: 3\n")
     assert run(["replan-steps", str(bad), "-o", str(tmp_path / "none"), "--no-progress"]) == 2
     assert not (tmp_path / "none").exists()
+
+
+def _plan_alone(folder, to):
+    import shutil
+
+    shutil.copytree(folder, to, ignore=shutil.ignore_patterns("simulation.*", "executed"))
+    return to
+
+
+def _comparable(doc: dict, folder) -> str:
+    """simulation.json with its wall times and its folder's path aside."""
+    doc = json.loads(json_text(doc).replace(str(folder), "<plan>"))
+    doc.pop("timing")
+    for r in doc["runs"]:
+        r.pop("wall_s")
+    return json_text(doc)
+
+
+class Optimised(Exception):
+    pass
+
+
+def _no_optimiser(*_args, **_kwargs):
+    raise Optimised
+
+
+def test_simulate_executes_the_plans_kept_steps_without_optimising_them(folder, tmp_path, monkeypatch, capsys):
+    from jethr1_plan.files.plan_steps import OPTIMISED_STEPS
+    from jethr1_plan.io.record import RECORD
+    from jethr1_plan.studies import step_by_step
+
+    kept = _plan_alone(folder, tmp_path / "kept")
+    monkeypatch.setattr(step_by_step, "plan", _no_optimiser)
+    assert run(["simulate", str(kept), "--json", "--no-progress"]) == 0
+    out = capsys.readouterr()
+    assert "optimising the plan's steps again" not in out.err
+    with_kept = _comparable(json.loads(out.out), kept)
+    monkeypatch.undo()
+    # a kept file that does not read: the steps optimised again, said in one line naming the file and the key,
+    # and the same run to the byte (the planner's samples are those the file kept)
+    bad = _plan_alone(folder, tmp_path / "bad")
+    doc = json.loads((bad / OPTIMISED_STEPS).read_text())
+    doc["steps"][1]["samples"]["q_rad"][4][2] = "x"
+    (bad / OPTIMISED_STEPS).write_text(json.dumps(doc))
+    (bad / RECORD).unlink()  # as a copy without its hidden files
+    assert run(["simulate", str(bad), "--json", "--no-progress"]) == 0
+    out = capsys.readouterr()
+    (line,) = [x for x in out.err.splitlines() if "again" in x]
+    assert line == (f"simulate: {bad / OPTIMISED_STEPS}: steps[1].samples.q_rad: 'x' is not a number (\"inf\", "
+                    "\"-inf\" or \"nan\" only); optimising the plan's steps again")
+    assert _comparable(json.loads(out.out), bad) == with_kept
+
+
+def test_the_kept_steps_are_those_the_planner_optimises(folder):
+    from jethr1_plan.planning.plan import plan
+    from jethr1_plan.sim.rehearsal import load_plan
+    from jethr1_plan.studies.step_by_step import nominal_plan
+    from tests.files.test_plan_steps import assert_same_steps
+
+    summary = json.loads((folder / "summary.json").read_text())
+    scenario, kept = nominal_plan(folder, summary, load_plan(folder), note=pytest.fail)
+    assert_same_steps(kept, plan(scenario, method=summary["optimiser"], seed=summary["seed"]).steps)
+
+
+@pytest.mark.parametrize("change", ["missing", "key", "trajectory", "policy"])
+def test_kept_steps_not_of_the_folders_plan_are_optimised_again(folder, tmp_path, monkeypatch, change):
+    from jethr1_plan.files.plan_steps import OPTIMISED_STEPS
+    from jethr1_plan.io.record import RECORD
+    from jethr1_plan.sim.rehearsal import load_plan
+    from jethr1_plan.studies import step_by_step
+
+    copy = _plan_alone(folder, tmp_path / "copy")
+    steps = copy / OPTIMISED_STEPS
+    summary = json.loads((copy / "summary.json").read_text())
+    if change == "missing":  # a folder of an earlier jethr1
+        steps.unlink()
+    elif change == "key":  # optimised for another scenario, robot or optimiser
+        steps.write_text(steps.read_text().replace(json.loads(steps.read_text())["key"], "0" * 64))
+    elif change == "trajectory":  # another plan's file
+        steps.write_text(steps.read_text().replace(summary["files"]["trajectory.csv"]["sha256"], "0" * 64))
+    else:  # the plan is of another policy than the one the steps were optimised for
+        summary["balance"]["policy"] = "minimal"
+    (copy / RECORD).unlink()
+    notes: list[str] = []
+    monkeypatch.setattr(step_by_step, "plan", _no_optimiser)
+    with pytest.raises(Optimised):
+        step_by_step.nominal_plan(copy, summary, load_plan(copy), note=notes.append)
+    (note,) = notes
+    assert note.startswith(f"{steps}: ") and note.endswith("optimising the plan's steps again")
+    assert {"missing": "missing", "key": ": key: ", "trajectory": "trajectory_sha256",
+            "policy": ": key: "}[change] in note
