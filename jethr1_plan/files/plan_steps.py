@@ -34,6 +34,7 @@ import hashlib
 import json
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -45,10 +46,10 @@ from jethr1_plan.io.json_text import MAX_JSON_BYTES, json_document, json_text
 from jethr1_plan.io.record import file_sha256, read_record
 
 if TYPE_CHECKING:
-    from jethr1_plan.planning.results import StepResult
+    from jethr1_plan.optimisers.base import SampleResult
 
-__all__ = ["FORMAT", "OPTIMISED_STEPS", "VERSION", "optimised_steps_json", "read_optimised_steps", "steps_key",
-           "stored_steps"]
+__all__ = ["FORMAT", "OPTIMISED_STEPS", "VERSION", "KeptStep", "optimised_steps_json", "read_optimised_steps",
+           "steps_key", "stored_steps"]
 
 OPTIMISED_STEPS = "optimised_steps.json"
 FORMAT = "jethr1.optimised_steps"
@@ -64,6 +65,36 @@ CANDIDATE_FIELDS: tuple[tuple[str, str, int | str | None], ...] = (
     ("zmp_xy_m", "zmp_xy", 2), ("edge_excess_rad", "edge_excess_rad", None), ("violation", "violation", None),
     ("window_gap_n", "window_gap_n", None), ("split_n", "split_n", "F"))
 INTEGER_FIELDS = frozenset({"violation", "evaluations"})
+
+
+@dataclass
+class KeptStep:
+    """One step as the file keeps it: the fields of ``planning.results.StepResult`` (which the planner's
+    callers make of it)."""
+
+    index: int
+    swing: str
+    support: str
+    path_m: np.ndarray  # (N, 3) the swing sole's samples [m]
+    samples: list[SampleResult]
+    fan_index: tuple[int, ...]
+
+
+class _Step(Protocol):
+    """What the file keeps of a step (``planning.results.StepResult``, :class:`KeptStep`)."""
+
+    @property
+    def index(self) -> int: ...
+    @property
+    def swing(self) -> str: ...
+    @property
+    def support(self) -> str: ...
+    @property
+    def path_m(self) -> np.ndarray: ...
+    @property
+    def samples(self) -> Sequence[SampleResult]: ...
+    @property
+    def fan_index(self) -> tuple[int, ...]: ...
 
 
 class _Robot(Protocol):
@@ -113,7 +144,7 @@ def _numbers(a: np.ndarray) -> list:
     return [_numbers(row) for row in a]
 
 
-def optimised_steps_json(steps: Sequence[StepResult], key: str, trajectory_sha256: str) -> bytes:
+def optimised_steps_json(steps: Sequence[_Step], key: str, trajectory_sha256: str) -> bytes:
     """The file's bytes for ``steps`` (a plan's ``PlanResult.steps``) optimised under ``key``
     (:func:`steps_key`), written with the ``trajectory.csv`` of SHA-256 ``trajectory_sha256``."""
     out = []
@@ -160,7 +191,7 @@ def _array(value: Any, where: str, src: str, rows: int, cols: int | None, intege
     return out if cols is None else out.reshape(rows, cols)
 
 
-def read_optimised_steps(data: bytes, src: str, joints: int) -> tuple[dict, list[StepResult]]:
+def read_optimised_steps(data: bytes, src: str, joints: int) -> tuple[dict, list[KeptStep]]:
     """The file's header (format, version, key, trajectory_sha256) and its steps, from its bytes; ``joints``:
     the robot's joint count (the width of ``q_rad``).
 
@@ -169,16 +200,15 @@ def read_optimised_steps(data: bytes, src: str, joints: int) -> tuple[dict, list
     """
     from jethr1_plan.optimisers.base import SampleResult
     from jethr1_plan.optimisers.problem import Candidates
-    from jethr1_plan.planning.results import StepResult
 
     doc = json_document(data, src)
     if doc.get("format") != FORMAT:
         raise InputError(src, "format", f"expected {FORMAT!r}")
     if doc.get("version") != VERSION:
         raise InputError(src, "version", f"{doc.get('version')!r}: this jethr1 reads version {VERSION}")
-    for k in ("key", "trajectory_sha256"):
-        if not isinstance(doc.get(k), str):
-            raise InputError(src, k, "expected a SHA-256 in hex")
+    for name in ("key", "trajectory_sha256"):
+        if not isinstance(doc.get(name), str):
+            raise InputError(src, name, "expected a SHA-256 in hex")
     steps_doc = doc.get("steps")
     if not isinstance(steps_doc, list):
         raise InputError(src, "steps", "expected a list of steps")
@@ -215,11 +245,11 @@ def read_optimised_steps(data: bytes, src: str, joints: int) -> tuple[dict, list
         best = Candidates(**cols)
         out = [SampleResult(best.take(i), float(fitness[i]), int(evaluations[i]), phase[i], float(share[i]))
                for i in range(n)]
-        steps.append(StepResult(sd["index"], sd["swing"], sd["support"], path_m, out, tuple(fans)))
+        steps.append(KeptStep(sd["index"], sd["swing"], sd["support"], path_m, out, tuple(fans)))
     return doc, steps
 
 
-def stored_steps(folder: Path, summary: dict, key: str, joints: int) -> tuple[list[StepResult] | None, str]:
+def stored_steps(folder: Path, summary: dict, key: str, joints: int) -> tuple[list[KeptStep] | None, str]:
     """The plan folder's optimised steps where its :data:`OPTIMISED_STEPS` holds those of its plan, optimised
     under ``key`` (:func:`steps_key` of the scenario, robot and optimiser the folder's plan is of now), and
     written with the folder's ``trajectory.csv`` (the digest ``summary`` records, which ``folders.plan.read_plan``

@@ -14,8 +14,8 @@ options): bad input.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +59,8 @@ def nominal_plan(folder: Path, summary: dict, track: PlanTrack, note: Callable[[
         key = steps_key(scenario.text, scenario.balance.policy, scenario.timing.mode, scenario.robot, method, seed)
         steps, why = stored_steps(folder, summary, key, len(scenario.robot.joint_names))
         if steps is not None:
-            return scenario, steps
+            return scenario, [StepResult(st.index, st.swing, st.support, st.path_m, st.samples, st.fan_index)
+                              for st in steps]
         if note is not None:
             note(f"{why}; optimising the plan's steps again")
     result = plan(scenario, method=method, seed=seed)

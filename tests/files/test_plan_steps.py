@@ -125,7 +125,7 @@ def _folder(tmp_path: Path, result, key: str, traj: bytes = b"rows\n") -> tuple[
 
 
 def test_stored_steps_are_used_only_where_they_are_the_folders_plans(planned, tmp_path):
-    sc, result = planned
+    _, result = planned
     folder, summary = _folder(tmp_path, result, KEY)
     steps, why = stored_steps(folder, summary, KEY, 12)
     assert why == "" and steps is not None
