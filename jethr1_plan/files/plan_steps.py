@@ -33,6 +33,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -242,9 +243,8 @@ def read_optimised_steps(data: bytes, src: str, joints: int) -> tuple[dict, list
         phase = samples.get("phase")
         if not isinstance(phase, list) or len(phase) != n or any(not isinstance(p, str) for p in phase):
             raise InputError(src, f"{at}.samples.phase", f"expected a list of {n} names")
-        best = Candidates(**cols)
-        out = [SampleResult(best.take(i), float(fitness[i]), int(evaluations[i]), phase[i], float(share[i]))
-               for i in range(n)]
+        out = [SampleResult(Candidates(**{f: c[i:i + 1].copy() for f, c in cols.items()}), float(fitness[i]),
+                            int(evaluations[i]), phase[i], float(share[i])) for i in range(n)]
         steps.append(KeptStep(sd["index"], sd["swing"], sd["support"], path_m, out, tuple(fans)))
     return doc, steps
 
@@ -256,7 +256,7 @@ def stored_steps(folder: Path, summary: dict, key: str, joints: int) -> tuple[li
     checked against the file); else None and why, in one line (the module docstring). ``joints``: the robot's
     joint count."""
     path = Path(folder) / OPTIMISED_STEPS
-    if not path.is_file():
+    if not os.path.lexists(path):
         return None, f"{path}: missing (a folder written by an earlier jethr1, or not by jethr1 plan)"
     files = summary.get("files")
     traj = files.get("trajectory.csv") if isinstance(files, dict) else None
@@ -264,7 +264,7 @@ def stored_steps(folder: Path, summary: dict, key: str, joints: int) -> tuple[li
     count = summary.get("sample_count")
     limit = (count * SAMPLE_BYTES + SLACK_BYTES if type(count) is int and count >= 0 else MAX_JSON_BYTES)
     try:
-        data = read_input(path, min(limit, MAX_JSON_BYTES), f"a {OPTIMISED_STEPS}")
+        data = read_input(path, min(limit, MAX_JSON_BYTES), f"an {OPTIMISED_STEPS}")
         rec = read_record(Path(folder)).get(OPTIMISED_STEPS)
         if rec is not None and (rec["bytes"] != len(data) or rec["sha256"] != hashlib.sha256(data).hexdigest()):
             return None, f"{path}: changed since jethr1 wrote it (not the file the folder's record names)"

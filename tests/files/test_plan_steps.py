@@ -149,3 +149,14 @@ def test_stored_steps_are_used_only_where_they_are_the_folders_plans(planned, tm
     (folder / OPTIMISED_STEPS).unlink()
     steps, why = stored_steps(folder, summary, KEY, 12)
     assert steps is None and "missing" in why
+
+
+def test_not_a_file_where_the_steps_are_kept_is_said_and_not_read(planned, tmp_path):
+    import os
+
+    _, result = planned
+    folder, summary = _folder(tmp_path, result, KEY)
+    (folder / OPTIMISED_STEPS).unlink()
+    os.mkfifo(folder / OPTIMISED_STEPS)  # a read would block
+    steps, why = stored_steps(folder, summary, KEY, 12)
+    assert steps is None and why.startswith(f"{folder / OPTIMISED_STEPS}: a FIFO")
