@@ -238,7 +238,7 @@ def test_simulation_files_are_written_together_with_the_usual_modes(side_step_pl
         os.umask(old)
     assert {p.name: stat.S_IMODE(p.stat().st_mode) for p in d.iterdir()} == {
         "trajectory.csv": 0o644, "trajectory.mcap": 0o644, "summary.json": 0o644, "simulation.json": 0o644,
-        "simulation.mcap": 0o644, RECORD: 0o644}
+        "simulation.mcap": 0o644, "optimised_steps.json": 0o644, RECORD: 0o644}
     assert (d / "simulation.mcap").read_bytes()[:5] == b"\x89MCAP"
 
 
