@@ -60,7 +60,7 @@ SIMULATION_FILES = frozenset({"simulation.json", "simulation.mcap"})
 PLAN_FILES = frozenset({"trajectory.csv", "trajectory.mcap", "summary.json", OPTIMISED_STEPS}) | SIMULATION_FILES
 TRAJECTORY_FILES = ("trajectory.csv", "trajectory.mcap")
 #: the files ``jethr1 plan`` writes (checked before the work: :func:`~jethr1_plan.io.record.check_writable`)
-PLAN_WRITES = (*TRAJECTORY_FILES, "summary.json")
+PLAN_WRITES = (*TRAJECTORY_FILES, "summary.json", OPTIMISED_STEPS)
 #: the key of summary.json that records the trajectory files' digests: name → {"sha256", "bytes"}
 DIGESTS_KEY = "files"
 CSV_ROW_BYTES = lambda columns: 32 * columns + 256  # noqa: E731  the longest a row of this many columns can be

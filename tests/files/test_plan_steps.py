@@ -160,3 +160,18 @@ def test_not_a_file_where_the_steps_are_kept_is_said_and_not_read(planned, tmp_p
     os.mkfifo(folder / OPTIMISED_STEPS)  # a read would block
     steps, why = stored_steps(folder, summary, KEY, 12)
     assert steps is None and why.startswith(f"{folder / OPTIMISED_STEPS}: a FIFO")
+
+
+def test_a_users_file_of_the_name_is_refused_before_planning(tmp_path, capsys, monkeypatch):
+    from jethr1_plan.cli import run
+    from jethr1_plan.pipeline import plan as pipeline
+
+    monkeypatch.setattr(pipeline, "plan", pytest.fail)  # refused before any planning
+    (tmp_path / "two_steps.yaml").write_text(TWO_STEPS)
+    (tmp_path / "o" / "two_steps").mkdir(parents=True)
+    (tmp_path / "o" / "two_steps" / OPTIMISED_STEPS).write_text("mine")
+    assert run(["plan", str(tmp_path / "two_steps.yaml"), "-o", str(tmp_path / "o"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert OPTIMISED_STEPS in err and "Traceback" not in err
+    assert sorted(p.name for p in (tmp_path / "o" / "two_steps").iterdir()) == [OPTIMISED_STEPS]
+    assert (tmp_path / "o" / "two_steps" / OPTIMISED_STEPS).read_text() == "mine"
