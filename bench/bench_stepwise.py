@@ -31,6 +31,7 @@ from jethr1_plan.cli import run  # noqa: E402
 from jethr1_plan.io.json_text import json_text  # noqa: E402
 from jethr1_plan.sim.certificate import certificate, draws  # noqa: E402
 from jethr1_plan.sim.rehearsal import load_plan  # noqa: E402
+from jethr1_plan.sim.stepwise import MODES  # noqa: E402
 from jethr1_plan.studies.step_by_step import nominal_plan, run_steps  # noqa: E402
 
 SEED = 0  # simulate's default seed
@@ -53,8 +54,7 @@ def certify(folder: Path, trials: int, jobs: int) -> dict:
     simulated = sum(r.simulated_s for r in runs)
     return {"steps": len(scenario.steps), "certificate": cert,
             "refused": [{"trial": k, **ex.refused} for k, ex in enumerate(execs) if ex.refused],
-            "modes": {"re-anchored": sum(s["mode"] == "re-anchored" for ex in execs for s in ex.steps),
-                      "optimised": sum(s["mode"] == "optimised" for ex in execs for s in ex.steps)},
+            "modes": {m: sum(s["mode"] == m for ex in execs for s in ex.steps) for m in MODES},
             "landing_error_m": _stats(landings), "support_slip_m": _stats(slips), "support_turn_rad": _stats(turns),
             "simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}
 
