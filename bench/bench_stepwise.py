@@ -4,7 +4,8 @@ pelvis IMU and joint encoders: its IMU law), under the default randomisation (th
 delays and the perception error: ``configs/scattered_steps.yaml`` and the routes of seeded terrains
 (``jethr1 terrain random --seed S``, S = 0, 1, ... until --routes have a route). Each plan: N trials (trial
 k from ``default_rng([0, k])``, as ``jethr1 simulate PLAN --controller feedback --trials N``), the
-survivors and their 95 % Clopper–Pearson interval, the failures with their draws, and the landings'
+survivors and their 95 % Clopper–Pearson interval, the failures with their draws, the steps planned in
+each way (``modes``: re-anchored, optimised, and the fall-backs ``stepwise.plan_anew``), and the landings'
 distance to their footholds over all trials (the route's edge margin, robots/jethr1/jethr1.yaml
 ``execution.landing_error_m``, is its 99th percentile). docs/rehearsal.md quotes it.
 

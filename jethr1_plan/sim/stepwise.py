@@ -332,8 +332,9 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
     true pose), its swing path from where the sole stood to where it truly landed (the path moved to those
     ends, :func:`reanchor_ends`; the height of the carton it landed on), the rows built by the planner's
     row builder (the edge angle widened as for a re-anchored step) with the scenario's timing: no pauses
-    between the steps. A sole stands where it landed until it swings again (its slip while it supports is
-    in the run's record). Rows that break the planner's rules are kept, marked infeasible."""
+    between the steps, every swing lasting the scenario's ``swing_s`` (an *optimised-slow* step's too). A
+    sole stands where it landed until it swings again (its slip while it supports is in the run's record).
+    Rows that break the planner's rules are kept, marked infeasible."""
     import yaml
 
     robot = scenario.robot

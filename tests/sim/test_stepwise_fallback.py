@@ -20,7 +20,7 @@ from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Step, load_scenario_text
 from jethr1_plan.sim import stepwise
 from jethr1_plan.sim.certificate import draws
-from jethr1_plan.sim.stepwise import execute, reanchor_ends, refined_path, replan_step
+from jethr1_plan.sim.stepwise import execute, executed_plan, reanchor_ends, refined_path, replan_step
 from jethr1_plan.swing_path import Carton, arc_path
 
 #: the route of terrain seed 2, one step of it: its cartons, the soles before the step (STANCE), the step
@@ -156,12 +156,13 @@ def test_a_step_refused_from_a_displaced_stance_is_planned_over_a_finer_path_wit
     assert ratios.max() <= sc.robot.sole_friction / 2.0 + 1e-3
 
 
-def test_the_step_so_planned_is_executed_with_the_imu_law_and_lands_on_its_foothold(monkeypatch):
+def test_the_step_so_planned_is_executed_with_the_imu_law_and_lands_on_its_foothold(monkeypatch, tmp_path):
     """Trial 44's own draw (thrust ×0.93, servos ×0.81, its sensors' errors) in its step's frame as the world (the
     support sole where the plan put it, on its carton as the twin had it, 0.6 mm into it; the swing sole where the
     robot's kinematics put it; the foothold where it perceived it): without the fall-back the robot stops; with
     it, it plans the step over the finer path and executes it in the twin with its IMU law: upright, on its
-    carton, within the route's 8 mm edge margin of the foothold."""
+    carton, within the route's 8 mm edge margin of the foothold; the executed plan holds the step as planned
+    (its 49 samples' trunk postures) from where the sole stood to where it landed."""
     sc, start, target, cartons, _ = _case("trial 44, step 2")
     nominal = plan(sc).steps[0]
     robot = replace(sc.robot, sensors=replace(sc.robot.sensors, perception_error_m=0.0))  # it perceives `target`
@@ -181,3 +182,8 @@ def test_the_step_so_planned_is_executed_with_the_imu_law_and_lands_on_its_footh
     (rec,) = ex.steps
     assert rec["mode"] == "optimised-fine" and rec["path_samples"] == 49 and rec["survived_step"]
     assert rec["landing_error_m"] < 0.008
+    done, _ = executed_plan(here, ex, tmp_path / "executed")
+    (st,) = done.steps
+    assert len(st.path_m) == 49 and np.array_equal(st.path_m[0], start["left"])
+    np.testing.assert_allclose(st.path_m[-1][:2], rec["landed_m"][:2], atol=1e-12)
+    np.testing.assert_allclose(st.p_body, ex.plans[0].result.steps[0].p_body, atol=1e-12)  # the world is the frame
