@@ -46,7 +46,7 @@ ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrus
 BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
 
 
-@functools.cache
+@functools.lru_cache(maxsize=8)  # bounded: a design sweep's worker meets hundreds of robots
 def limit_mask(robot: RobotModel) -> np.ndarray:
     """(24,) which of the rows q − lower, upper − q (the legs' joints by role) are joint-limit
     constraints: all but a knee's straight-leg limit, which is the legs' reach; the reach constraint

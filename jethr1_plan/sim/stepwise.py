@@ -25,9 +25,9 @@ What the robot does (in one continuous twin run: the servos', fans' and contacts
    the path, a smoothstep in arc length), its rows built by the planner's row builder (IK, the robust
    thrust, pacing, the commands): *re-anchored*. Where a row of that is not feasible the step is
    optimised anew (``planning.plan``): *optimised*. Where that is refused too, it is optimised anew over
-   the same swing sampled more finely (:func:`refined_path`; *optimised-fine*), or also slower
-   (*optimised-slow*), :func:`plan_anew`: every one of them a plan the planner accepts whole (every row
-   feasible under the scenario's own limits). Where none plans, the robot stops: the run fails.
+   the same swing sampled more finely (:func:`refined_path`; *optimised-fine*, :func:`plan_anew`): every
+   one of them a plan the planner accepts whole (every row feasible under the scenario's own limits).
+   Where none plans, the robot stops: the run fails.
 4. It follows that plan (stand → transfer → swing → transfer → stand), its controller's reference the
    plan turned into its IMU's world (the support sole's measured heading).
 
@@ -71,10 +71,10 @@ RHO_SLACK_RAD = math.radians(3.0)
 #: a re-anchored step's trunk moves by these shares of its swing sole's shift, tried in turn
 TRUNK_SHARES = (0.5, 0.0, 1.0)
 #: where a step optimised anew is refused, it is optimised again over its swing path with each segment split
-#: into this many (the same sole positions at every row), its swing lasting this many times as long: in turn
-REFINEMENTS = ((2, 1.0), (3, 1.0), (4, 1.0), (2, 1.5), (4, 1.5))
+#: into this many (the same sole positions at every row), in turn
+REFINEMENTS = (2, 3, 4)
 #: every way a step is planned, in the order tried (:func:`replan_step`)
-MODES = ("re-anchored", "optimised", "optimised-fine", "optimised-slow")
+MODES = ("re-anchored", "optimised", "optimised-fine")
 
 
 def refined_path(path_m: np.ndarray, factor: int) -> np.ndarray:
@@ -163,11 +163,12 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
 
 def plan_anew(one: Scenario) -> tuple[PlanResult, str]:
     """The one-step scenario ``one`` optimised anew (``planning.plan``): as it is (*optimised*), else over its
-    swing path refined (:func:`refined_path`) and, where :data:`REFINEMENTS` asks, with its swing slower (the
-    rows' accelerations fall with the square of the time: *optimised-slow*; else *optimised-fine*). Of the
-    refinements the planner accepts, the first whose swing keeps the multibody ZMP ``balance.sole_margin_m``
-    inside the sole with the friction within its bound (its pacing held, ``planning.pacing``), else the first.
-    Nothing of the scenario's limits changes: each is a plan whose every row is feasible.
+    swing path refined by each factor of :data:`REFINEMENTS` (:func:`refined_path`; *optimised-fine*), with
+    the scenario's own timing (a slower swing would run longer than the executed plan, written with the
+    scenario's timing, says). Of the refinements the planner accepts, the first whose swing keeps the
+    multibody ZMP ``balance.sole_margin_m`` inside the sole with the friction within its bound (its pacing
+    held, ``planning.pacing``), else the first. Nothing of the scenario's limits changes: each is a plan
+    whose every row is feasible.
 
     Raises:
         InfeasiblePlan: none plans (the message: the plain optimisation's first infeasible row, then each
@@ -179,13 +180,12 @@ def plan_anew(one: Scenario) -> tuple[PlanResult, str]:
         refusals = [str(exc)]
     st = one.steps[0]
     first: tuple[PlanResult, str] | None = None
-    for factor, slower in REFINEMENTS:
-        fine = replace(one, steps=(Step(st.swing, refined_path(st.path_m, factor)),),
-                       timing=replace(one.timing, swing_s=one.timing.swing_s * slower))
+    for factor in REFINEMENTS:
+        fine = replace(one, steps=(Step(st.swing, refined_path(st.path_m, factor)),))
         try:
-            got = plan(fine), "optimised-fine" if slower == 1.0 else "optimised-slow"
+            got = plan(fine), "optimised-fine"
         except InfeasiblePlan as exc:
-            refusals.append(f"×{factor} samples, swing ×{slower:g}: {exc}")
+            refusals.append(f"×{factor} samples: {exc}")
             continue
         assert got[0].rows is not None  # planned whole
         if all(p["margin_held"] for p in got[0].rows.paced):
@@ -332,7 +332,7 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
     true pose), its swing path from where the sole stood to where it truly landed (the path moved to those
     ends, :func:`reanchor_ends`; the height of the carton it landed on), the rows built by the planner's
     row builder (the edge angle widened as for a re-anchored step) with the scenario's timing: no pauses
-    between the steps, every swing lasting the scenario's ``swing_s`` (an *optimised-slow* step's too). A
+    between the steps, every swing lasting the scenario's ``swing_s``, as it ran. A
     sole stands where it landed until it swings again (its slip while it supports is in the run's record).
     Rows that break the planner's rules are kept, marked infeasible."""
     import yaml
