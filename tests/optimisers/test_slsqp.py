@@ -43,7 +43,8 @@ def test_the_driver_follows_scipys_slsqp_to_the_bit(seed):
     maxiter, ftol = (5, 1e-7) if seed % 4 == 0 else (100, 1e-9)  # some stopped by the iteration limit
     ours = minimize_slsqp(objective, x0, bounds, ineq, ineq_jac, maxiter, ftol)
     with np.errstate(all="ignore"):
-        ref = minimize(objective, x0, jac=True, method="SLSQP", bounds=bounds, options={"maxiter": maxiter, "ftol": ftol},
+        ref = minimize(objective, x0, jac=True, method="SLSQP", bounds=bounds,
+                       options={"maxiter": maxiter, "ftol": ftol},
                        constraints=[{"type": "ineq", "fun": ineq, "jac": ineq_jac}])
     assert ours.x.tobytes() == np.asarray(ref.x, dtype=float).tobytes()
     assert (ours.fun, ours.status, ours.nit, ours.success) == (ref.fun, ref.status, ref.nit, ref.success)
@@ -51,8 +52,10 @@ def test_the_driver_follows_scipys_slsqp_to_the_bit(seed):
 
 def test_a_converged_answer_holds_its_constraints_and_optimality():
     """Independent of SciPy: a problem with a known answer, min (x−2)² + (y−1)² on x + y ≤ 2, x ≥ 0: (1.5, 0.5)."""
-    res = minimize_slsqp(lambda x: (float((x[0] - 2) ** 2 + (x[1] - 1) ** 2), np.array([2 * (x[0] - 2), 2 * (x[1] - 1)])),
-                         np.zeros(2), [(0.0, None), (None, None)], lambda x: np.array([2.0 - x[0] - x[1]]),
+    def objective(x):
+        return float((x[0] - 2) ** 2 + (x[1] - 1) ** 2), np.array([2 * (x[0] - 2), 2 * (x[1] - 1)])
+
+    res = minimize_slsqp(objective, np.zeros(2), [(0.0, None), (None, None)], lambda x: np.array([2.0 - x[0] - x[1]]),
                          lambda x: np.array([[-1.0, -1.0]]), 100, 1e-12)
     assert res.success
     np.testing.assert_allclose(res.x, [1.5, 0.5], atol=1e-8)
