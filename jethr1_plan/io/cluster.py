@@ -3,6 +3,7 @@ scheduler at ``--scheduler``, reached within a few seconds or reported as one li
 
 from __future__ import annotations
 
+import logging
 from contextlib import contextmanager
 from typing import Any
 
@@ -23,7 +24,9 @@ def dask_client(scheduler: str | None, jobs: int) -> Any:
     from distributed import Client
 
     if scheduler is None:
-        with Client(processes=True, n_workers=jobs, threads_per_worker=1) as client:
+        # the local cluster's own warnings (a cancelled task, a busy worker killed on Ctrl-C) stay off the
+        # user's terminal: the command reports in its own lines
+        with Client(processes=True, n_workers=jobs, threads_per_worker=1, silence_logs=logging.ERROR) as client:
             yield client
         return
     try:

@@ -9,8 +9,9 @@ send", the ``_cmd`` columns of docs/contract.md) and not from the planner's code
 * a fan of first-order lag τ_fan is sent F + τ_fan·dF/dt, dF/dt by central differences between the
   rows around (one-sided at the ends), within [0, F_max].
 
-The low-pass is run by SciPy's ``lfilter`` (the planner steps its own loop), the differences written
-out (the planner calls ``numpy.gradient``). Units SI.
+The low-pass is evaluated in its closed form, the sum of the torques weighted by the filter's impulse
+response, block by block (the planner steps its own loop); the differences are written out (the planner
+calls ``numpy.gradient``). Units SI.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ import math
 
 import numpy as np
 
-__all__ = ["PLAN_SAG_FILTER_S", "PLAN_SAG_STIFFNESS_SCALE", "WALK_SAG_FILTER_S", "fan_commands", "servo_commands"]
+__all__ = ["PLAN_SAG_FILTER_S", "PLAN_SAG_STIFFNESS_SCALE", "WALK_SAG_FILTER_S", "fan_commands", "low_pass",
+           "servo_commands"]
 
 #: a plan's sag compensation is low-passed with this time constant [s]
 PLAN_SAG_FILTER_S = 0.2
@@ -27,6 +29,8 @@ PLAN_SAG_FILTER_S = 0.2
 WALK_SAG_FILTER_S = 0.0
 #: a plan's commands undo the sag of servos this many times the robot YAML's stiffness
 PLAN_SAG_STIFFNESS_SCALE = 1.25
+#: rows per block of :func:`low_pass`'s closed form (r^B stays far from underflow for any α)
+_BLOCK_ROWS = 256
 
 
 def servo_commands(q_rad: np.ndarray, tau_nm: np.ndarray, stiffness_nm_per_rad: np.ndarray, rate_hz: float,
@@ -34,14 +38,29 @@ def servo_commands(q_rad: np.ndarray, tau_nm: np.ndarray, stiffness_nm_per_rad: 
     """(N, J) [rad]: the rows ``q_rad`` (N, J) plus the sag of servos of ``stiffness_nm_per_rad`` (J,) under
     the torques ``tau_nm`` (N, J) low-passed by y_i = y_{i−1} + α·(τ_i − y_{i−1}), y_0 = τ_0,
     α = 1 − exp(−1/(rate·filter_s)) (α = 1 without a filter)."""
-    from scipy.signal import lfilter
-
     tau = np.asarray(tau_nm, dtype=float)
     if filter_s > 0 and len(tau):
-        alpha = 1.0 - math.exp(-1.0 / (rate_hz * filter_s))
-        # y_i − (1 − α)·y_{i−1} = α·τ_i, with the state that makes y_0 = τ_0
-        tau, _ = lfilter([alpha], [1.0, alpha - 1.0], tau, axis=0, zi=(1.0 - alpha) * tau[:1])
+        tau = low_pass(tau, 1.0 - math.exp(-1.0 / (rate_hz * filter_s)))
     return np.asarray(q_rad, dtype=float) + tau / np.asarray(stiffness_nm_per_rad, dtype=float)
+
+
+def low_pass(x: np.ndarray, alpha: float, block: int = _BLOCK_ROWS) -> np.ndarray:
+    """(N, …): y_i = r·y_{i−1} + α·x_i with r = 1 − α and y_{−1} = x_0 (so that y_0 = x_0), in closed form:
+    over a block of rows s … s+B−1, y_{s+j} = r^{j+1}·y_{s−1} + α·Σ_{k≤j} r^{j−k}·x_{s+k}, the sum as the
+    product with the lower-triangular matrix of the impulse response r^{j−k}."""
+    x = np.asarray(x, dtype=float)
+    r = 1.0 - alpha
+    lag = np.arange(block)[:, None] - np.arange(block)[None, :]
+    response = np.where(lag >= 0, r ** np.maximum(lag, 0), 0.0)
+    decay = r ** np.arange(1, block + 1)
+    y = np.empty_like(x)
+    before = x[0]
+    for s in range(0, len(x), block):
+        n = min(block, len(x) - s)
+        y[s:s + n] = (np.multiply.outer(decay[:n], before)
+                      + alpha * np.tensordot(response[:n, :n], x[s:s + n], axes=1))
+        before = y[s + n - 1]
+    return y
 
 
 def fan_commands(thrust_n: np.ndarray, rate_hz: float, lag_s: np.ndarray, max_n: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ formula is wrong has its plan refused."""
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -150,6 +151,24 @@ def test_verify_commands_agree_with_the_planners():
     from jethr1_plan.walking.result import WALK_SAG_FILTER_S
 
     assert vc.WALK_SAG_FILTER_S == WALK_SAG_FILTER_S
+
+
+@pytest.mark.parametrize("n", [1, 2, 255, 256, 257, 513, 3000])
+def test_the_verifiers_low_pass_in_closed_form_agrees_with_a_stepped_filter_across_its_blocks(n):
+    """The verifier's block-wise closed form of the sag filter against SciPy's ``lfilter`` and the planner's
+    own loop, at a plan's 500 Hz and across the blocks' seams (256 rows)."""
+    from scipy.signal import lfilter
+
+    from jethr1_plan.control import commands
+    from jethr1_plan.verify import commands as vc
+
+    rng = np.random.default_rng([37, 7, n])
+    tau = rng.normal(0, 3.0, (n, 12)) + np.linspace(0.0, 20.0, n)[:, None]
+    for filter_s in (vc.PLAN_SAG_FILTER_S, 0.004, 3.0):
+        alpha = 1.0 - math.exp(-1.0 / (500.0 * filter_s))
+        stepped, _ = lfilter([alpha], [1.0, alpha - 1.0], tau, axis=0, zi=(1.0 - alpha) * tau[:1])
+        np.testing.assert_allclose(vc.low_pass(tau, alpha), stepped, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(vc.low_pass(tau, alpha), commands.low_pass(tau, 500.0, filter_s), rtol=0, atol=1e-9)
 
 
 def test_verify_motion_agrees_with_the_planners_row_dynamics(robot, side_step_plan):
