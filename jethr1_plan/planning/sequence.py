@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
-from jethr1_plan.geometry import GRAVITY, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
+from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
@@ -130,23 +130,28 @@ class SequenceBuilder:
             self.q_prev = batch.q[0]
         return batch.q[0], batch.com[0], int(batch.status[0])
 
-    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
-                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Every row of a swing at once where the solver is the closed form (each row is its own
-        closed-form posture: the same as row by row, to the bit); None for an iterative solver (its
-        warm start goes row to row)."""
+    def _solve_rows(self, soles: dict[str, np.ndarray], p_body: np.ndarray, yaws: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Every row of a phase at once where the solver is the closed form: ``soles`` (side → (3,) or (N, 3)
+        [m], both unturned), P_body (N, 3) [m] and the body yaws (N,) [rad] (each row is its own closed-form
+        posture: the same as row by row, to the bit); None for an iterative solver (its warm start goes row
+        to row)."""
         from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
 
         if not isinstance(self.solver, ClosedFormPostureSolver) or not len(p_body):
             return None
-        q, com, status = solve_postures(self.robot, p_body, yaws, {support: (support_xyz, 0.0),
-                                                                   other_side(support): (swings, 0.0)})
+        q, com, status = solve_postures(self.robot, p_body, yaws, {s: (soles[s], 0.0) for s in SIDES})
         com[status == Reason.UNREACHABLE] = np.nan
         self.solver.evaluations += len(p_body)
         ok = np.flatnonzero(status == Reason.OK)
         if len(ok):
             self.q_prev = q[ok[-1]]
         return q, com, status
+
+    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
+                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """:meth:`_solve_rows` of a swing: the support sole at ``support_xyz``, the swing sole at ``swings`` (N, 3)."""
+        return self._solve_rows({support: support_xyz, other_side(support): swings}, p_body, yaws)
 
     def mark(self, step: int, phase: str, sample: int, reason: str, p_body_m=None, swing_m=None) -> None:
         """The row about to be written is infeasible: the first such row is kept (``first_infeasible``)."""
@@ -198,6 +203,7 @@ class SequenceBuilder:
         if coming is not None:
             v = into if thrust_in is not None else out
             idle_share = v / v.sum() if v.sum() > 0 else np.isin(np.arange(nf), coming.fans[:1]).astype(float)
+        rows: list[tuple[float, np.ndarray, float]] = []  # (u, P_body, yaw) of each row
         for k in range(n + 1 if include_end else n):
             if positions is None:
                 u = k / n
@@ -205,9 +211,14 @@ class SequenceBuilder:
             else:
                 u = s = float(positions[k])
             p = p0 + s * (p1 - p0)
-            yaw = float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
-            stance = Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw)
-            q, com, status = self._solve(stance, p)
+            rows.append((u, p, float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None
+                         else self.yaw_of_row(len(self.rows) + k)))
+        solved = self._solve_rows(feet, np.array([p for _, p, _ in rows]), np.array([y for _, _, y in rows]))
+        for k, (u, p, yaw) in enumerate(rows):
+            if solved is None:
+                q, com, status = self._solve(Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw), p)
+            else:
+                q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             thrust = zero.copy()
             if thrust_out is not None:
                 thrust += out * max(0.0, 1.0 - 2.0 * u)
