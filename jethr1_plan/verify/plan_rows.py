@@ -16,11 +16,11 @@ import numpy as np
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.records.plan_columns import PELVIS, TOLERANCE_SHARE, WINDOW
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.verify.balance import hull_edges, pad_edges, sole_edges, thrust_window, zmp_of_thrust
+from jethr1_plan.verify.balance import sole_edges, thrust_window, zmp_of_thrust
 from jethr1_plan.verify.motion import vertical_ground_force
 
 __all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
-           "ground_references", "scenario_feet"]
+           "ground_references", "pair_hull_edges", "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
 # empty (NaN) where there is no swing sole, no window, or no tolerance (the share: its own check)
@@ -156,14 +156,19 @@ class RowData:
 
     def edges(self, shrink_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Per row, the edges of its support polygon (:mod:`.balance`: normals (n, K, 2), offsets (n, K)),
-        each sole shrunk by ``shrink_m`` [m]: the support sole's rectangle on one sole, else the hull of both."""
+        each sole shrunk by ``shrink_m`` [m]: the support sole's rectangle on one sole, else the hull of both
+        (:func:`pair_hull_edges`; a sole's rows repeat its first edge)."""
         r = self.robot
         one = self.on_one_sole
         normals, offsets = sole_edges(self.sole_centre, r.sole_length_m, r.sole_width_m, shrink_m)
-        rows = [(normals[i], offsets[i]) for i in range(self.n)]
-        for i in np.flatnonzero(~one):
-            rows[i] = hull_edges([self.pos[s][i, :2] for s in SIDES], r.sole_length_m, r.sole_width_m, shrink_m)
-        return pad_edges(rows) if rows else (np.zeros((0, 4, 2)), np.zeros((0, 4)))
+        if one.all():
+            return normals, offsets
+        hull_n, hull_b = pair_hull_edges(self.pos["left"][:, :2], self.pos["right"][:, :2], r.sole_length_m,
+                                         r.sole_width_m, shrink_m)
+        k = hull_b.shape[1]
+        normals = np.concatenate([normals, np.repeat(normals[:, :1], k - 4, axis=1)], axis=1)
+        offsets = np.concatenate([offsets, np.repeat(offsets[:, :1], k - 4, axis=1)], axis=1)
+        return np.where(one[:, None, None], normals, hull_n), np.where(one[:, None], offsets, hull_b)
 
     @cached_property
     def support_edges(self) -> tuple[np.ndarray, np.ndarray]:
@@ -298,6 +303,35 @@ def ground_references(support: np.ndarray, pos: dict[str, np.ndarray]) -> dict[s
             ref[s][start:end] = np.median(pos[s][start:end], axis=0)
             start = end
     return ref
+
+
+def pair_hull_edges(first_xy: np.ndarray, second_xy: np.ndarray, length_m: float, width_m: float,
+                    shrink_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The edges of the convex hull of two soles facing +x, centred at ``first_xy`` and ``second_xy`` (N, 2) [m],
+    each shrunk by ``shrink_m`` [m]: outward unit normals (N, 6, 2) and offsets (N, 6), n·z ≤ b inside.
+
+    The hull of two translates a + R, b + R of one rectangle R is R ⊕ [a, b] (the Minkowski sum with the
+    segment), whose support is h(n) = h_R(n) + max(n·a, n·b), h_R(n) = (L/2)|n_x| + (W/2)|n_y|. Its edges
+    are R's four (normals ±x, ±y) and the two parallel to b − a (normals ±(b − a)⊥/|b − a|); where a = b
+    those two repeat the first edge (a repeated edge changes no minimum or maximum)."""
+    a = np.asarray(first_xy, dtype=float).reshape(-1, 2)
+    b = np.asarray(second_xy, dtype=float).reshape(-1, 2)
+    hl, hw = length_m / 2 - shrink_m, width_m / 2 - shrink_m
+    axes = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    n = len(a)
+    normals, offsets = np.empty((n, 6, 2)), np.empty((n, 6))
+    normals[:, :4] = axes
+    offsets[:, :4] = np.array([hl, hw, hl, hw]) + np.maximum(a @ axes.T, b @ axes.T)
+    d = b - a
+    span = np.hypot(d[:, 0], d[:, 1])
+    apart = span > 0.0
+    across = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.where(apart, span, 1.0)[:, None]
+    for k, m in ((4, across), (5, -across)):
+        support = hl * np.abs(m[:, 0]) + hw * np.abs(m[:, 1]) + np.maximum(np.einsum("nd,nd->n", m, a),
+                                                                            np.einsum("nd,nd->n", m, b))
+        normals[:, k] = np.where(apart[:, None], m, normals[:, 0])
+        offsets[:, k] = np.where(apart, support, offsets[:, 0])
+    return normals, offsets
 
 
 def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:

@@ -44,3 +44,35 @@ def test_batched_statics_match_the_row_by_row_solution(robot):
     np.testing.assert_allclose(tau[:-1], expected_tau[:-1], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(kappa, expected_kappa, rtol=1e-9)
     assert np.ptp(tau[:-1], axis=0).max() > 0.1  # the postures differ: the comparison is not of one row
+
+
+def test_pair_hull_edges_are_qhulls_hull_of_both_soles():
+    """The hull of two soles from its six edges in closed form (the Minkowski sum of a sole and the segment
+    between the centres) is the polygon Qhull finds (``verify.balance.hull_edges``): every point's distance
+    inside (negative outside) is the same, for soles apart in any direction, side by side, overlapping and at
+    one place, shrunk or not."""
+    from jethr1_plan.verify.balance import hull_edges, support_margin
+    from jethr1_plan.verify.plan_rows import pair_hull_edges
+
+    rng = np.random.default_rng(40)
+    n = 400
+    a = rng.uniform(-0.5, 0.5, (n, 2))
+    b = a + rng.uniform(-0.4, 0.4, (n, 2))
+    b[:20] = a[:20]  # one place
+    b[20:40, 1] = a[20:40, 1]  # one ahead of the other
+    b[40:60, 0] = a[40:60, 0]  # side by side
+    b[60:80] = a[60:80] + rng.uniform(-0.05, 0.05, (20, 2))  # overlapping
+    length, width = 0.16, 0.09
+    shrink = np.where(rng.random(n) < 0.5, 0.0, rng.uniform(0.0, 0.03, n))
+    for i in range(n):
+        normals, offsets = pair_hull_edges(a[i], b[i], length, width, shrink[i])
+        assert np.allclose(np.linalg.norm(normals[0], axis=1), 1.0, rtol=0, atol=1e-15)
+        qn, qb = hull_edges([a[i], b[i]], length, width, shrink[i])
+        points = (a[i] + b[i]) / 2 + rng.uniform(-0.5, 0.5, (50, 2)) * (np.abs(b[i] - a[i]) + 0.2)
+        mine = support_margin(points, np.broadcast_to(normals, (50, 6, 2)), np.broadcast_to(offsets, (50, 6)))
+        qhull = support_margin(points, np.broadcast_to(qn, (50, *qn.shape)), np.broadcast_to(qb, (50, len(qb))))
+        np.testing.assert_allclose(mine, qhull, rtol=0, atol=1e-12)
+    both = pair_hull_edges(a, b, length, width, 0.01)  # every pair at once: the same as one by one
+    for i in range(0, n, 37):
+        one = pair_hull_edges(a[i], b[i], length, width, 0.01)
+        assert np.array_equal(both[0][i], one[0][0]) and np.array_equal(both[1][i], one[1][0])
