@@ -19,7 +19,8 @@ from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import sole_edges, thrust_window, zmp_of_thrust
 from jethr1_plan.verify.motion import vertical_ground_force
 
-__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
+__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "distances_to_polyline",
+           "expected_sequence",
            "ground_references", "pair_hull_edges", "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
@@ -335,10 +336,18 @@ def pair_hull_edges(first_xy: np.ndarray, second_xy: np.ndarray, length_m: float
 
 
 def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
+    """The distance [m] from point ``p`` (3,) to the polyline through ``pts`` (K, 3)."""
+    return float(distances_to_polyline(np.asarray(p, dtype=float)[None], pts)[0])
+
+
+def distances_to_polyline(points: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """(M,) the distance [m] from each of ``points`` (M, 3) to the polyline through ``pts`` (K, 3): the least
+    over its segments a → b of |a + t·(b − a) − p|, t = (p − a)·(b − a)/|b − a|² clipped to [0, 1]."""
     a, b = pts[:-1], pts[1:]
     ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
-    return float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
+    rel = np.asarray(points, dtype=float)[:, None, :] - a[None]  # (M, K − 1, 3)
+    t = np.clip(np.einsum("mkj,kj->mk", rel, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
+    return np.min(np.linalg.norm(t[..., None] * ab - rel, axis=2), axis=1)
 
 
 def _transfer_weights(robot: RobotModel, a: np.ndarray, b: np.ndarray, feet: dict[str, np.ndarray],

@@ -76,3 +76,30 @@ def test_pair_hull_edges_are_qhulls_hull_of_both_soles():
     for i in range(0, n, 37):
         one = pair_hull_edges(a[i], b[i], length, width, 0.01)
         assert np.array_equal(both[0][i], one[0][0]) and np.array_equal(both[1][i], one[1][0])
+
+
+def test_distances_to_a_polyline_are_each_points_least_over_its_segments():
+    """Every point's distance to a polyline at once is, for each point, the least distance to each segment
+    (the foot of the perpendicular clipped to the segment), points beside, beyond both ends and on it."""
+    from jethr1_plan.verify.plan_rows import distance_to_polyline, distances_to_polyline
+
+    rng = np.random.default_rng(40)
+    pts = np.cumsum(rng.normal(0.0, 0.05, (15, 3)), axis=0)
+    pts[7] = pts[6]  # a segment of no length
+    points = np.concatenate([rng.normal(pts.mean(axis=0), 0.2, (200, 3)), pts[[0, 3, -1]],
+                             pts[:1] - 0.3 * (pts[1] - pts[0]), (pts[4] + pts[5])[None] / 2])
+
+    def each(p):
+        best = np.inf
+        for a, b in zip(pts[:-1], pts[1:], strict=True):
+            ab = b - a
+            t = 0.0 if ab @ ab == 0 else min(max((p - a) @ ab / (ab @ ab), 0.0), 1.0)
+            best = min(best, float(np.linalg.norm(a + t * ab - p)))
+        return best
+
+    expected = np.array([each(p) for p in points])
+    got = distances_to_polyline(points, pts)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-14)
+    assert np.all(got[200:203] < 1e-15) and got[-1] < 1e-15  # on the polyline
+    np.testing.assert_allclose(got[203], 0.3 * np.linalg.norm(pts[1] - pts[0]), rtol=1e-12)  # beyond its start
+    assert distance_to_polyline(points[5], pts) == got[5]
