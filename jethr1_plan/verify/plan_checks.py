@@ -11,9 +11,9 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.records.plan_columns import SWING
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T
+from jethr1_plan.verify.plan_geometry import distances_to_polyline
 from jethr1_plan.verify.plan_rows import (
     RowData,
-    distances_to_polyline,
     expected_sequence,
     ground_references,
     scenario_feet,

@@ -18,10 +18,10 @@ from jethr1_plan.records.plan_columns import PELVIS, TOLERANCE_SHARE, WINDOW
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import sole_edges, thrust_window, zmp_of_thrust
 from jethr1_plan.verify.motion import vertical_ground_force
+from jethr1_plan.verify.plan_geometry import pair_hull_edges
 
-__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "distances_to_polyline",
-           "expected_sequence",
-           "ground_references", "pair_hull_edges", "scenario_feet"]
+__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "expected_sequence", "ground_references",
+           "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
 # empty (NaN) where there is no swing sole, no window, or no tolerance (the share: its own check)
@@ -304,50 +304,6 @@ def ground_references(support: np.ndarray, pos: dict[str, np.ndarray]) -> dict[s
             ref[s][start:end] = np.median(pos[s][start:end], axis=0)
             start = end
     return ref
-
-
-def pair_hull_edges(first_xy: np.ndarray, second_xy: np.ndarray, length_m: float, width_m: float,
-                    shrink_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """The edges of the convex hull of two soles facing +x, centred at ``first_xy`` and ``second_xy`` (N, 2) [m],
-    each shrunk by ``shrink_m`` [m]: outward unit normals (N, 6, 2) and offsets (N, 6), n·z ≤ b inside.
-
-    The hull of two translates a + R, b + R of one rectangle R is R ⊕ [a, b] (the Minkowski sum with the
-    segment), whose support is h(n) = h_R(n) + max(n·a, n·b), h_R(n) = (L/2)|n_x| + (W/2)|n_y|. Its edges
-    are R's four (normals ±x, ±y) and the two parallel to b − a (normals ±(b − a)⊥/|b − a|); where a = b
-    those two repeat the first edge (a repeated edge changes no minimum or maximum)."""
-    a = np.asarray(first_xy, dtype=float).reshape(-1, 2)
-    b = np.asarray(second_xy, dtype=float).reshape(-1, 2)
-    hl, hw = length_m / 2 - shrink_m, width_m / 2 - shrink_m
-    axes = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
-    n = len(a)
-    normals, offsets = np.empty((n, 6, 2)), np.empty((n, 6))
-    normals[:, :4] = axes
-    offsets[:, :4] = np.array([hl, hw, hl, hw]) + np.maximum(a @ axes.T, b @ axes.T)
-    d = b - a
-    span = np.hypot(d[:, 0], d[:, 1])
-    apart = span > 0.0
-    across = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.where(apart, span, 1.0)[:, None]
-    for k, m in ((4, across), (5, -across)):
-        support = hl * np.abs(m[:, 0]) + hw * np.abs(m[:, 1]) + np.maximum(np.einsum("nd,nd->n", m, a),
-                                                                            np.einsum("nd,nd->n", m, b))
-        normals[:, k] = np.where(apart[:, None], m, normals[:, 0])
-        offsets[:, k] = np.where(apart, support, offsets[:, 0])
-    return normals, offsets
-
-
-def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
-    """The distance [m] from point ``p`` (3,) to the polyline through ``pts`` (K, 3)."""
-    return float(distances_to_polyline(np.asarray(p, dtype=float)[None], pts)[0])
-
-
-def distances_to_polyline(points: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """(M,) the distance [m] from each of ``points`` (M, 3) to the polyline through ``pts`` (K, 3): the least
-    over its segments a → b of |a + t·(b − a) − p|, t = (p − a)·(b − a)/|b − a|² clipped to [0, 1]."""
-    a, b = pts[:-1], pts[1:]
-    ab = b - a
-    rel = np.asarray(points, dtype=float)[:, None, :] - a[None]  # (M, K − 1, 3)
-    t = np.clip(np.einsum("mkj,kj->mk", rel, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
-    return np.min(np.linalg.norm(t[..., None] * ab - rel, axis=2), axis=1)
 
 
 def _transfer_weights(robot: RobotModel, a: np.ndarray, b: np.ndarray, feet: dict[str, np.ndarray],

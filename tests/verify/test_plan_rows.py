@@ -52,7 +52,7 @@ def test_pair_hull_edges_are_qhulls_hull_of_both_soles():
     inside (negative outside) is the same, for soles apart in any direction, side by side, overlapping and at
     one place, shrunk or not."""
     from jethr1_plan.verify.balance import hull_edges, support_margin
-    from jethr1_plan.verify.plan_rows import pair_hull_edges
+    from jethr1_plan.verify.plan_geometry import pair_hull_edges
 
     rng = np.random.default_rng(40)
     n = 400
@@ -81,7 +81,7 @@ def test_pair_hull_edges_are_qhulls_hull_of_both_soles():
 def test_distances_to_a_polyline_are_each_points_least_over_its_segments():
     """Every point's distance to a polyline at once is, for each point, the least distance to each segment
     (the foot of the perpendicular clipped to the segment), points beside, beyond both ends and on it."""
-    from jethr1_plan.verify.plan_rows import distance_to_polyline, distances_to_polyline
+    from jethr1_plan.verify.plan_geometry import distance_to_polyline, distances_to_polyline
 
     rng = np.random.default_rng(40)
     pts = np.cumsum(rng.normal(0.0, 0.05, (15, 3)), axis=0)
@@ -91,8 +91,8 @@ def test_distances_to_a_polyline_are_each_points_least_over_its_segments():
 
     def each(p):
         best = np.inf
-        for a, b in zip(pts[:-1], pts[1:], strict=True):
-            ab = b - a
+        for k in range(len(pts) - 1):
+            a, ab = pts[k], pts[k + 1] - pts[k]
             t = 0.0 if ab @ ab == 0 else min(max((p - a) @ ab / (ab @ ab), 0.0), 1.0)
             best = min(best, float(np.linalg.norm(a + t * ab - p)))
         return best
