@@ -4,7 +4,8 @@ pelvis IMU and joint encoders: its IMU law), under the default randomisation (th
 delays and the perception error: ``configs/scattered_steps.yaml`` and the routes of seeded terrains
 (``jethr1 terrain random --seed S``, S = 0, 1, ... until --routes have a route). Each plan: N trials (trial
 k from ``default_rng([0, k])``, as ``jethr1 simulate PLAN --controller feedback --trials N``), the
-survivors and their 95 % Clopper–Pearson interval, the failures with their draws, and the landings'
+survivors and their 95 % Clopper–Pearson interval, the failures with their draws, the steps planned in
+each way (``modes``: re-anchored, optimised, and the fall-backs ``stepwise.plan_anew``), and the landings'
 distance to their footholds over all trials (the route's edge margin, robots/jethr1/jethr1.yaml
 ``execution.landing_error_m``, is its 99th percentile). docs/rehearsal.md quotes it.
 
@@ -31,6 +32,7 @@ from jethr1_plan.cli import run  # noqa: E402
 from jethr1_plan.io.json_text import json_text  # noqa: E402
 from jethr1_plan.sim.certificate import certificate, draws  # noqa: E402
 from jethr1_plan.sim.rehearsal import load_plan  # noqa: E402
+from jethr1_plan.sim.stepwise import MODES  # noqa: E402
 from jethr1_plan.studies.step_by_step import nominal_plan, run_steps  # noqa: E402
 
 SEED = 0  # simulate's default seed
@@ -53,8 +55,7 @@ def certify(folder: Path, trials: int, jobs: int) -> dict:
     simulated = sum(r.simulated_s for r in runs)
     return {"steps": len(scenario.steps), "certificate": cert,
             "refused": [{"trial": k, **ex.refused} for k, ex in enumerate(execs) if ex.refused],
-            "modes": {"re-anchored": sum(s["mode"] == "re-anchored" for ex in execs for s in ex.steps),
-                      "optimised": sum(s["mode"] == "optimised" for ex in execs for s in ex.steps)},
+            "modes": {m: sum(s["mode"] == m for ex in execs for s in ex.steps) for m in MODES},
             "landing_error_m": _stats(landings), "support_slip_m": _stats(slips), "support_turn_rad": _stats(turns),
             "simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}
 

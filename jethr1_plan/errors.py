@@ -99,6 +99,26 @@ class CompileNotice(UserWarning):
     the command line shows it as one line on stderr (``jethr1 warm-up`` compiles them ahead)."""
 
 
+def show_notices_as_lines() -> None:
+    """From now on this process shows a :class:`CompileNotice` as one line on stderr ("jethr1: …"), and other
+    warnings as Python does: the command line and its pool workers call it first."""
+    import sys
+    import warnings
+
+    python_shows = warnings.showwarning
+    if getattr(python_shows, "jethr1_notices", False):
+        return
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, CompileNotice):
+            print(f"jethr1: {message}", file=sys.stderr, flush=True)
+            return
+        python_shows(message, category, filename, lineno, file, line)
+
+    show.jethr1_notices = True  # type: ignore[attr-defined]
+    warnings.showwarning = show
+
+
 class SelfCheckFailed(Exception):
     """The planner's own output failed the independent re-check before it was written: a bug (exit 1).
 

@@ -10,12 +10,11 @@ import errno
 import importlib
 import os
 import sys
-import warnings
 
 import click
 
 from jethr1_plan.cli.common import StdoutError
-from jethr1_plan.errors import Jethr1Error, WorkerLost, interrupt_behind, lost_worker_behind
+from jethr1_plan.errors import Jethr1Error, WorkerLost, interrupt_behind, lost_worker_behind, show_notices_as_lines
 
 __all__ = ["entry", "main", "run"]
 
@@ -173,24 +172,10 @@ def _on_sigterm(signum, frame) -> None:
 
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """Notices (:class:`~jethr1_plan.errors.CompileNotice`) as one line on stderr; other warnings as Python shows
-    them."""
-    from jethr1_plan.errors import CompileNotice
-
-    if issubclass(category, CompileNotice):
-        print(f"jethr1: {message}", file=sys.stderr, flush=True)
-        return
-    _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
-
-
-_PYTHON_SHOWWARNING = warnings.showwarning
-
-
 def entry() -> None:
     import signal
 
-    warnings.showwarning = _show_warning
+    show_notices_as_lines()
     signal.signal(signal.SIGTERM, _on_sigterm)
     # the worker pools' resource tracker (a process of its own) warns of "leaked semlock objects" when
     # an interrupt ends the pool; it cleans them up all the same: keep its warning off the terminal

@@ -21,6 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from jethr1_plan.errors import show_notices_as_lines
 from jethr1_plan.io.forked import be_killed_first
 
 __all__ = ["WATCH_INTERVAL_S", "parallel", "pool_config", "worker_start"]
@@ -40,7 +41,7 @@ def _watch(parent_pid: int) -> None:
 
 def worker_start(parent_pid: int) -> None:
     """The first thing a pool's worker does (loky's ``initializer``): die with process ``parent_pid`` (see the
-    module), and be the first the out-of-memory killer takes."""
+    module), be the first the out-of-memory killer takes, and show a compile notice as one line."""
     if os.getppid() != parent_pid:  # the command ended before this worker started
         _end_now()
     try:
@@ -54,6 +55,7 @@ def worker_start(parent_pid: int) -> None:
         _end_now()
     threading.Thread(target=_watch, args=(parent_pid,), name="jethr1-parent-watch", daemon=True).start()
     be_killed_first()
+    show_notices_as_lines()  # a worker that compiles the kernels says so as the command does
 
 
 def parallel(n_jobs: int, **kwargs: Any):

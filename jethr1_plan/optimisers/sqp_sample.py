@@ -18,12 +18,12 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import minimize
 
 from jethr1_plan.geometry import GRAVITY, SIDES, halfplanes
 from jethr1_plan.kinematics.closed_form import check_structure, closed_form_arrays, solve_postures
 from jethr1_plan.optimisers.problem import SampleProblem
 from jethr1_plan.optimisers.search import DIRECTIONS
+from jethr1_plan.optimisers.slsqp import minimize_slsqp
 from jethr1_plan.physics.balance import edge_angle_error, least_thrust, thrust_window
 from jethr1_plan.physics.compiled.sample import sample_terms
 from jethr1_plan.reasons import Reason
@@ -48,7 +48,7 @@ BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it mo
 _FD_MOVES = FD_STEP * np.eye(3)  # the three forward-difference steps of P_body [m], one per row
 
 
-@functools.cache
+@functools.lru_cache(maxsize=8)  # bounded: a design sweep's worker meets hundreds of robots
 def limit_mask(robot: RobotModel) -> np.ndarray:
     """(24,) which of the rows q − lower, upper − q (the legs' joints by role) are joint-limit
     constraints: all but a knee's straight-leg limit, which is the legs' reach; the reach constraint
@@ -243,9 +243,7 @@ class AnalyticSample:
             shares = np.where(np.isfinite(split[0]), split[0] / self.weight, self.u_maxes)
             box += [(0.0, float(u)) for u in self.u_maxes]
             x0 = np.concatenate([p0, np.minimum(shares, self.u_maxes)])
-        res = minimize(self._objective, x0, jac=True, method="SLSQP", bounds=box,
-                       options={"maxiter": MAX_ITER, "ftol": 1e-7},
-                       constraints=[{"type": "ineq", "fun": self._values, "jac": self._jacobian}])
+        res = minimize_slsqp(self._objective, x0, box, self._values, self._jacobian, MAX_ITER, 1e-7)
         P = np.asarray(res.x[:3], dtype=float)
         ok, t = self.feasible(P)
         if not ok:  # SLSQP often ends a hair outside (at a leg's full stretch it zig-zags): step back in

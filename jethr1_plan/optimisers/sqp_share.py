@@ -21,9 +21,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import minimize
 
 from jethr1_plan.optimisers.problem import SampleProblem
+from jethr1_plan.optimisers.slsqp import minimize_slsqp
 from jethr1_plan.optimisers.sqp_sample import FD_STEP, MARGIN, AnalyticSample, grid_starts
 
 __all__ = ["SHARE_ITER", "max_share", "scaled"]
@@ -112,11 +112,10 @@ def _stage1(sample: AnalyticSample, p0: np.ndarray, half: float) -> tuple[float,
     x0 = np.clip(np.concatenate([start, u_max, [0.0]]), [b[0] for b in box], [b[1] for b in box])
     grad = np.zeros(len(x0))
     grad[-1] = -1.0
-    res = minimize(lambda y: (-float(y[-1]), grad), x0 * scale, jac=True, method="SLSQP",
-                   bounds=[(lo * k, hi * k) for (lo, hi), k in zip(box, scale, strict=True)],
-                   constraints=[{"type": "ineq", "fun": lambda y: rows.values(y / scale),
-                                 "jac": lambda y: rows.jacobian(y / scale) / scale}],
-                   options={"maxiter": SHARE_ITER, "ftol": 1e-9})
+    res = minimize_slsqp(lambda y: (-float(y[-1]), grad), x0 * scale,
+                         [(lo * k, hi * k) for (lo, hi), k in zip(box, scale, strict=True)],
+                         lambda y: rows.values(y / scale), lambda y: rows.jacobian(y / scale) / scale,
+                         SHARE_ITER, 1e-9)
     x = np.asarray(res.x, dtype=float) / scale
     if not np.all(rows.values(x) >= -MARGIN):
         return None

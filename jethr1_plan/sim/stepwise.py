@@ -24,7 +24,10 @@ What the robot does (in one continuous twin run: the servos', fans' and contacts
    unchanged) along the plan's swing path moved to the new ends (the offset of each end fades out along
    the path, a smoothstep in arc length), its rows built by the planner's row builder (IK, the robust
    thrust, pacing, the commands): *re-anchored*. Where a row of that is not feasible the step is
-   optimised anew (``planning.plan``): *optimised*. Where neither plans, the robot stops: the run fails.
+   optimised anew (``planning.plan``): *optimised*. Where that is refused too, it is optimised anew over
+   the same swing sampled more finely (:func:`refined_path`; *optimised-fine*, :func:`plan_anew`): every
+   one of them a plan the planner accepts whole (every row feasible under the scenario's own limits).
+   Where none plans, the robot stops: the run fails.
 4. It follows that plan (stand → transfer → swing → transfer → stand), its controller's reference the
    plan turned into its IMU's world (the support sole's measured heading).
 
@@ -57,7 +60,8 @@ from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
 from jethr1_plan.swing_path import Carton, path_length
 
-__all__ = ["STAND_S", "Execution", "StepPlan", "execute", "executed_plan", "reanchor_ends", "replan_step"]
+__all__ = ["MODES", "STAND_S", "Execution", "StepPlan", "execute", "executed_plan", "plan_anew", "reanchor_ends",
+           "refined_path", "replan_step"]
 
 STAND_S = 0.5  # after each step the robot stands this long before it measures and plans the next [s]
 #: a re-anchored step may exceed the edge angle ρ of (A-10) by this [rad]: the plan's postures sit on ρ
@@ -66,6 +70,24 @@ STAND_S = 0.5  # after each step the robot stands this long before it measures a
 RHO_SLACK_RAD = math.radians(3.0)
 #: a re-anchored step's trunk moves by these shares of its swing sole's shift, tried in turn
 TRUNK_SHARES = (0.5, 0.0, 1.0)
+#: where a step optimised anew is refused, it is optimised again over its swing path with each segment split
+#: into this many (the same sole positions at every row), in turn
+REFINEMENTS = (2, 3, 4)
+#: every way a step is planned, in the order tried (:func:`replan_step`)
+MODES = ("re-anchored", "optimised", "optimised-fine")
+
+
+def refined_path(path_m: np.ndarray, factor: int) -> np.ndarray:
+    """A swing path (N, 3) [m] with every segment split into ``factor`` equal parts: ((N − 1)·factor + 1, 3),
+    the same points on the same straight segments. The rows interpolate the swing sole linearly between
+    samples at min_jerk(k / n)·(N − 1) (``time_laws.swing_row_positions``), which the refined path's
+    (N − 1)·factor scales with it: every row's swing sole stands where it stood; the optimiser places the
+    trunk at ``factor`` times as many samples, so that the rows interpolating P_body between two of them
+    span a ``factor``-th of the swing's progress."""
+    pts = np.asarray(path_m, dtype=float)
+    lam = np.arange(factor)[:, None] / factor
+    inner = (pts[:-1, None, :] * (1.0 - lam) + pts[1:, None, :] * lam).reshape(-1, 3)
+    return np.vstack([inner, pts[-1:]])
 
 
 def reanchor_ends(path_m: np.ndarray, start_m: np.ndarray, end_m: np.ndarray) -> np.ndarray:
@@ -89,7 +111,7 @@ class StepPlan:
     index: int
     scenario: Scenario  # the one-step scenario (step frame)
     result: PlanResult  # its plan
-    mode: str  # 're-anchored' (the plan's postures, the path moved) or 'optimised' (planned anew)
+    mode: str  # how it was planned: one of MODES (:func:`replan_step`)
     to_world: Frame  # step frame → the twin's world (the truth: the judge's)
     start_m: dict[str, np.ndarray]  # the soles the robot planned from (its estimate), step frame [m]
     target_m: np.ndarray  # the landing it aimed for (perceived), step frame [m]
@@ -109,10 +131,10 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
                 cartons: tuple[Carton, ...]) -> tuple[PlanResult, str]:
     """Step ``k`` of ``scenario`` planned from soles at ``start`` [m] to the landing ``target`` [m] among
     ``cartons`` (all in the step frame: the support sole where ``scenario`` has it before the step):
-    re-anchored where its rows are feasible, else optimised (the module docstring).
+    re-anchored where its rows are feasible, else optimised anew (:func:`plan_anew`); (the plan, its mode).
 
     Raises:
-        InfeasiblePlan: neither plans.
+        InfeasiblePlan: none plans.
     """
     robot = scenario.robot
     st = scenario.steps[k]
@@ -136,7 +158,42 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
                 bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
             if bad is None and all(rows.columns[RowField.FEASIBLE]):
                 return PlanResult(moved_one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
-    return plan(one), "optimised"
+    return plan_anew(one)
+
+
+def plan_anew(one: Scenario) -> tuple[PlanResult, str]:
+    """The one-step scenario ``one`` optimised anew (``planning.plan``): as it is (*optimised*), else over its
+    swing path refined by each factor of :data:`REFINEMENTS` (:func:`refined_path`; *optimised-fine*), with
+    the scenario's own timing (a slower swing would run longer than the executed plan, written with the
+    scenario's timing, says). Of the refinements the planner accepts, the first whose swing keeps the
+    multibody ZMP ``balance.sole_margin_m`` inside the sole with the friction within its bound (its pacing
+    held, ``planning.pacing``), else the first. Nothing of the scenario's limits changes: each is a plan
+    whose every row is feasible.
+
+    Raises:
+        InfeasiblePlan: none plans (the message: the plain optimisation's first infeasible row, then each
+            refinement's).
+    """
+    try:
+        return plan(one), "optimised"
+    except InfeasiblePlan as exc:
+        refusals = [str(exc)]
+    st = one.steps[0]
+    first: tuple[PlanResult, str] | None = None
+    for factor in REFINEMENTS:
+        fine = replace(one, steps=(Step(st.swing, refined_path(st.path_m, factor)),))
+        try:
+            got = plan(fine), "optimised-fine"
+        except InfeasiblePlan as exc:
+            refusals.append(f"×{factor} samples: {exc}")
+            continue
+        assert got[0].rows is not None  # planned whole
+        if all(p["margin_held"] for p in got[0].rows.paced):
+            return got
+        first = first or got
+    if first is not None:
+        return first
+    raise InfeasiblePlan("; ".join(refusals))
 
 
 def _perceived(target_world: np.ndarray, sup_true: np.ndarray, yaw_true: float, sup_frame: np.ndarray,
@@ -213,6 +270,7 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
                          hold_s=HOLD_S if k == n - 1 else STAND_S)
         out.plans.append(StepPlan(k, result.scenario, result, mode, to_world, start, target))
         out.steps.append(_step_record(k, st, mode, to_world, target, error, start, (sup_true, yaw_true), seg))
+        out.steps[-1].update(path_samples=len(result.steps[0].path_m), swing_s=float(result.scenario.timing.swing_s))
         if seg.fell is not None:
             break
     out.run = run.result()
@@ -274,8 +332,9 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
     true pose), its swing path from where the sole stood to where it truly landed (the path moved to those
     ends, :func:`reanchor_ends`; the height of the carton it landed on), the rows built by the planner's
     row builder (the edge angle widened as for a re-anchored step) with the scenario's timing: no pauses
-    between the steps. A sole stands where it landed until it swings again (its slip while it supports is
-    in the run's record). Rows that break the planner's rules are kept, marked infeasible."""
+    between the steps, every swing lasting the scenario's ``swing_s``, as it ran. A
+    sole stands where it landed until it swings again (its slip while it supports is in the run's record).
+    Rows that break the planner's rules are kept, marked infeasible."""
     import yaml
 
     robot = scenario.robot

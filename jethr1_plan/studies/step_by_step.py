@@ -25,7 +25,7 @@ from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.planning.results import StepResult
 from jethr1_plan.scenario import Scenario
-from jethr1_plan.sim.stepwise import Execution, execute, executed_plan
+from jethr1_plan.sim.stepwise import MODES, Execution, execute, executed_plan
 from jethr1_plan.sim.track import Perturbation, PlanTrack
 
 __all__ = ["EXECUTED", "EXECUTED_FILES", "execution_record", "nominal_plan", "run_steps", "write_executed"]
@@ -100,7 +100,8 @@ def execution_record(ex: Execution) -> dict[str, Any]:
     return {"steps": ex.steps, "refused": ex.refused,
             "max_landing_error_m": max(errors) if errors else None,
             "re_anchored": sum(s["mode"] == "re-anchored" for s in ex.steps),
-            "optimised": sum(s["mode"] == "optimised" for s in ex.steps)}
+            "optimised": sum(s["mode"] == "optimised" for s in ex.steps),
+            "modes": {m: sum(s["mode"] == m for s in ex.steps) for m in MODES}}
 
 
 def write_executed(folder: Path, scenario: Scenario, ex: Execution) -> tuple[Path, bool]:

@@ -9,8 +9,8 @@ import warnings
 
 import pytest
 
-from jethr1_plan.cli import _show_warning, run
-from jethr1_plan.errors import CompileNotice
+from jethr1_plan.cli import run
+from jethr1_plan.errors import CompileNotice, show_notices_as_lines
 
 PROBE = """import warnings
 from jethr1_plan.errors import CompileNotice
@@ -44,10 +44,35 @@ def test_a_compile_is_said_once_and_a_cache_load_not_at_all(tmp_path):
 def test_the_command_line_shows_the_notice_as_one_line(capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("always")
-        warnings.showwarning = _show_warning
+        show_notices_as_lines()
         warnings.warn(CompileNotice("compiling the planner's kernels (a test)"), stacklevel=1)
     err = capsys.readouterr().err.splitlines()
     assert err == ["jethr1: compiling the planner's kernels (a test)"]
+
+
+POOL = """import warnings
+from joblib import delayed
+from jethr1_plan.errors import CompileNotice
+from jethr1_plan.io.pool import parallel
+
+def notice(k):
+    warnings.warn(CompileNotice(f"compiling (worker {k})"), stacklevel=1)
+    return k
+
+with parallel(2) as par:
+    print(sum(par(delayed(notice)(k) for k in range(2))))
+"""
+
+
+def test_a_pool_worker_shows_the_notice_as_one_line(tmp_path):
+    """A design or batch worker that compiles the kernels says so as the command does: one line each, not
+    Python's warning with its file and source line."""
+    script = tmp_path / "pool.py"
+    script.write_text(POOL)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-1500:]
+    lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
+    assert sorted(lines) == ["jethr1: compiling (worker 0)", "jethr1: compiling (worker 1)"], done.stderr[-1500:]
 
 
 def test_the_warm_up_inputs_are_valid_scenarios_and_walks(tmp_path):

@@ -9,6 +9,7 @@ import pytest
 
 from jethr1_plan.cli import run
 from jethr1_plan.io.json_text import json_text
+from jethr1_plan.sim.stepwise import MODES
 from tests.conftest import rewritten
 from tests.sim.test_stepwise import TWO_STEPS
 
@@ -29,6 +30,10 @@ def test_simulate_executes_a_plan_of_several_steps_step_by_step(folder, capsys):
     (r,) = doc["runs"]
     steps = r["step_by_step"]["steps"]
     assert [s["step"] for s in steps] == [0, 1] and all(s["landing_error_m"] < 0.01 for s in steps)
+    # each step's mode, and the steps counted per mode (every mode named, the counts summing to the steps)
+    modes = r["step_by_step"]["modes"]
+    assert set(modes) == set(MODES) and sum(modes.values()) == 2
+    assert all(modes[s["mode"]] >= 1 and s["path_samples"] >= 2 and s["swing_s"] > 0 for s in steps)
     # the judge's landings (the viewers' /sim/steps labels) name the scenario's steps, not each segment's first
     assert [s["step"] for s in r["steps"]] == [0, 1]
     assert {"inherited", "support_slip", "servo_sag", "thrust", "touchdown", "slide"} == set(
