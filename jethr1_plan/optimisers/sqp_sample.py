@@ -14,6 +14,7 @@ inside the (A-10) cone, 0.002 rad inside the joint limits, the knees bent by at 
 from __future__ import annotations
 
 import functools
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -44,6 +45,7 @@ RESTORE_START_ITER = 3  # Gauss-Newton steps that bring an SLSQP start inside th
 GRID = (7, 7, 5)  # coarse grid of starting points (x, y, z) where no neighbour helps
 ACCEPT_N = 1e-3  # the backward pass keeps its answer unless it needs more thrust than this [N]
 BOX_MOVES = 6  # where the trust box holds the forward pass's answer back, it moves up to this many times
+_FD_MOVES = FD_STEP * np.eye(3)  # the three forward-difference steps of P_body [m], one per row
 
 
 @functools.lru_cache(maxsize=8)  # bounded: a design sweep's worker meets hundreds of robots
@@ -87,6 +89,8 @@ class AnalyticSample:
         self.offsets = polygon_offsets - self.margins[3]
         tol = problem.tolerance
         self.mass_factors = np.array([1.0 + tol.mass, 1.0 - tol.mass]) if tol.mass > 0 else np.ones(1)
+        self._normals_t, self._mass_column, self._com_m = self.normals.T, self.mass_factors[:, None], tol.com_m
+        self._dg_du: np.ndarray | None = None  # dg/du of every constraint (one fan), once its count is known
         self.one = problem.one_fixed_fan  # Paper A's case: one variable u, constant coefficients
         self.nf = len(problem.fan_xy)
         if self.one:
@@ -146,12 +150,12 @@ class AnalyticSample:
 
     def _constraints(self, x: np.ndarray, com_xy: np.ndarray, cons: np.ndarray) -> np.ndarray:
         """All constraint values (≥ 0 when held) at x, from the CoM and the P-only constraints."""
-        d = com_xy @ self.normals.T - self.offsets + self.problem.tolerance.com_m
+        d = com_xy @ self._normals_t - self.offsets + self._com_m
         if self.one:
-            poly = x[3] * self.coef_rows - np.outer(self.mass_factors, d).ravel()
+            poly = x[3] * self.coef_rows - (self._mass_column * d).ravel()  # (the outer product, as np.outer)
         else:
             rows = self.fixed_rows if self.fixed_rows is not None else self._fan_rows(x[:3])
-            poly = rows @ x[3:] - np.outer(self.mass_factors, d).ravel()
+            poly = rows @ x[3:] - (self._mass_column * d).ravel()
         return np.concatenate([poly, cons])
 
     def _values(self, x: np.ndarray) -> np.ndarray:
@@ -164,12 +168,13 @@ class AnalyticSample:
     def _jacobian(self, x: np.ndarray) -> np.ndarray:
         """(C, 4): forward differences in P_body (three postures in one batch), exact in u."""
         g0 = self._values(x)
-        com, cons, _ = self.posture_terms(x[:3] + FD_STEP * np.eye(3))
+        com, cons, _ = self.posture_terms(x[:3] + _FD_MOVES)
         if self.one:
             g = np.stack([self._constraints(x, com[k, :2], cons[k]) for k in range(3)])
-            dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
-            return np.column_stack([((g - g0) / FD_STEP).T, dg_du])
-        moved = x + np.concatenate([FD_STEP * np.eye(3), np.zeros((3, self.nf))], axis=1)
+            if self._dg_du is None or len(self._dg_du) != len(g0):
+                self._dg_du = np.concatenate([self.coef_rows, np.zeros(len(g0) - len(self.coef_rows))])
+            return np.column_stack([((g - g0) / FD_STEP).T, self._dg_du])
+        moved = x + np.concatenate([_FD_MOVES, np.zeros((3, self.nf))], axis=1)
         g = np.stack([self._constraints(moved[k], com[k, :2], cons[k]) for k in range(3)])
         rows = self.fixed_rows if self.fixed_rows is not None else self._fan_rows(x[:3])
         dg_du = np.vstack([rows, np.zeros((len(g0) - len(rows), self.nf))])
@@ -194,7 +199,7 @@ class AnalyticSample:
         _, cons, thrust = self.posture_terms(P[None])
         t = float(thrust[0])
         within = t <= self.problem.thrust_max_n if self.one else True  # several fans: the LP held each maximum
-        ok = bool(np.all(cons[0] >= -MARGIN)) and np.isfinite(t) and within
+        ok = bool((cons[0] >= -MARGIN).all()) and math.isfinite(t) and within
         if strict_edge:
             ok = ok and bool(cons[0][0] >= 0.0)
         return ok, t
@@ -209,7 +214,7 @@ class AnalyticSample:
             bad = c0[0] < target
             if not bad.any():
                 break
-            _, c1, _ = self.posture_terms(P + FD_STEP * np.eye(3))
+            _, c1, _ = self.posture_terms(P + _FD_MOVES)
             J = ((c1 - c0) / FD_STEP).T[bad]  # (V, 3)
             step, *_ = np.linalg.lstsq(J, target - c0[0][bad], rcond=None)
             if not np.all(np.isfinite(step)) or np.linalg.norm(step) > max_step:

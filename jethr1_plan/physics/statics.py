@@ -34,9 +34,11 @@ __all__ = [
     "FORCE_DIRECTION",
     "KAPPA_WARNING",
     "analyse_rows",
+    "condition_numbers",
     "energy_consumption",
     "generalized_velocities",
     "leg_condition_numbers",
+    "leg_jacobian",
     "load_split",
     "static_torques",
 ]
@@ -89,13 +91,21 @@ def load_split(a: np.ndarray, b: np.ndarray, soles_xyz: list, soles_yaw: list, l
 
 def leg_condition_numbers(robot: RobotModel, wrapper) -> dict[str, float]:
     """κ of each leg: σ_max/σ_min of d(sole twist relative to the trunk)/d(leg joints) (6 × 6)."""
-    out = {}
-    for side in SIDES:
-        leg = robot.legs[side]
-        J = wrapper.frame_jacobian(leg.sole, "local_world_aligned")[:, 6 + np.asarray(leg.index)]
-        s = np.linalg.svd(J, compute_uv=False)
-        out[side] = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
-    return out
+    kappa = condition_numbers(np.stack([leg_jacobian(robot, wrapper, side) for side in SIDES]))
+    return {side: float(k) for side, k in zip(SIDES, kappa, strict=True)}
+
+
+def leg_jacobian(robot: RobotModel, wrapper, side: str) -> np.ndarray:
+    """(6, 6) d(sole twist, world-aligned)/d(the ``side`` leg's joints) at the wrapper's posture."""
+    leg = robot.legs[side]
+    return wrapper.frame_jacobian(leg.sole, "local_world_aligned")[:, 6 + np.asarray(leg.index)]
+
+
+def condition_numbers(J: np.ndarray) -> np.ndarray:
+    """(...,) σ_max/σ_min of each matrix of ``J`` (..., m, k) (B-45): inf where σ_min is 0."""
+    s = np.linalg.svd(J, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
 
 
 def energy_consumption(tau: np.ndarray, q: np.ndarray, dt: float) -> float:
@@ -124,7 +134,7 @@ def analyse_rows(robot: RobotModel, p: np.ndarray, yaw: np.ndarray, q: np.ndarra
     n = len(p)
     v = generalized_velocities(p, yaw, q, dt)
     tau = np.zeros((n, len(robot.joint_names)))
-    kappa = np.zeros((n, 2))
+    legs = np.zeros((n, len(SIDES), 6, 6))  # each leg's Jacobian (leg_jacobian), for κ of every row at once
     h_yaw = np.zeros(n)
     for i in range(n):
         T = np.eye(4)
@@ -135,7 +145,8 @@ def analyse_rows(robot: RobotModel, p: np.ndarray, yaw: np.ndarray, q: np.ndarra
         wrapper.update_kinematics()
         supports = SIDES if support[i] == "both" else (support[i],)
         tau[i], _ = static_torques(robot, wrapper, thrust[i], supports)
-        k = leg_condition_numbers(robot, wrapper)
-        kappa[i] = k["left"], k["right"]
+        for k, side in enumerate(SIDES):
+            legs[i, k] = leg_jacobian(robot, wrapper, side)
         h_yaw[i] = float(wrapper.centroidal_map()[5] @ v[i])
-    return {"tau": tau, "kappa": kappa, "yaw_momentum": h_yaw, "energy_j": energy_consumption(tau, q, dt)}
+    return {"tau": tau, "kappa": condition_numbers(legs), "yaw_momentum": h_yaw,
+            "energy_j": energy_consumption(tau, q, dt)}

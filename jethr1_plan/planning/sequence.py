@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from jethr1_plan.control.time_laws import min_jerk, swing_row_positions
-from jethr1_plan.geometry import GRAVITY, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
+from jethr1_plan.geometry import GRAVITY, SIDES, convex_hull, other_side, polygon_margin, sole_polygon, wrap_angle
 from jethr1_plan.kinematics import PostureSolver, Stance
 from jethr1_plan.physics.balance import (
     NOMINAL,
@@ -118,11 +118,26 @@ class SequenceBuilder:
         """(F, 2) every fan's ground point [m] with the soles and the trunk there."""
         return np.array([fan_ground_xy(f, soles, p_body, yaw) for f in self.robot.fans]).reshape(-1, 2)
 
-    def _row_share(self, com_xy: np.ndarray, fans_xy: np.ndarray, thrust: np.ndarray, region: np.ndarray) -> float:
-        """The row's tolerance share (NaN under the minimal policy)."""
+    def _row_shares(self, com_xy: np.ndarray, fans_xy: np.ndarray, thrust: np.ndarray, region: np.ndarray
+                    ) -> np.ndarray:
+        """Each row's tolerance share (N,) (NaN under the minimal policy): CoM (N, 2) [m], fans (N, F, 2) [m],
+        thrust (N, F) [N] on ``region`` (``physics.share.row_shares`` solves each row on its own: the same as
+        row by row, to the bit)."""
         if self.tolerance == NOMINAL:
-            return float("nan")
-        return float(row_shares(com_xy, fans_xy, thrust, region, self.robot.mass_kg, self.tolerance))
+            return np.full(len(com_xy), np.nan)
+        return row_shares(com_xy, fans_xy, thrust, region, self.robot.mass_kg, self.tolerance)
+
+    def _emit_all(self, step: int, phase: str, pending: list[tuple], region: np.ndarray) -> None:
+        """Write a phase's rows, each ``(sample, reason, P_body, swing or None, CoM, fans (F, 2), thrust (F,),
+        the other columns)``, with their tolerance shares on ``region``; the infeasible ones marked."""
+        if not pending:
+            return
+        shares = self._row_shares(np.array([r[4][:2] for r in pending]), np.array([r[5] for r in pending]),
+                                  np.array([r[6] for r in pending]), region)
+        for (k, reason, p, swing, _, _, thrust, row), share in zip(pending, shares, strict=True):
+            if reason:
+                self.mark(step, phase, k, reason, p.tolist(), None if swing is None else swing.tolist())
+            self._emit(thrust, **row, tolerance_share=float(share), reason=reason or "")
 
     def _solve(self, stance: Stance, p_body: np.ndarray):
         batch = self.solver.solve_batch(stance, p_body[None], warm=self.q_prev)
@@ -130,23 +145,28 @@ class SequenceBuilder:
             self.q_prev = batch.q[0]
         return batch.q[0], batch.com[0], int(batch.status[0])
 
-    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
-                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Every row of a swing at once where the solver is the closed form (each row is its own
-        closed-form posture: the same as row by row, to the bit); None for an iterative solver (its
-        warm start goes row to row)."""
+    def _solve_rows(self, soles: dict[str, np.ndarray], p_body: np.ndarray, yaws: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Every row of a phase at once where the solver is the closed form: ``soles`` (side → (3,) or (N, 3)
+        [m], both unturned), P_body (N, 3) [m] and the body yaws (N,) [rad] (each row is its own closed-form
+        posture: the same as row by row, to the bit); None for an iterative solver (its warm start goes row
+        to row)."""
         from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
 
         if not isinstance(self.solver, ClosedFormPostureSolver) or not len(p_body):
             return None
-        q, com, status = solve_postures(self.robot, p_body, yaws, {support: (support_xyz, 0.0),
-                                                                   other_side(support): (swings, 0.0)})
+        q, com, status = solve_postures(self.robot, p_body, yaws, {s: (soles[s], 0.0) for s in SIDES})
         com[status == Reason.UNREACHABLE] = np.nan
         self.solver.evaluations += len(p_body)
         ok = np.flatnonzero(status == Reason.OK)
         if len(ok):
             self.q_prev = q[ok[-1]]
         return q, com, status
+
+    def _solve_swing(self, support: str, support_xyz: np.ndarray, swings: np.ndarray, p_body: np.ndarray,
+                     yaws: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """:meth:`_solve_rows` of a swing: the support sole at ``support_xyz``, the swing sole at ``swings`` (N, 3)."""
+        return self._solve_rows({support: support_xyz, other_side(support): swings}, p_body, yaws)
 
     def mark(self, step: int, phase: str, sample: int, reason: str, p_body_m=None, swing_m=None) -> None:
         """The row about to be written is infeasible: the first such row is kept (``first_infeasible``)."""
@@ -198,6 +218,7 @@ class SequenceBuilder:
         if coming is not None:
             v = into if thrust_in is not None else out
             idle_share = v / v.sum() if v.sum() > 0 else np.isin(np.arange(nf), coming.fans[:1]).astype(float)
+        rows: list[tuple[float, np.ndarray, float]] = []  # (u, P_body, yaw) of each row
         for k in range(n + 1 if include_end else n):
             if positions is None:
                 u = k / n
@@ -205,9 +226,15 @@ class SequenceBuilder:
             else:
                 u = s = float(positions[k])
             p = p0 + s * (p1 - p0)
-            yaw = float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows))
-            stance = Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw)
-            q, com, status = self._solve(stance, p)
+            rows.append((u, p, float(wrap_angle(yaw0 + s * dyaw)) if self.yaw_of_row is None
+                         else self.yaw_of_row(len(self.rows) + k)))
+        solved = self._solve_rows(feet, np.array([p for _, p, _ in rows]), np.array([y for _, _, y in rows]))
+        pending: list[tuple] = []  # the rows, written once their shares are known (_emit_all)
+        for k, (u, p, yaw) in enumerate(rows):
+            if solved is None:
+                q, com, status = self._solve(Stance("right", feet["right"], 0.0, feet["left"], 0.0, yaw), p)
+            else:
+                q, com, status = solved[0][k], solved[1][k], int(solved[2][k])
             thrust = zero.copy()
             if thrust_out is not None:
                 thrust += out * max(0.0, 1.0 - 2.0 * u)
@@ -231,13 +258,12 @@ class SequenceBuilder:
                 reason = f"thrust {thrust[j]:.3f} N of fan {self.names[j]} above its maximum {self.caps[j]:g} N"
             elif slack < -1e-9:
                 reason = "ZMP outside the hull of both soles" + self._describe_tolerance(share)
-            if reason:
-                self.mark(step, "transfer", k, reason, p.tolist())
-            self._emit(thrust, step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
-                       ground_z_m=min(feet["left"][2], feet["right"][2]),
-                       p_body_m=p, yaw_rad=yaw, q_rad=q, swing_m=np.full(3, np.nan), com_m=com, zmp_m=zmp,
-                       window_n=window, zmp_margin_m=float(polygon_margin(zmp, real_hull)),
-                       tolerance_share=self._row_share(com[:2], fans, thrust, hull), reason=reason or "")
+            pending.append((k, reason, p, None, com, fans, thrust, dict(
+                step=step, phase="transfer", sample=k, support="both", feasible=reason is None,
+                ground_z_m=min(feet["left"][2], feet["right"][2]), p_body_m=p, yaw_rad=yaw, q_rad=q,
+                swing_m=np.full(3, np.nan), com_m=com, zmp_m=zmp, window_n=window,
+                zmp_margin_m=float(polygon_margin(zmp, real_hull)))))
+        self._emit_all(step, "transfer", pending, hull)
 
     def _swing_thrust(self, com: np.ndarray, fans: np.ndarray, active: np.ndarray, one: bool, poly: np.ndarray,
                       share: float) -> tuple[np.ndarray, float, bool, bool]:
@@ -313,6 +339,10 @@ class SequenceBuilder:
         yaws = np.array([float(yaw_fn(swings[k])) if self.yaw_of_row is None else self.yaw_of_row(len(self.rows) + k)
                          for k in range(len(positions))])
         solved = self._solve_swing(support, feet[support], swings, p_rows, yaws)
+        # (A-10) of every row at once where the postures are (physics.compiled.edge_errors, row by row inside)
+        edges = (None if solved is None else
+                 edge_angle_excess(feet[support][:2], solved[1][:, :2], swings[:, :2], self.rho_rad))
+        pending: list[tuple] = []  # the rows, written once their shares are known (_emit_all)
         for k, u in enumerate(positions):
             swing, p, yaw = swings[k], p_rows[k], float(yaws[k])
             if solved is None:
@@ -322,7 +352,8 @@ class SequenceBuilder:
             fans = self._fans_xy({support: feet[support], swing_side: swing}, p, yaw)
             share = 1.0 if shares is None else float(np.interp(u, idx, shares))
             thrust_all, total, over, unbalanced = self._swing_thrust(com, fans, active, one, poly, share)
-            edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad))
+            edge = float(edge_angle_excess(feet[support][:2], com[:2], swing[:2], self.rho_rad) if edges is None
+                         else edges[k])
             reason = None
             if status != Reason.OK:
                 reason = message(status)
@@ -333,11 +364,9 @@ class SequenceBuilder:
                           + self._describe_tolerance(share))
             elif edge > 0:
                 reason = f"edge angle {np.degrees(edge + self.rho_rad):.2f} deg above rho"
-            if reason:
-                self.mark(step, "swing", k, reason, p.tolist(), swing.tolist())
             zmp, fan_share = self._swing_zmp(com, fans, active, one, thrust_all, total)
-            self._emit(thrust_all, step=step, phase="swing", sample=k, support=support, feasible=reason is None,
-                       p_body_m=p, ground_z_m=feet[support][2], yaw_rad=yaw, q_rad=q, swing_m=swing, com_m=com,
-                       zmp_m=zmp, window_n=self._window(com[:2], fans, fan_share, sole),
-                       zmp_margin_m=float(polygon_margin(zmp, sole)),
-                       tolerance_share=self._row_share(com[:2], fans, thrust_all, poly), reason=reason or "")
+            pending.append((k, reason, p, swing, com, fans, thrust_all, dict(
+                step=step, phase="swing", sample=k, support=support, feasible=reason is None, p_body_m=p,
+                ground_z_m=feet[support][2], yaw_rad=yaw, q_rad=q, swing_m=swing, com_m=com, zmp_m=zmp,
+                window_n=self._window(com[:2], fans, fan_share, sole), zmp_margin_m=float(polygon_margin(zmp, sole)))))
+        self._emit_all(step, "swing", pending, poly)

@@ -11,9 +11,9 @@ from jethr1_plan.geometry import SIDES
 from jethr1_plan.records.plan_columns import SWING
 from jethr1_plan.verify.checks import Finding, RowCheck, registrar, rows
 from jethr1_plan.verify.common import TOL_M, TOL_RAD, TOL_T
+from jethr1_plan.verify.plan_geometry import distances_to_polyline
 from jethr1_plan.verify.plan_rows import (
     RowData,
-    distance_to_polyline,
     expected_sequence,
     ground_references,
     scenario_feet,
@@ -192,12 +192,12 @@ def _on_sample(x: RowData) -> list[Finding]:
 def _on_path(x: RowData) -> list[Finding]:
     sc = x.scenario
     paths = [st.path_m for st in sc.steps] if sc is not None else (x.swing_paths or [])
-    out = []
-    for i in np.flatnonzero(x.single) if paths else ():
-        step = int(x.c["step"][i])
-        candidates = [paths[step]] if sc is not None and 0 <= step < len(paths) else paths
-        d = min(distance_to_polyline(x.swing_pos[i], p) for p in candidates)
-        if d > TOL_M:
-            out.append((int(i), f"{d:.2e} m from the scenario's swing path" if sc is not None else
-                        f"{d:.2e} m from every swing path of the file"))
-    return out
+    rows_single = np.flatnonzero(x.single) if paths else np.zeros(0, dtype=int)
+    step = x.c["step"][rows_single].astype(int)
+    d = np.full(len(rows_single), np.inf)
+    for k, path in enumerate(paths):  # each row against its step's path (any path where the step is not one)
+        mine = (step == k) | (sc is None) | (step < 0) | (step >= len(paths))
+        if mine.any():
+            d[mine] = np.minimum(d[mine], distances_to_polyline(x.swing_pos[rows_single[mine]], path))
+    what = "from the scenario's swing path" if sc is not None else "from every swing path of the file"
+    return [(int(i), f"{di:.2e} m {what}") for i, di in zip(rows_single, d, strict=True) if di > TOL_M]

@@ -16,11 +16,12 @@ import numpy as np
 from jethr1_plan.geometry import SIDES, other_side, pose_from_quaternion
 from jethr1_plan.records.plan_columns import PELVIS, TOLERANCE_SHARE, WINDOW
 from jethr1_plan.robot.model import RobotModel
-from jethr1_plan.verify.balance import hull_edges, pad_edges, sole_edges, thrust_window, zmp_of_thrust
+from jethr1_plan.verify.balance import sole_edges, thrust_window, zmp_of_thrust
 from jethr1_plan.verify.motion import vertical_ground_force
+from jethr1_plan.verify.plan_geometry import pair_hull_edges
 
-__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "distance_to_polyline", "expected_sequence",
-           "ground_references", "scenario_feet"]
+__all__ = ["OPTIONAL", "TEXT", "RowData", "batched_statics", "expected_sequence", "ground_references",
+           "scenario_feet"]
 
 TEXT = ("phase", "support", "reason", "feasible")  # the columns that are not numbers
 # empty (NaN) where there is no swing sole, no window, or no tolerance (the share: its own check)
@@ -156,14 +157,19 @@ class RowData:
 
     def edges(self, shrink_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Per row, the edges of its support polygon (:mod:`.balance`: normals (n, K, 2), offsets (n, K)),
-        each sole shrunk by ``shrink_m`` [m]: the support sole's rectangle on one sole, else the hull of both."""
+        each sole shrunk by ``shrink_m`` [m]: the support sole's rectangle on one sole, else the hull of both
+        (:func:`pair_hull_edges`; a sole's rows repeat its first edge)."""
         r = self.robot
         one = self.on_one_sole
         normals, offsets = sole_edges(self.sole_centre, r.sole_length_m, r.sole_width_m, shrink_m)
-        rows = [(normals[i], offsets[i]) for i in range(self.n)]
-        for i in np.flatnonzero(~one):
-            rows[i] = hull_edges([self.pos[s][i, :2] for s in SIDES], r.sole_length_m, r.sole_width_m, shrink_m)
-        return pad_edges(rows) if rows else (np.zeros((0, 4, 2)), np.zeros((0, 4)))
+        if one.all():
+            return normals, offsets
+        hull_n, hull_b = pair_hull_edges(self.pos["left"][:, :2], self.pos["right"][:, :2], r.sole_length_m,
+                                         r.sole_width_m, shrink_m)
+        k = hull_b.shape[1]
+        normals = np.concatenate([normals, np.repeat(normals[:, :1], k - 4, axis=1)], axis=1)
+        offsets = np.concatenate([offsets, np.repeat(offsets[:, :1], k - 4, axis=1)], axis=1)
+        return np.where(one[:, None, None], normals, hull_n), np.where(one[:, None], offsets, hull_b)
 
     @cached_property
     def support_edges(self) -> tuple[np.ndarray, np.ndarray]:
@@ -298,13 +304,6 @@ def ground_references(support: np.ndarray, pos: dict[str, np.ndarray]) -> dict[s
             ref[s][start:end] = np.median(pos[s][start:end], axis=0)
             start = end
     return ref
-
-
-def distance_to_polyline(p: np.ndarray, pts: np.ndarray) -> float:
-    a, b = pts[:-1], pts[1:]
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0, 1)
-    return float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
 
 
 def _transfer_weights(robot: RobotModel, a: np.ndarray, b: np.ndarray, feet: dict[str, np.ndarray],

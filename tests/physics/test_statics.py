@@ -164,3 +164,40 @@ def test_double_support_wrench_balances_and_is_the_single_support_one_at_a_sole(
     assert w2.reshape(2, 6)[:, 2].sum() == pytest.approx(robot.mass_kg * GRAVITY, abs=1e-9)
     np.testing.assert_allclose(w2[:6], 0.0, atol=1e-9)
     np.testing.assert_allclose(tau2, tau1, atol=1e-9)
+
+
+def test_condition_numbers_of_many_matrices_are_each_ones(robot):
+    """κ of a stack of matrices at once is, to the bit, σ_max/σ_min of each matrix's own SVD (inf where
+    singular), and analyse_rows' κ of every row is that of each leg's Jacobian at that row's posture."""
+    from jethr1_plan.physics.statics import analyse_rows, condition_numbers
+
+    rng = np.random.default_rng(40)
+    J = rng.normal(size=(30, 2, 6, 6))
+    J[3, 1] = 0.0  # a singular one (σ_min exactly 0)
+    each = np.empty((30, 2))
+    for i in range(30):
+        for k in range(2):
+            s = np.linalg.svd(J[i, k], compute_uv=False)
+            each[i, k] = float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+    got = condition_numbers(J)
+    assert np.array_equal(got, each)
+    assert got[3, 1] == np.inf and np.all(np.isfinite(np.delete(got.ravel(), 7)))
+
+    n = 12
+    q = np.array([_posture(robot, rng) for _ in range(n)])
+    p = rng.normal([0.0, 0.0, 0.4], 0.02, (n, 3))
+    yaw = rng.uniform(-0.3, 0.3, n)
+    a = analyse_rows(robot, p, yaw, q, np.zeros((n, 2)), np.array(["left", "right", "both"] * 4), 0.02)
+    wrapper = robot.wrapper()
+    for i in range(n):
+        T = np.eye(4)
+        T[:2, :2] = [[np.cos(yaw[i]), -np.sin(yaw[i])], [np.sin(yaw[i]), np.cos(yaw[i])]]
+        T[:3, 3] = p[i]
+        wrapper.set_T_world_fbase(T)
+        wrapper.state.q[7:] = q[i]
+        wrapper.update_kinematics()
+        for k, side in enumerate(("left", "right")):
+            leg = robot.legs[side]
+            s = np.linalg.svd(wrapper.frame_jacobian(leg.sole, "local_world_aligned")[:, 6 + np.asarray(leg.index)],
+                              compute_uv=False)
+            assert a["kappa"][i, k] == float(s[0] / s[-1])

@@ -74,3 +74,55 @@ def test_summary_names_the_paced_swings_and_the_others_needed_no_pace(scattered)
         if k in paced:
             assert least == pytest.approx(paced[k]["least_zmp_margin_m"], abs=1e-7)
         assert least >= sc.balance.sole_margin_m - 1e-9
+
+
+class _RowByRow:
+    """The closed form, asked one row at a time (not a ``ClosedFormPostureSolver``: the builder solves row by row)."""
+
+    def __init__(self, robot):
+        from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver
+
+        self.inner = ClosedFormPostureSolver(robot)
+        self.evaluations = 0
+
+    def solve_batch(self, stance, p_body, warm=None):
+        assert len(p_body) == 1
+        self.evaluations += 1
+        return self.inner.solve_batch(stance, p_body, warm)
+
+
+@pytest.mark.parametrize("positions", [None, np.linspace(0.0, 1.0, 23) ** 2])
+def test_rows_solved_at_once_are_those_solved_row_by_row(robot, positions):
+    """A transfer's and a swing's postures solved for every row at once (the closed form), and their edge angles
+    and tolerance shares computed together, give the very rows, to the bit, that solving them one by one does:
+    P_body, yaw, joints, CoM, thrust, ZMP, window, margin, share and verdict; on a transfer with both fans' thrust
+    ramping, a turn of the trunk and rows out of reach, then a swing of the left sole."""
+    from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver
+    from jethr1_plan.physics.balance import Tolerance
+    from jethr1_plan.planning.sequence import FanThrust, SequenceBuilder
+
+    feet = {"left": np.array([0.0, 0.1125, 0.0]), "right": np.array([0.06, -0.1125, 0.0])}
+    built = []
+    for solver in (ClosedFormPostureSolver(robot), _RowByRow(robot)):
+        seq = SequenceBuilder(robot, solver, 50.0, 23.0, np.radians(40.0), 0.005, Tolerance(0.1, 0.05, 0.01))
+        seq.transfer(1, feet, np.array([0.01, 0.03, 0.40]), 0.1, np.array([0.05, -0.02, 0.47]), -0.2, 0.5,
+                     FanThrust(np.array([12.0, 0.0]), (0,)), FanThrust(np.array([0.0, 9.0]), (1,)),
+                     include_end=True, share=0.8, positions=positions)
+        path = np.column_stack([np.linspace(0.0, 0.16, 6), np.full(6, 0.1125), 0.04 * np.sin(np.linspace(0, np.pi, 6))])
+        p_samples = np.column_stack([np.linspace(0.05, 0.09, 6), np.linspace(-0.07, -0.04, 6), np.full(6, 0.40)])
+        seq.swing(1, "right", feet, path, p_samples, lambda swing: 0.05 * swing[0], 0.5, np.linspace(1.0, 0.6, 6))
+        assert solver.evaluations == len(seq.rows)
+        built.append(seq.rows.columns)
+    batch, single = built
+    assert set(batch) == set(single)
+    for key in batch:
+        a, b = np.asarray(batch[key]), np.asarray(single[key])
+        assert a.shape == b.shape, key
+        if a.dtype.kind == "f":
+            assert np.array_equal(a, b, equal_nan=True), key
+        else:
+            assert a.tolist() == b.tolist(), key
+    feasible = np.asarray(batch["feasible"])
+    assert feasible.any() and not feasible.all()  # the far end is out of reach: rows of both kinds
+    phase, share = np.asarray(batch["phase"]), np.asarray(batch["tolerance_share"], dtype=float)
+    assert (phase == "swing").sum() == 25 and np.isfinite(share).all() and np.ptp(share) > 0
