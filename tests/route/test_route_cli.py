@@ -25,6 +25,13 @@ def test_the_route_folder_is_a_plan_that_verify_accepts(small_route):
     assert {"route.yaml", "route.mcap", "route.png", "trajectory.csv", "trajectory.mcap", "summary.json"} <= names
     summary = json.loads((small_route / "summary.json").read_text())
     assert summary["feasible"] and summary["scenario_file"] == str((small_route / "route.yaml").resolve())
+    # the route keeps its optimised steps, so that `simulate` executes it step by step without optimising again
+    from jethr1_plan.sim.rehearsal import load_plan
+    from jethr1_plan.studies.step_by_step import nominal_plan
+
+    notes: list[str] = []
+    _, kept = nominal_plan(small_route, summary, load_plan(small_route), notes.append)
+    assert notes == [] and len(kept) == len(summary["steps"])
     r = summary["route"]
     assert len(r["steps"]) == len(summary["steps"]) >= 2
     for step in r["steps"]:
