@@ -7,7 +7,7 @@ import logging
 from contextlib import contextmanager
 from typing import Any
 
-from jethr1_plan.errors import InputError
+from jethr1_plan.errors import InputError, show_notices_as_lines
 
 __all__ = ["CONNECT_TIMEOUT_S", "dask_client"]
 
@@ -26,7 +26,9 @@ def dask_client(scheduler: str | None, jobs: int) -> Any:
     if scheduler is None:
         # the local cluster's own warnings (a cancelled task, a busy worker killed on Ctrl-C) stay off the
         # user's terminal: the command reports in its own lines
-        with Client(processes=True, n_workers=jobs, threads_per_worker=1, silence_logs=logging.ERROR) as client:
+        with Client(processes=True, n_workers=jobs, threads_per_worker=1, silence_logs=logging.ERROR,
+                    dashboard_address=":0") as client:  # a free port: two sweeps at once do not collide
+            client.run(show_notices_as_lines)  # a worker that compiles the kernels says so in one line
             yield client
         return
     try:
@@ -36,4 +38,5 @@ def dask_client(scheduler: str | None, jobs: int) -> Any:
         raise InputError("--scheduler", scheduler, f"no Dask scheduler answered within {CONNECT_TIMEOUT_S:g} s "
                          f"({problem})") from None
     with client:
+        client.run(show_notices_as_lines)
         yield client

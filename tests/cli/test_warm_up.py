@@ -99,3 +99,17 @@ def test_a_bad_terrain_is_exit_2_before_any_work(tmp_path, capsys, terrain):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and terrain in err[0]
     assert not (tmp_path / "maps").exists()
+
+
+def test_a_local_dask_workers_notices_are_one_line_too():
+    """`--executor dask` (a local cluster): its workers show a compile notice as the command does."""
+    pytest.importorskip("distributed")
+    from jethr1_plan.io.cluster import dask_client
+
+    def installed() -> bool:
+        import warnings
+
+        return bool(getattr(warnings.showwarning, "jethr1_notices", False))
+
+    with dask_client(None, 1) as client:
+        assert list(client.run(installed).values()) == [True]
