@@ -18,10 +18,48 @@ import numpy as np
 
 __all__ = ["SlsqpResult", "minimize_slsqp"]
 
-try:  # SciPy ≥ 1.16: the compiled step of minimize(method="SLSQP")
-    from scipy.optimize._slsqplib import slsqp as _step
-except ImportError:  # pragma: no cover - older SciPy
-    _step = None
+
+
+def _compiled_step() -> Callable[..., None] | None:
+    """SciPy's compiled SLSQP step (``scipy.optimize._slsqplib.slsqp``, SciPy ≥ 1.16), else None.
+
+    The extension is loaded from its file, without running ``scipy.optimize``'s ``__init__`` (which imports
+    all of SciPy's optimisers, linear algebra and statistics: about 0.25 s of every command that plans). The
+    module is the same compiled file SciPy itself loads; loading it also loads SciPy's BLAS, which
+    :func:`jethr1_plan.planning.plan.one_blas_thread` then limits to one thread.
+    """
+    import importlib.machinery
+    import importlib.util
+    from pathlib import Path
+
+    name = "scipy.optimize._slsqplib"
+    try:
+        scipy_spec = importlib.util.find_spec("scipy")
+        if scipy_spec is None or not scipy_spec.submodule_search_locations:
+            return None
+        folder = Path(next(iter(scipy_spec.submodule_search_locations))) / "optimize"
+        for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+            path = folder / f"_slsqplib{suffix}"
+            if path.is_file():
+                spec = importlib.util.spec_from_file_location(
+                    name, path, loader=importlib.machinery.ExtensionFileLoader(name, str(path)))
+                if spec is None or spec.loader is None:
+                    return None
+                module = importlib.util.module_from_spec(spec)
+                spec.loader.exec_module(module)
+                step: Callable[..., None] = module.slsqp
+                return step
+    except (ImportError, OSError, AttributeError):  # pragma: no cover - an unusual SciPy build
+        pass
+    try:  # pragma: no cover - the file was not found where SciPy's wheels put it
+        from scipy.optimize._slsqplib import slsqp as imported
+
+        return imported
+    except ImportError:  # pragma: no cover - older SciPy
+        return None
+
+
+_step = _compiled_step()
 
 Objective = Callable[[np.ndarray], tuple[float, np.ndarray]]
 Constraints = Callable[[np.ndarray], np.ndarray]

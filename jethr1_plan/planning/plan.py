@@ -146,9 +146,11 @@ def plan(scenario: Scenario, method: str | None = None, seed: int | None = None,
 
 
 def one_blas_thread():
-    """A context in which BLAS runs on one thread (scipy's own BLAS loaded first, so that it is limited too)."""
-    import scipy.optimize  # noqa: F401  (its own BLAS must be loaded to be limited)
+    """A context in which BLAS runs on one thread (scipy's own BLAS loaded first, by the SLSQP step that the
+    optimisers call, so that it is limited too)."""
     from threadpoolctl import threadpool_limits
+
+    import jethr1_plan.optimisers.slsqp  # noqa: F401  (loads SciPy's BLAS, which must be loaded to be limited)
 
     return threadpool_limits(limits=1)
 
