@@ -190,6 +190,16 @@ def print_json(doc) -> None:
         click.echo(json_text(doc), nl=False)
 
 
+def warn_minimal_policy(policy: str) -> None:
+    """One warning line where a plan was made with the ``minimal`` balance policy (Paper A's least thrust): its
+    ZMP sits on the sole's edge, with no margin for a thrust, mass or CoM that differ from the model's."""
+    if policy == "minimal":
+        err_console.print("[yellow]warning:[/] the minimal policy (Paper A's least thrust) puts the ZMP on the "
+                          "sole's edge: a robot whose thrust, mass or CoM differ from the model's tips over (run "
+                          "`jethr1 simulate` on it); balance.policy: robust (or --policy robust) plans a margin "
+                          "for them", soft_wrap=True)
+
+
 def report_kept(folder: Path, kept: list[str]) -> None:
     if kept:
         err_console.print(f"kept {', '.join(kept)} in {folder}/ (files jethr1 did not write)", markup=False)

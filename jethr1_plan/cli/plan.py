@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_json, report_kept
+from jethr1_plan.cli.common import SEED, Progress, cap_jobs, err_console, print_json, report_kept, warn_minimal_policy
 from jethr1_plan.errors import InfeasiblePlan
 from jethr1_plan.optimisers import METHODS
 
@@ -105,6 +105,7 @@ def _report_plan(summary: dict, folder: Path) -> None:
               f"{1000 * tol['com_error_m']:g} mm of CoM error")
     rob = summary.get("robustness", {})
     c.print(f"balance: {policy}")
+    warn_minimal_policy(b["policy"])
     if rob.get("least_zmp_margin_m") is not None:
         at = rob["least_zmp_margin_at"]
         margin_mm = round(1000 * rob["least_zmp_margin_m"], 1) + 0.0  # no "-0.0"

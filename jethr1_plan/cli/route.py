@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, report_kept
+from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, report_kept, warn_minimal_policy
 
 __all__ = ["route_cmd"]
 
@@ -88,6 +88,7 @@ def route_cmd(terrain_path: Path, outdir: Path, as_json: bool, jobs: int, cache:
     say(f"route {terrain.name}: {steps_text(len(outcome.steps))} to {r['goal']} (cost {r['cost']:.3f}; "
         f"{r['search']['stances_expanded']} stances expanded, {r['search']['steps_judged']} steps judged on the map "
         f"in {search_s:.2f} s; planned in {outcome.plan_s:.1f} s; {t_route:.1f} s after the maps)")
+    warn_minimal_policy(terrain.base.balance.policy)
     for s in r["steps"]:
         p = s["plan"] or {}
         at = [round(v, 4) for v in s["landing_m"]]

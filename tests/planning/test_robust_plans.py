@@ -194,3 +194,16 @@ def test_min_share_refuses_a_plan_below_it_and_names_the_sample(tmp_path, capsys
                 "--policy", "minimal", "--no-progress"]) == 0
     s = json.loads((tmp_path / "p" / "forward_ditch_450" / "summary.json").read_text())
     assert "tolerance_share" not in s["robustness"] and s["peak_thrust_n"] < 21.0
+
+
+def test_a_minimal_plan_says_it_holds_no_margin_and_a_robust_one_does_not(tmp_path, capsys):
+    """The minimal policy's plan (the ZMP on the sole's edge: the twin tips it over at the smallest model error)
+    is written, and the command warns in one line; the robust plan of the same scenario carries no warning."""
+    said = {}
+    for policy in ("minimal", "robust"):
+        assert run(["plan", str(SIDE), "-o", str(tmp_path / policy), "--policy", policy, "--no-progress"]) == 0
+        said[policy] = capsys.readouterr().err
+        assert (tmp_path / policy / "side_step" / "trajectory.csv").is_file()
+    warning = [line for line in said["minimal"].splitlines() if line.startswith("warning: the minimal policy")]
+    assert len(warning) == 1 and "tips over" in warning[0] and "policy: robust" in warning[0]
+    assert "minimal policy" not in said["robust"]
