@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     from jethr1_plan.optimisers.base import SampleResult
 
 __all__ = ["FORMAT", "OPTIMISED_STEPS", "VERSION", "KeptStep", "optimised_steps_json", "read_optimised_steps",
-           "steps_key", "stored_steps"]
+           "scenario_steps_key", "steps_key", "stored_steps"]
 
 OPTIMISED_STEPS = "optimised_steps.json"
 FORMAT = "jethr1.optimised_steps"
@@ -124,6 +124,32 @@ def steps_key(scenario_text: str, policy: str, timing_mode: str, robot: _Robot, 
             raise InputError(str(path), "", f"cannot read: {exc.strerror or exc}") from None
         h.update(digest.encode("ascii"))
     return h.hexdigest()
+
+
+class _Balance(Protocol):
+    @property
+    def policy(self) -> str: ...
+
+
+class _Timing(Protocol):
+    @property
+    def mode(self) -> str: ...
+
+
+class _Scenario(Protocol):
+    @property
+    def text(self) -> str: ...
+    @property
+    def balance(self) -> _Balance: ...
+    @property
+    def timing(self) -> _Timing: ...
+    @property
+    def robot(self) -> _Robot: ...
+
+
+def scenario_steps_key(scenario: _Scenario, method: str, seed: int) -> str:
+    """:func:`steps_key` of ``scenario`` (its text, policy, timing mode and robot) planned by ``method``, ``seed``."""
+    return steps_key(scenario.text, scenario.balance.policy, scenario.timing.mode, scenario.robot, method, seed)
 
 
 def _number(x: float) -> float | str:

@@ -12,7 +12,7 @@ from typing import Any
 from jethr1_plan.errors import InfeasiblePlan, SelfCheckFailed
 from jethr1_plan.files.plan_csv import read_trajectory_csv
 from jethr1_plan.files.plan_folder import write_plan, write_summary_only
-from jethr1_plan.files.plan_steps import steps_key
+from jethr1_plan.files.plan_steps import scenario_steps_key
 from jethr1_plan.planning.plan import plan
 from jethr1_plan.planning.report import plan_summary
 from jethr1_plan.planning.results import PlanResult
@@ -50,8 +50,7 @@ def plan_to_folder(scenario: Scenario, outdir: Path, *, strict_torque: bool = Fa
         exc.written = write_summary_only(scenario, outdir, exc.summary)
         raise
     summary = plan_summary(result)
-    sc = result.scenario
-    key = steps_key(sc.text, sc.balance.policy, sc.timing.mode, result.robot, result.method, result.seed)
+    key = scenario_steps_key(result.scenario, result.method, result.seed)
     folder, kept = write_plan(result, outdir, summary, trajectory=True,
                               check=lambda text: self_check(text, result, summary, strict_torque), steps_key=key)
     return result, summary, folder, kept

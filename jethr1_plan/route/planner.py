@@ -20,7 +20,7 @@ from pathlib import Path
 
 from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
-from jethr1_plan.files.plan_steps import steps_key
+from jethr1_plan.files.plan_steps import scenario_steps_key
 from jethr1_plan.files.route import ROUTE_FILES, route_mcap, route_png
 from jethr1_plan.geometry import SIDES
 from jethr1_plan.pipeline.plan import self_check
@@ -246,8 +246,7 @@ def write_route(o: RouteOutcome, maps: dict[str, BalanceMap], folder: Path, wall
     summary["route"] = route_summary(o, maps, wall)
     d = drawing(o, maps)
     extra = {"route.yaml": o.text.encode("utf-8"), "route.mcap": route_mcap(d), "route.png": route_png(d)}
-    sc = o.result.scenario
-    key = steps_key(sc.text, sc.balance.policy, sc.timing.mode, o.result.robot, o.result.method, o.result.seed)
+    key = scenario_steps_key(o.result.scenario, o.result.method, o.result.seed)
     _, kept = write_plan(o.result, folder.parent, summary, check=lambda text: self_check(text, o.result, summary,
                                                                                           False),
                          folder=folder, extra=extra, own=ROUTE_OWN, steps_key=key)

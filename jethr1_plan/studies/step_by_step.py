@@ -23,7 +23,7 @@ import numpy as np
 
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import PLAN_FILES, write_plan
-from jethr1_plan.files.plan_steps import steps_key, stored_steps
+from jethr1_plan.files.plan_steps import scenario_steps_key, stored_steps
 from jethr1_plan.files.plan_table import joint_matrix, plan_table
 from jethr1_plan.folders.plan import plan_scenario
 from jethr1_plan.planning.plan import plan
@@ -56,7 +56,7 @@ def nominal_plan(folder: Path, summary: dict, track: PlanTrack, note: Callable[[
         scenario = replace(scenario, balance=replace(scenario.balance, policy=policy))
     method, seed = summary.get("optimiser"), summary.get("seed")
     if isinstance(method, str) and type(seed) is int:
-        key = steps_key(scenario.text, scenario.balance.policy, scenario.timing.mode, scenario.robot, method, seed)
+        key = scenario_steps_key(scenario, method, seed)
         steps, why = stored_steps(folder, summary, key, len(scenario.robot.joint_names))
         if steps is not None:
             return scenario, [StepResult(st.index, st.swing, st.support, st.path_m, st.samples, st.fan_index)
