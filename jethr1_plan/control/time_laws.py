@@ -87,21 +87,27 @@ def paced_time_law(p_samples: np.ndarray, duration_s: float, rate_hz: float, acc
     cap = np.where(turn > 0, accel_max * row_s / np.maximum(turn, 1e-12), np.inf)
     tau = min_jerk_segment_times(len(p) - 1, duration_s)
     best: Pace | None = None
-    for _ in range(rounds):
-        mean = np.concatenate([[0.0], 0.5 * (1.0 / tau[:-1] + 1.0 / tau[1:]), [0.0]])
-        mono = np.concatenate([[0.0], np.minimum(3.0 / tau[:-1], 3.0 / tau[1:]), [0.0]])
-        rates = np.minimum(np.minimum(mean, mono), cap)
-        a = pace_accelerations(p, tau, rates, row_s)
-        worst = float(np.max(a))
-        if best is None or worst < best.accel:
-            best = Pace(np.concatenate([[0.0], np.cumsum(tau)]), rates, worst)
-        if worst <= accel_max:
-            break
-        seg = a[:len(tau)]
-        tau = tau * np.maximum(seg / accel_max, 1.0) ** 0.25
-        tau *= duration_s / tau.sum()
+    # Where no law holds accel_max, the segments that need no time shrink round by round until |u''| ~ 1/τ²
+    # overflows: such a round's acceleration is inf or NaN and never the best, and once a τ is not finite no
+    # later round is either, so the search ends there.
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for _ in range(rounds):
+            if not np.all(np.isfinite(tau)):
+                break
+            mean = np.concatenate([[0.0], 0.5 * (1.0 / tau[:-1] + 1.0 / tau[1:]), [0.0]])
+            mono = np.concatenate([[0.0], np.minimum(3.0 / tau[:-1], 3.0 / tau[1:]), [0.0]])
+            rates = np.minimum(np.minimum(mean, mono), cap)
+            a = pace_accelerations(p, tau, rates, row_s)
+            worst = float(np.max(a))
+            if best is None or worst < best.accel:
+                best = Pace(np.concatenate([[0.0], np.cumsum(tau)]), rates, worst)
+            if worst <= accel_max:
+                break
+            seg = a[:len(tau)]
+            tau = tau * np.maximum(seg / accel_max, 1.0) ** 0.25
+            tau *= duration_s / tau.sum()
     assert best is not None
-    times = best.times_s.copy()
+    times = np.minimum(best.times_s, duration_s)  # (the sum's rounding kept off the end)
     times[-1] = duration_s
     return Pace(times, best.rates, best.accel)
 

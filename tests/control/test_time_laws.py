@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -64,3 +66,21 @@ def test_the_paced_law_passes_sharp_turns_slowly_and_is_at_rest_at_both_ends():
     assert np.all(turn * pace.rates[1:-1] <= 0.4 / RATE_HZ + 1e-12)
     assert pace.times_s[6] - pace.times_s[5] > 1.0  # the jump's segment takes over a second (min-jerk: 0.23 s)
     assert pace.accel <= 0.4 + 1e-12
+
+
+def test_a_swing_no_pace_can_hold_ends_with_its_best_law_finite_and_silent():
+    """A trunk that moves along one segment of 24 only, by 0.6-1.2 m in 3 s under 0.01 m/s²: no law holds the
+    bound, the still segments shrink towards nothing round by round, and the search used to print numpy's overflow
+    warnings (they reached a design sweep's terminal). It ends with the best law it found: finite, at rest at both
+    ends, its segments summing to the duration, the moving segment given nearly all of it, and no warning."""
+    for metres in (0.6, 0.8, 1.2):
+        p = np.zeros((25, 3))
+        p[12:, 0] = metres
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            pace = paced_time_law(p, 3.0, 50.0, 0.01)
+        assert np.isfinite(pace.accel) and pace.accel > 0.01
+        assert np.all(np.isfinite(pace.times_s)) and np.all(np.diff(pace.times_s) >= 0)
+        assert pace.times_s[0] == 0.0 and pace.times_s[-1] == 3.0
+        assert pace.rates[0] == 0.0 and pace.rates[-1] == 0.0
+        assert pace.times_s[12] - pace.times_s[11] > 0.99 * 3.0
