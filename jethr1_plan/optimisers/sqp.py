@@ -67,7 +67,7 @@ from jethr1_plan.optimisers.sqp_smoothing import PASS_EPS, lower_peaks, smooth_p
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["infeasible_between", "optimise_path"]
+__all__ = ["infeasible_between", "optimise_path", "resolve_path"]
 
 BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
 SHARE_BACKOFF = (0.002, 0.01, 0.03, 0.1)  # δ: stage 2 solves at s* − δ, the first of these it solves
@@ -309,6 +309,46 @@ def _repair_between(path: _Path, held: list[SampleProblem], between: Callable[[i
                         del kept[key]
             if r is not None:
                 found[j] = r
+
+
+def resolve_path(robot: RobotModel, problems: list[SampleProblem], start_m: np.ndarray, shares: np.ndarray,
+                 eps: float, half: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """P_body at every sample of a path solved again from given postures ``start_m`` (N, 3) [m] that held the
+    shares ``shares`` (N,) of the samples' tolerances on a nearby path (a plan's own samples, their path's ends
+    moved by millimetres): the planner's own sample program (:class:`AnalyticSample`: (A-8) joint limits, the
+    legs' reach, (A-9), (A-10) and the ZMP, all with their margins; the tolerance at the sample's share) warm-started
+    from each posture instead of from a neighbour or a grid.
+
+    A posture is kept where it holds every constraint at its share; else SLSQP solves the sample inside the trust
+    box around it, with the tie-break towards it (``eps`` [N/m²]), the box following the answer while it holds it
+    back. A robust sample that held less than its whole tolerance, or that finds no posture at its share, takes the
+    largest share it reaches from its start (:func:`_share_solve`, as the backward pass does; ``half`` [m] its
+    grid's half range where SLSQP finds no start). Returns (P_body (N, 3) [m], shares (N,), evaluations (N,)), or
+    None where a sample finds no posture that balances.
+    """
+    n = len(problems)
+    found = np.array(start_m, dtype=float, copy=True)
+    held = np.array(shares, dtype=float, copy=True)
+    evals = np.zeros(n, dtype=np.int64)
+    for i, pr in enumerate(problems):
+        robust = pr.tolerance != NOMINAL
+        r: Found | None = None
+        if not (robust and held[i] < 1.0):
+            sample = AnalyticSample(robot, scaled(pr, held[i]), found[i], eps)
+            ok, _ = sample.feasible(found[i], strict_edge=True)
+            if not ok:
+                r = follow_box(sample, solve_from_neighbour(sample, found[i]))
+            evals[i] += sample.evaluations
+            if ok:
+                continue
+        if r is None and robust:
+            got = _share_solve(robot, pr, found[i], found[i], eps, half, evals, i)
+            if got is not None:
+                r, held[i] = got
+        if r is None:
+            return None
+        found[i] = r.p
+    return found, held, evals
 
 
 def _evaluated(path: _Path, held: list[SampleProblem], request: PathRequest) -> PathResult:

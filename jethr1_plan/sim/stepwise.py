@@ -74,7 +74,7 @@ TRUNK_SHARES = (0.5, 0.0, 1.0)
 #: into this many (the same sole positions at every row), in turn
 REFINEMENTS = (2, 3, 4)
 #: every way a step is planned, in the order tried (:func:`replan_step`)
-MODES = ("re-anchored", "optimised", "optimised-fine")
+MODES = ("re-anchored", "re-optimised", "optimised", "optimised-fine")
 
 
 def refined_path(path_m: np.ndarray, factor: int) -> np.ndarray:
@@ -158,7 +158,46 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
                 bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
             if bad is None and all(rows.columns[RowField.FEASIBLE]):
                 return PlanResult(moved_one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
+        again = reoptimised(one, nominal, TRUNK_SHARES[0] * (path - st.path_m))
+        if again is not None:
+            return again, "re-optimised"
     return plan_anew(one)
+
+
+def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> PlanResult | None:
+    """The one-step scenario ``one`` optimised again from the plan's own samples ``nominal``, their trunk moved by
+    ``shift_m`` (N, 3) [m] (:func:`~jethr1_plan.optimisers.sqp.resolve_path`: each posture kept where it holds the
+    planner's sample program at its share of the tolerance, else solved from there): its rows built by the planner's
+    row builder under the scenario's own limits (ρ too) and analysed; None where a sample finds no posture or a
+    row is not feasible."""
+    from jethr1_plan.optimisers import SampleResult
+    from jethr1_plan.optimisers.problem import evaluate_candidates, fitness
+    from jethr1_plan.optimisers.sqp import resolve_path
+    from jethr1_plan.optimisers.sqp_share import scaled
+    from jethr1_plan.planning.problems import path_problems
+
+    robot, st, cfg = one.robot, one.steps[0], one.optimiser
+    problem_at = path_problems(one, robot, 0, one.start)
+    problems = [problem_at(i) for i in range(len(st.path_m))]
+    got = resolve_path(robot, problems, nominal.p_body + shift_m, nominal.shares, cfg.sqp_smoothness_n_per_m2,
+                       cfg.initial.half_range_m)
+    if got is None:
+        return None
+    p_body, shares, evals = got
+    solver = row_solver(robot)
+    samples = []
+    for i, pr in enumerate(problems):
+        cand = evaluate_candidates(solver, scaled(pr, float(shares[i])), p_body[i][None])
+        samples.append(SampleResult(cand, float(fitness(cand, cfg.constants)[0]), int(evals[i]), "sqp", float(shares[i])))
+    step = StepResult(0, st.swing, st.support, st.path_m, samples, nominal.fan_index)
+    seq = Sequence(one, robot, solver, None, stop_at_infeasible=True)
+    bad = seq.add(step)
+    rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
+    if bad is None:
+        bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
+    if bad is not None or not all(rows.columns[RowField.FEASIBLE]):
+        return None
+    return PlanResult(one, robot, "re-optimised", one.seed, [step], rows, None, int(evals.sum()), 0.0)
 
 
 def plan_anew(one: Scenario) -> tuple[PlanResult, str]:
