@@ -223,8 +223,8 @@ class TwinRun:
             self.t = t0 + t
             if feed_forward:  # what Controller.step returns without a law: the reference's commands
                 q_ref, thrust = follow.commands(t, i, a, active)
-                if self.sensing:
-                    self.sensors.read(d, self.t)
+                if self.sensing:  # the robot estimates where it stands between plans (``measure``), not now
+                    self.sensors.tick(d, self.t)
             else:
                 q_ref, ref = follow.reference(t, i, a, sup, active)
                 cmd = loop.step(self.sensors.read(d, self.t), ref)

@@ -158,8 +158,8 @@ class SensorModel:
         self._row += 1
         return self._rows[self._row - 1]
 
-    def read(self, d, time_s: float) -> Measurement:
-        """The reading at this tick of the twin's state ``d`` (a ``mujoco.MjData``)."""
+    def _keep(self, d) -> np.ndarray:
+        """This tick's truth of the twin's state ``d`` kept for the delayed readings; this tick's white noise."""
         import mujoco
 
         twin, sensors = self.twin, self.sensors
@@ -170,11 +170,23 @@ class SensorModel:
                              self.vel[:3].copy() if imu else None,
                              d.qpos[twin.qpos_adr] if enc else None,
                              self._sole_truth(d) if sole is not None else None))
+        return self._noise()
+
+    def tick(self, d, time_s: float) -> None:
+        """A control tick (at ``time_s`` [s]) at which the robot does not look at its sensors: their truth is kept and
+        their noise drawn as :meth:`read` does, so that a later reading reads the same numbers as had every tick been
+        read."""
+        self._keep(d)
+
+    def read(self, d, time_s: float) -> Measurement:
+        """The reading at this tick of the twin's state ``d`` (a ``mujoco.MjData``)."""
+        sensors = self.sensors
+        imu, enc, sole = sensors.imu, sensors.encoders, sensors.soles
+        noise, at = self._keep(d), self._at
         last = len(self.history) - 1
         draw = self.draw
         rotation = rate = joints = None
         soles = None
-        noise, at = self._noise(), self._at
         if imu is not None:
             truth = self.history[max(0, last - self.lag["imu"])]
             err = np.array([draw.imu_tilt_bias_rad[0], draw.imu_tilt_bias_rad[1], draw.yaw_drift_rad_s * time_s])

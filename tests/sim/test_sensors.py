@@ -144,6 +144,33 @@ def test_the_noise_is_the_declared_generators_draws_in_reading_order():
             np.testing.assert_array_equal(m.soles[side].cop_m, cop + rng.normal(0.0, 0.002, 2))
 
 
+def test_a_reading_after_ticks_unread_is_the_reading_of_a_robot_that_read_every_tick():
+    """A robot that does not look at its sensors at a tick (``tick``: a feed-forward robot between its estimates)
+    still has their truth kept and their noise drawn: its next reading, delayed and noisy, is to the bit the one a
+    robot reading at every tick gets, with the state of the tick the delay names."""
+    import mujoco
+
+    robot = load_robot("jethr1")
+    twin, d = _posed(robot)
+    spec = Sensors(ImuSpec("trunk", attitude_noise_rad=0.002, rate_noise_rad_s=0.01, delay_s=0.006),
+                   EncoderSpec(noise_rad=0.001, resolution_rad=0.0005, delay_s=0.004))
+    draw = SensorDraw(imu_tilt_bias_rad=(0.003, -0.004), yaw_drift_rad_s=0.001, noise_seed=5)
+    every, some = SensorModel(twin, spec, draw, 0.002), SensorModel(twin, spec, draw, 0.002)
+    for k in range(700):  # past one block of noise drawn ahead
+        d.qpos[3:7] = (math.cos(0.001 * k), math.sin(0.001 * k), 0.0, 0.0)
+        d.qpos[twin.qpos_adr[0]] = 0.01 * k
+        mujoco.mj_forward(twin.model, d)
+        a = every.read(d, 0.002 * k)
+        if k % 300 == 299:
+            b = some.read(d, 0.002 * k)
+            assert np.array_equal(a.trunk_rotation, b.trunk_rotation) and np.array_equal(a.joints_rad, b.joints_rad)
+            assert np.array_equal(a.trunk_rate_rad_s, b.trunk_rate_rad_s)
+            # and the reading is a delayed one: the encoders' joint 0 two ticks back, within the noise
+            assert abs(b.joints_rad[0] - 0.01 * (k - 2)) < 0.01
+        else:
+            some.tick(d, 0.002 * k)
+
+
 def test_rotation_vector_is_rodrigues():
     from scipy.spatial.transform import Rotation
 

@@ -108,15 +108,17 @@ def test_the_same_draw_gives_the_same_run(two_steps):
 
 def test_a_feedforward_robot_reads_its_sensors_every_tick_while_it_estimates(two_steps, monkeypatch):
     """Executed step by step, the plan's commands alone still estimate between plans where the soles stand: the
-    sensors are read at every control tick, so a delayed reading is the state that many ticks before, not the
+    sensors' truth is kept at every control tick (read, or kept for the next reading: ``SensorModel.tick``), so a delayed reading is the state that many ticks before, not the
     reading taken at the previous estimate (which, on a plan of four steps, put the third step's swing sole 0.31 m
     from where it stood, and the robot fell). Replayed whole, nothing reads them."""
     from jethr1_plan.sim import sensors as sensors_mod
 
     sc, nominal = two_steps
-    reads = []
-    real = sensors_mod.SensorModel.read
-    monkeypatch.setattr(sensors_mod.SensorModel, "read", lambda self, d, t: reads.append(t) or real(self, d, t))
+    reads = []  # every tick at which the sensors' truth is kept (read, or kept for a later reading)
+    for name in ("read", "tick"):
+        real = getattr(sensors_mod.SensorModel, name)
+        monkeypatch.setattr(sensors_mod.SensorModel, name,
+                            lambda self, d, t, real=real: reads.append(t) or real(self, d, t))
     ex = execute(sc, nominal.steps, "feedforward")
     ticks = np.diff(reads)
     assert ex.run.survived and len(reads) > 1000 and np.all(ticks >= 0) and np.max(ticks) < 0.0021
