@@ -148,6 +148,8 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
             # the trunk follows the swing sole's shift by ``share``, sample by sample: both legs then bend by
             # part of the shift, away from the joint limits the plan's postures may sit on
             shift = share * (path - st.path_m)
+            if not ends_reached(one, path, nominal.p_body + shift):
+                continue  # its first swing row or the first row after its landing is out of reach: refused
             samples = [replace(x, best=replace(x.best, p_body=x.best.p_body + shift[i]))
                        for i, x in enumerate(nominal.samples)]
             step = StepResult(0, st.swing, st.support, path, samples, nominal.fan_index)
@@ -162,6 +164,26 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
         if again is not None:
             return again, "re-optimised"
     return plan_anew(one)
+
+
+def ends_reached(one: Scenario, path_m: np.ndarray, p_body_m: np.ndarray) -> bool:
+    """Whether both legs reach, within their joint limits, the postures of the first and last samples of the one-step
+    scenario ``one``'s swing ``path_m`` (N, 3) with P_body ``p_body_m`` (N, 3) [m]: the rows that stand exactly there
+    (the swing's first row, and the first of the transfer after the landing) are feasible only where they do. Solved
+    in closed form as the row builder solves them (the same postures to the bit; True, nothing checked, for a robot
+    whose legs have no closed form)."""
+    from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
+    from jethr1_plan.planning.problems import yaw_function
+    from jethr1_plan.reasons import Reason
+
+    robot, st = one.robot, one.steps[0]
+    if not isinstance(row_solver(robot), ClosedFormPostureSolver):
+        return True
+    yaw_of_swing = yaw_function(one, robot, st.support, one.start[st.support])
+    ends = path_m[[0, -1]]
+    _, _, status = solve_postures(robot, p_body_m[[0, -1]], np.array([float(yaw_of_swing(p)) for p in ends]),
+                                  {st.support: (one.start[st.support], 0.0), st.swing: (ends, 0.0)})
+    return bool(np.all(status == Reason.OK))
 
 
 def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> PlanResult | None:
