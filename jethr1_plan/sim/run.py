@@ -181,7 +181,8 @@ class TwinRun:
         return self.data.xpos[b].copy(), yaw_of(self.data.xmat[b])
 
     def measure(self) -> Measurement:
-        """The robot's sensors read now (the robot's view, for its own estimates between plans)."""
+        """The robot's sensors read now (the robot's view, for its own estimates between plans, after a
+        :meth:`follow` that ended without a fall)."""
         return self.sensors.read(self.data, self.t)
 
     def follow(self, track: PlanTrack, reference: PlanTrack | None = None, settle_s: float = 0.0,
@@ -210,7 +211,9 @@ class TwinRun:
         landings: list[dict] = []
         feed_forward = self.law is None  # the plan's commands alone: no measurement, no loop state to keep
         time_s, rate_hz, support = track.time_s, track.rate_hz, track.support
-        for k in range(n_settle + n_plan + n_hold):
+        ticks = n_settle + n_plan + n_hold
+        kept_from = ticks - self.sensors.depth  # a feed-forward robot reads its sensors after the run (``measure``)
+        for k in range(ticks):
             t = (k - n_settle) * dt  # the track's clock
             if k < n_settle:
                 i, a = 0, 0.0
@@ -224,7 +227,7 @@ class TwinRun:
             if feed_forward:  # what Controller.step returns without a law: the reference's commands
                 q_ref, thrust = follow.commands(t, i, a, active)
                 if self.sensing:  # the robot estimates where it stands between plans (``measure``), not now
-                    self.sensors.tick(d, self.t)
+                    self.sensors.tick(d, self.t, keep=k >= kept_from)
             else:
                 q_ref, ref = follow.reference(t, i, a, sup, active)
                 cmd = loop.step(self.sensors.read(d, self.t), ref)

@@ -172,11 +172,20 @@ class SensorModel:
                              self._sole_truth(d) if sole is not None else None))
         return self._noise()
 
-    def tick(self, d, time_s: float) -> None:
+    @property
+    def depth(self) -> int:
+        """How many ticks back a reading reaches (the longest delay's, and its own)."""
+        return int(self.history.maxlen or 1)
+
+    def tick(self, d, time_s: float, keep: bool = True) -> None:
         """A control tick (at ``time_s`` [s]) at which the robot does not look at its sensors: their truth is kept and
         their noise drawn as :meth:`read` does, so that a later reading reads the same numbers as had every tick been
-        read."""
-        self._keep(d)
+        read. ``keep`` False: no later reading reaches back to this tick (it comes at least :attr:`depth` ticks
+        later): only its noise is drawn."""
+        if keep:
+            self._keep(d)
+        else:
+            self._noise()
 
     def read(self, d, time_s: float) -> Measurement:
         """The reading at this tick of the twin's state ``d`` (a ``mujoco.MjData``)."""

@@ -147,7 +147,8 @@ def test_the_noise_is_the_declared_generators_draws_in_reading_order():
 def test_a_reading_after_ticks_unread_is_the_reading_of_a_robot_that_read_every_tick():
     """A robot that does not look at its sensors at a tick (``tick``: a feed-forward robot between its estimates)
     still has their truth kept and their noise drawn: its next reading, delayed and noisy, is to the bit the one a
-    robot reading at every tick gets, with the state of the tick the delay names."""
+    robot reading at every tick gets, with the state of the tick the delay names; a tick further back than any
+    reading reaches (``depth``) need not be kept."""
     import mujoco
 
     robot = load_robot("jethr1")
@@ -168,7 +169,8 @@ def test_a_reading_after_ticks_unread_is_the_reading_of_a_robot_that_read_every_
             # and the reading is a delayed one: the encoders' joint 0 two ticks back, within the noise
             assert abs(b.joints_rad[0] - 0.01 * (k - 2)) < 0.01
         else:
-            some.tick(d, 0.002 * k)
+            some.tick(d, 0.002 * k, keep=k % 300 >= 299 - some.depth)
+    assert some.depth == 4  # the IMU's 6 ms at 2 ms a tick, and the reading's own
 
 
 def test_rotation_vector_is_rodrigues():

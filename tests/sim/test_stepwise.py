@@ -118,7 +118,7 @@ def test_a_feedforward_robot_reads_its_sensors_every_tick_while_it_estimates(two
     for name in ("read", "tick"):
         real = getattr(sensors_mod.SensorModel, name)
         monkeypatch.setattr(sensors_mod.SensorModel, name,
-                            lambda self, d, t, real=real: reads.append(t) or real(self, d, t))
+                            lambda self, d, t, *a, real=real, **k: reads.append(t) or real(self, d, t, *a, **k))
     ex = execute(sc, nominal.steps, "feedforward")
     ticks = np.diff(reads)
     assert ex.run.survived and len(reads) > 1000 and np.all(ticks >= 0) and np.max(ticks) < 0.0021
