@@ -210,7 +210,8 @@ def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> Plan
     samples = []
     for i, pr in enumerate(problems):
         cand = evaluate_candidates(solver, scaled(pr, float(shares[i])), p_body[i][None])
-        samples.append(SampleResult(cand, float(fitness(cand, cfg.constants)[0]), int(evals[i]), "sqp", float(shares[i])))
+        samples.append(SampleResult(cand, float(fitness(cand, cfg.constants)[0]), int(evals[i]), "sqp",
+                                    float(shares[i])))
     step = StepResult(0, st.swing, st.support, st.path_m, samples, nominal.fan_index)
     seq = Sequence(one, robot, solver, None, stop_at_infeasible=True)
     bad = seq.add(step)

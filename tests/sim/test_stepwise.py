@@ -108,9 +108,10 @@ def test_the_same_draw_gives_the_same_run(two_steps):
 
 def test_a_feedforward_robot_reads_its_sensors_every_tick_while_it_estimates(two_steps, monkeypatch):
     """Executed step by step, the plan's commands alone still estimate between plans where the soles stand: the
-    sensors' truth is kept at every control tick (read, or kept for the next reading: ``SensorModel.tick``), so a delayed reading is the state that many ticks before, not the
-    reading taken at the previous estimate (which, on a plan of four steps, put the third step's swing sole 0.31 m
-    from where it stood, and the robot fell). Replayed whole, nothing reads them."""
+    sensors are ticked at every control tick (read, or their truth kept for the next reading: ``SensorModel.tick``),
+    so a delayed reading is the state that many ticks before, not the reading taken at the previous estimate (which,
+    on a plan of four steps, put the third step's swing sole 0.31 m from where it stood, and the robot fell).
+    Replayed whole, nothing reads them."""
     from jethr1_plan.sim import sensors as sensors_mod
 
     sc, nominal = two_steps

@@ -1,0 +1,107 @@
+"""A step whose re-anchorings are refused, optimised again from the plan's own samples (``stepwise.reoptimised``,
+``optimisers.sqp.resolve_path``) instead of from scratch: the trial's ditch step at nominal, whose landing posture
+sits on the swing leg's full stretch, the support knee's limit and the thrust limit at once, so that no share of the
+sole's few millimetres of shift the trunk follows keeps it within the legs' reach; and trial 44's step of the route of
+terrain seed 2 (``test_stepwise_fallback``), which took the fall-back over a finer path. Every row held to the
+scenario's own ρ and μ / 2, restated from the rows (the URDF's own forward kinematics, verify's dynamics), and to the
+independent verify."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from jethr1_plan.files.plan_table import plan_table
+from jethr1_plan.planning.plan import Sequence, plan, row_solver
+from jethr1_plan.planning.report import plan_summary
+from jethr1_plan.planning.results import StepResult
+from jethr1_plan.records.plan_rows import RowField
+from jethr1_plan.scenario import load_scenario
+from jethr1_plan.sim import stepwise
+from jethr1_plan.sim.stepwise import TRUNK_SHARES, ends_reached, execute, plan_anew, replan_step
+from jethr1_plan.verify.plan import verify_rows
+from tests.conftest import ROOT
+from tests.sim.test_stepwise_fallback import _case, _edge_angles_deg, _friction_ratios
+
+
+@pytest.fixture(scope="module")
+def trial():
+    sc = load_scenario(ROOT / "configs" / "jet_hr1_trial.yaml")
+    return sc, plan(sc)
+
+
+def _within_every_limit(sc, result, support_xy: np.ndarray) -> None:
+    """Every row of a one-step plan feasible under ``sc``'s own limits: the rows' marks, (A-10)'s edge angle within
+    ``sc``'s ρ and the friction the rows' motion needs within μ / 2 (both restated from the rows), and verify's
+    checks of the rows (the CoM, ZMP, thrust window, tolerance share, joint limits, from PlaCo's forward kinematics)."""
+    rows = result.rows
+    assert result.scenario.balance.rho_rad == sc.balance.rho_rad  # the scenario's own ρ, not widened
+    assert all(rows.columns[RowField.FEASIBLE])
+    assert _edge_angles_deg(sc.robot, rows, support_xy).max() <= math.degrees(sc.balance.rho_rad) + 1e-3
+    assert _friction_ratios(sc.robot, rows, 1.0 / sc.timing.rate_hz).max() <= sc.robot.sole_friction / 2.0 + 1e-3
+    _, failures = verify_rows(plan_table(sc.robot, rows), sc.robot, summary=plan_summary(result),
+                              scenario=result.scenario)
+    assert failures == []
+
+
+def test_the_trial_at_nominal_is_executed_without_a_step_optimised_from_scratch(trial, monkeypatch):
+    """``jethr1 simulate`` of the trial (feed-forward, no perturbation): the robot estimates its swing sole 2.7 mm
+    behind where step 1 starts and perceives its foothold 3.4 mm further. Step 0 is re-anchored. Step 1's landing
+    posture has the swing leg within 0.2 mm of full stretch and the support knee within 0.2° of its limit: with the
+    trunk following none or half of the sole's shift the swing leg cannot reach the landing, following all of it the
+    support knee passes its limit, so every re-anchoring is refused at the landing itself (``ends_reached``, the rows
+    agree). Optimised again from the plan's samples, the samples near the landing move by millimetres and give up
+    the share of the tolerance the longer step costs, as much as an optimisation from scratch gives up (0.516 → 0.476
+    at the landing); no step is optimised from scratch, both land within 6 mm of their footholds, every row within
+    the scenario's own limits."""
+    sc, nominal = trial
+
+    def from_scratch(*_a, **_k):
+        raise AssertionError("a step optimised from scratch")
+
+    monkeypatch.setattr(stepwise, "plan", from_scratch)
+    ex = execute(sc, nominal.steps, "feedforward")
+    assert ex.run.survived and ex.refused is None
+    assert [s["mode"] for s in ex.steps] == ["re-anchored", "re-optimised"]
+    assert all(s["landing_error_m"] < 0.006 for s in ex.steps)
+    monkeypatch.undo()
+    step = ex.plans[1]
+    st0 = sc.steps[1]
+    # why: the estimated start and the perceived foothold, and the trunk's shares refused at the landing
+    assert 0.002 < np.linalg.norm(step.start_m["left"] - sc.steps[0].landing_m) < 0.004
+    assert 0.003 < np.linalg.norm(step.target_m - st0.landing_m) < 0.004
+    one = step.result.scenario
+    path = one.steps[0].path_m
+    for share in TRUNK_SHARES:
+        shift = share * (path - st0.path_m)
+        assert not ends_reached(one, path, nominal.steps[1].p_body + shift)
+        moved = StepResult(0, st0.swing, st0.support, path, [replace(x, best=replace(x.best, p_body=x.best.p_body
+                                                                                     + shift[i]))
+                                                             for i, x in enumerate(nominal.steps[1].samples)],
+                           nominal.steps[1].fan_index)
+        widened = replace(one, balance=replace(one.balance, rho_rad=one.balance.rho_rad + stepwise.RHO_SLACK_RAD))
+        seq = Sequence(widened, sc.robot, row_solver(sc.robot), None, stop_at_infeasible=True)  # as re-anchoring
+        bad = seq.add(moved)
+        assert (bad or seq.finish()[1]) is not None  # the rows refuse it too
+    _within_every_limit(sc, step.result, step.start_m["right"][:2])
+    # as robust as the step optimised from scratch from the same stance, sample by sample
+    anew, mode = plan_anew(one)
+    assert mode == "optimised"
+    again = step.result.steps[0]
+    assert np.all(again.shares >= anew.steps[0].shares - 0.005)
+    assert again.shares[-1] == pytest.approx(0.476, abs=0.005) and nominal.steps[1].shares[-1] > 0.51
+    assert np.max(np.linalg.norm(again.p_body - nominal.steps[1].p_body, axis=1)) < 0.006
+
+
+def test_a_step_of_the_route_that_took_the_fall_back_is_optimised_again_from_its_samples():
+    """Trial 44's step 2 of the route of terrain seed 2: its re-anchorings are refused (the (A-10) cone) and, before,
+    the plain optimisation too, so the robot planned it over a path with twice the samples (2.5–8 s of a core).
+    Optimised again from the plan's own samples it plans in a fraction of that, every row within ρ = 5° and μ / 2."""
+    sc, start, target, cartons, _ = _case("trial 44, step 2")
+    nominal = plan(sc).steps[0]
+    result, mode = replan_step(sc, 0, nominal, start, target, cartons)
+    assert mode == "re-optimised" and len(result.steps[0].path_m) == len(sc.steps[0].path_m)
+    _within_every_limit(sc, result, start["right"][:2])
