@@ -23,8 +23,13 @@ What the robot does (in one continuous twin run: the servos', fans' and contacts
 3. The step's plan: the plan's own optimised trunk postures of that step (relative to the support sole,
    unchanged) along the plan's swing path moved to the new ends (the offset of each end fades out along
    the path, a smoothstep in arc length), its rows built by the planner's row builder (IK, the robust
-   thrust, pacing, the commands): *re-anchored*. Where a row of that is not feasible the step is
-   optimised anew (``planning.plan``): *optimised*. Where that is refused too, it is optimised anew over
+   thrust, pacing, the commands): *re-anchored* (a share of the trunk's shift whose first or last posture the
+   legs cannot reach is not built: :func:`ends_reached`). Where a row of that is not feasible, the plan's own
+   samples are optimised again from there (:func:`reoptimised`: each kept where it holds the planner's sample
+   program, else solved by it from where it stands; the share of the tolerance the new ends cost given up as an
+   optimisation from scratch would), its rows under the scenario's own limits: *re-optimised*. Where that
+   is refused too, the step is optimised anew (``planning.plan``): *optimised*. Where that is refused too, it is
+   optimised anew over
    the same swing sampled more finely (:func:`refined_path`; *optimised-fine*, :func:`plan_anew`): every
    one of them a plan the planner accepts whole (every row feasible under the scenario's own limits).
    Where none plans, the robot stops: the run fails.
