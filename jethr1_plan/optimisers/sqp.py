@@ -319,32 +319,29 @@ def resolve_path(robot: RobotModel, problems: list[SampleProblem], start_m: np.n
     legs' reach, (A-9), (A-10) and the ZMP, all with their margins; the tolerance at the sample's share) warm-started
     from each posture instead of from a neighbour or a grid.
 
-    A posture is kept where it holds every constraint at its share; else SLSQP solves the sample inside the trust
-    box around it, with the tie-break towards it (``eps`` [N/m²]), the box following the answer while it holds it
-    back. A robust sample that held less than its whole tolerance, or that finds no posture at its share, takes the
-    largest share it reaches from its start (:func:`_share_solve`, as the backward pass does; ``half`` [m] its
-    grid's half range where SLSQP finds no start). Returns (P_body (N, 3) [m], shares (N,), evaluations (N,)), or
-    None where a sample finds no posture that balances.
+    A posture is kept where it holds every constraint at its share; else SLSQP solves the sample at that share inside
+    the trust box around it, with the tie-break towards it (``eps`` [N/m²]), the box following the answer while it
+    holds it back. A robust sample that finds no posture at its share takes the largest share it reaches from its
+    start (:func:`_share_solve`, as the backward pass does; ``half`` [m] its grid's half range where SLSQP finds no
+    start), never more than it held: the shares the optimiser gave up so that the rows between samples hold stay
+    given up. Returns (P_body (N, 3) [m], shares (N,), evaluations (N,)), or None where a sample finds no posture
+    that balances.
     """
     n = len(problems)
     found = np.array(start_m, dtype=float, copy=True)
     held = np.array(shares, dtype=float, copy=True)
     evals = np.zeros(n, dtype=np.int64)
     for i, pr in enumerate(problems):
-        robust = pr.tolerance != NOMINAL
-        r: Found | None = None
-        if not (robust and held[i] < 1.0):
-            sample = AnalyticSample(robot, scaled(pr, held[i]), found[i], eps)
-            ok, _ = sample.feasible(found[i], strict_edge=True)
-            if not ok:
-                r = follow_box(sample, solve_from_neighbour(sample, found[i]))
-            evals[i] += sample.evaluations
-            if ok:
-                continue
-        if r is None and robust:
+        sample = AnalyticSample(robot, scaled(pr, held[i]), found[i], eps)
+        ok, _ = sample.feasible(found[i])  # as the optimiser accepts its own answers
+        r = None if ok else follow_box(sample, solve_from_neighbour(sample, found[i]))
+        evals[i] += sample.evaluations
+        if ok:
+            continue
+        if r is None and pr.tolerance != NOMINAL:
             got = _share_solve(robot, pr, found[i], found[i], eps, half, evals, i)
             if got is not None:
-                r, held[i] = got
+                r, held[i] = got[0], min(got[1], held[i])
         if r is None:
             return None
         found[i] = r.p

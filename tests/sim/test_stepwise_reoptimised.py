@@ -105,3 +105,22 @@ def test_a_step_of_the_route_that_took_the_fall_back_is_optimised_again_from_its
     result, mode = replan_step(sc, 0, nominal, start, target, cartons)
     assert mode == "re-optimised" and len(result.steps[0].path_m) == len(sc.steps[0].path_m)
     _within_every_limit(sc, result, start["right"][:2])
+
+
+def test_the_plans_own_samples_on_their_own_path_are_kept(trial):
+    """``resolve_path`` from the plan's own samples on the plan's own path: every sample is kept to the bit, at its
+    own share of the tolerance (it holds the sample program already there)."""
+    from jethr1_plan.optimisers.sqp import resolve_path
+    from jethr1_plan.planning.problems import feet_before_each_step, path_problems
+
+    sc, nominal = trial
+    cfg = sc.optimiser
+    for k, st in enumerate(nominal.steps):
+        problem_at = path_problems(sc, sc.robot, k, feet_before_each_step(sc)[k])
+        got = resolve_path(sc.robot, [problem_at(i) for i in range(len(st.path_m))], st.p_body, st.shares,
+                           cfg.sqp_smoothness_n_per_m2, cfg.initial.half_range_m)
+        assert got is not None
+        p_body, shares, _ = got
+        np.testing.assert_array_equal(p_body, st.p_body)
+        np.testing.assert_array_equal(shares, st.shares)
+    assert (nominal.steps[1].shares < 1.0).sum() >= 5  # the ditch's last samples hold a share of the tolerance
