@@ -23,15 +23,15 @@ What the robot does (in one continuous twin run: the servos', fans' and contacts
 3. The step's plan: the plan's own optimised trunk postures of that step (relative to the support sole,
    unchanged) along the plan's swing path moved to the new ends (the offset of each end fades out along
    the path, a smoothstep in arc length), its rows built by the planner's row builder (IK, the robust
-   thrust, pacing, the commands): *re-anchored* (a share of the trunk's shift whose first or last posture the
-   legs cannot reach is not built: :func:`ends_reached`). Where a row of that is not feasible, the plan's own
-   samples are optimised again from there (:func:`reoptimised`: each kept where it holds the planner's sample
-   program, else solved by it from where it stands; the share of the tolerance the new ends cost given up as an
-   optimisation from scratch would), its rows under the scenario's own limits: *re-optimised*. Where that
-   is refused too, the step is optimised anew (``planning.plan``): *optimised*. Where that is refused too, it is
-   optimised anew over
-   the same swing sampled more finely (:func:`refined_path`; *optimised-fine*, :func:`plan_anew`): every
-   one of them a plan the planner accepts whole (every row feasible under the scenario's own limits).
+   thrust, pacing, the commands): *re-anchored* (a share of the trunk's shift whose first or last
+   posture the legs cannot reach is not built: :func:`~.reoptimise.ends_reached`). Where a row of that is
+   not feasible, the plan's own samples are optimised again from there (:func:`~.reoptimise.reoptimised`:
+   each kept where it holds the planner's sample program, else solved by it from where it stands, giving
+   up the share of the tolerance the new ends cost), its rows under the scenario's own limits:
+   *re-optimised*. Where that is refused too, the step is optimised anew (``planning.plan``): *optimised*.
+   Where that is refused too, it is optimised anew over the same swing sampled more finely
+   (:func:`refined_path`; *optimised-fine*, :func:`plan_anew`): every one of them a plan the planner
+   accepts whole (every row feasible under the scenario's own limits).
    Where none plans, the robot stops: the run fails.
 4. It follows that plan (stand → transfer → swing → transfer → stand), its controller's reference the
    plan turned into its IMU's world (the support sole's measured heading).
@@ -60,6 +60,7 @@ from jethr1_plan.records.infeasible import Infeasible
 from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Scenario, Step, load_scenario_text
 from jethr1_plan.sim.judge import RunResult
+from jethr1_plan.sim.reoptimise import ends_reached, reoptimised
 from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun
 from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
@@ -169,63 +170,6 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
         if again is not None:
             return again, "re-optimised"
     return plan_anew(one)
-
-
-def ends_reached(one: Scenario, path_m: np.ndarray, p_body_m: np.ndarray) -> bool:
-    """Whether both legs reach, within their joint limits, the postures of the first and last samples of the one-step
-    scenario ``one``'s swing ``path_m`` (N, 3) with P_body ``p_body_m`` (N, 3) [m]: the rows that stand exactly there
-    (the swing's first row, and the first of the transfer after the landing) are feasible only where they do. Solved
-    in closed form as the row builder solves them (the same postures to the bit; True, nothing checked, for a robot
-    whose legs have no closed form)."""
-    from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver, solve_postures
-    from jethr1_plan.planning.problems import yaw_function
-    from jethr1_plan.reasons import Reason
-
-    robot, st = one.robot, one.steps[0]
-    if not isinstance(row_solver(robot), ClosedFormPostureSolver):
-        return True
-    yaw_of_swing = yaw_function(one, robot, st.support, one.start[st.support])
-    ends = path_m[[0, -1]]
-    _, _, status = solve_postures(robot, p_body_m[[0, -1]], np.array([float(yaw_of_swing(p)) for p in ends]),
-                                  {st.support: (one.start[st.support], 0.0), st.swing: (ends, 0.0)})
-    return bool(np.all(status == Reason.OK))
-
-
-def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> PlanResult | None:
-    """The one-step scenario ``one`` optimised again from the plan's own samples ``nominal``, their trunk moved by
-    ``shift_m`` (N, 3) [m] (:func:`~jethr1_plan.optimisers.sqp.resolve_path`: each posture kept where it holds the
-    planner's sample program at its share of the tolerance, else solved from there): its rows built by the planner's
-    row builder under the scenario's own limits (ρ too) and analysed; None where a sample finds no posture or a
-    row is not feasible."""
-    from jethr1_plan.optimisers import SampleResult
-    from jethr1_plan.optimisers.problem import evaluate_candidates, fitness
-    from jethr1_plan.optimisers.sqp import resolve_path
-    from jethr1_plan.optimisers.sqp_share import scaled
-    from jethr1_plan.planning.problems import path_problems
-
-    robot, st, cfg = one.robot, one.steps[0], one.optimiser
-    problem_at = path_problems(one, robot, 0, one.start)
-    problems = [problem_at(i) for i in range(len(st.path_m))]
-    got = resolve_path(robot, problems, nominal.p_body + shift_m, nominal.shares, cfg.sqp_smoothness_n_per_m2,
-                       cfg.initial.half_range_m)
-    if got is None:
-        return None
-    p_body, shares, evals = got
-    solver = row_solver(robot)
-    samples = []
-    for i, pr in enumerate(problems):
-        cand = evaluate_candidates(solver, scaled(pr, float(shares[i])), p_body[i][None])
-        samples.append(SampleResult(cand, float(fitness(cand, cfg.constants)[0]), int(evals[i]), "sqp",
-                                    float(shares[i])))
-    step = StepResult(0, st.swing, st.support, st.path_m, samples, nominal.fan_index)
-    seq = Sequence(one, robot, solver, None, stop_at_infeasible=True)
-    bad = seq.add(step)
-    rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
-    if bad is None:
-        bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
-    if bad is not None or not all(rows.columns[RowField.FEASIBLE]):
-        return None
-    return PlanResult(one, robot, "re-optimised", one.seed, [step], rows, None, int(evals.sum()), 0.0)
 
 
 def plan_anew(one: Scenario) -> tuple[PlanResult, str]:

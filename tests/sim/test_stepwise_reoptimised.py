@@ -21,7 +21,8 @@ from jethr1_plan.planning.results import StepResult
 from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import load_scenario
 from jethr1_plan.sim import stepwise
-from jethr1_plan.sim.stepwise import TRUNK_SHARES, ends_reached, execute, plan_anew, replan_step
+from jethr1_plan.sim.reoptimise import ends_reached
+from jethr1_plan.sim.stepwise import TRUNK_SHARES, execute, plan_anew, replan_step
 from jethr1_plan.verify.plan import verify_rows
 from tests.conftest import ROOT
 from tests.sim.test_stepwise_fallback import _case, _edge_angles_deg, _friction_ratios
@@ -49,14 +50,14 @@ def _within_every_limit(sc, result, support_xy: np.ndarray) -> None:
 
 def test_the_trial_at_nominal_is_executed_without_a_step_optimised_from_scratch(trial, monkeypatch):
     """``jethr1 simulate`` of the trial (feed-forward, no perturbation): the robot estimates its swing sole 2.7 mm
-    behind where step 1 starts and perceives its foothold 3.4 mm further. Step 0 is re-anchored. Step 1's landing
-    posture has the swing leg within 0.2 mm of full stretch and the support knee within 0.2° of its limit: with the
-    trunk following none or half of the sole's shift the swing leg cannot reach the landing, following all of it the
-    support knee passes its limit, so every re-anchoring is refused at the landing itself (``ends_reached``, the rows
-    agree). Optimised again from the plan's samples, the samples near the landing move by millimetres and give up
-    the share of the tolerance the longer step costs, as much as an optimisation from scratch gives up (0.516 → 0.476
-    at the landing); no step is optimised from scratch, both land within 6 mm of their footholds, every row within
-    the scenario's own limits."""
+    behind where step 1 starts and perceives its foothold 3.4 mm off the plan's, 2.7 mm further. Step 0 is
+    re-anchored. Step 1's landing posture has the swing leg within 0.2 mm of full stretch and the support ankle's
+    pitch within 0.2° of its limit: with the trunk following none or half of the sole's shift the swing leg cannot
+    reach the landing, following all of it the support ankle passes its limit, so every re-anchoring is refused at
+    the landing itself (``ends_reached``, the rows agree). Optimised again from the plan's samples, the samples near
+    the landing move by millimetres and give up the share of the tolerance the longer step costs, no more than an
+    optimisation from scratch gives up (0.516 → 0.476 at the landing); no step is optimised from scratch, both land
+    within 6 mm of their footholds, every row within the scenario's own limits."""
     sc, nominal = trial
 
     def from_scratch(*_a, **_k):
