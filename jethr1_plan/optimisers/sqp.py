@@ -67,7 +67,7 @@ from jethr1_plan.optimisers.sqp_smoothing import PASS_EPS, lower_peaks, smooth_p
 from jethr1_plan.physics.balance import NOMINAL
 from jethr1_plan.robot.model import RobotModel
 
-__all__ = ["infeasible_between", "optimise_path", "resolve_path"]
+__all__ = ["infeasible_between", "optimise_path", "repair_path_between", "resolve_path"]
 
 BETWEEN = (0.25, 0.5, 0.75)  # fractions of a segment checked between samples (when the rows' are not given)
 SHARE_BACKOFF = (0.002, 0.01, 0.03, 0.1)  # δ: stage 2 solves at s* − δ, the first of these it solves
@@ -346,6 +346,26 @@ def resolve_path(robot: RobotModel, problems: list[SampleProblem], start_m: np.n
             return None
         found[i] = r.p
     return found, held, evals
+
+
+def repair_path_between(robot: RobotModel, problems: list[SampleProblem], p_body_m: np.ndarray, shares: np.ndarray,
+                        eps: float, half: float, between: Callable[[int, float], SampleProblem],
+                        row_positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A path's postures ``p_body_m`` (N, 3) [m] holding ``shares`` (N,) of their samples' tolerances (every one
+    feasible, :func:`resolve_path`'s answer) with the segments whose rows (at ``row_positions``, through
+    ``between``) break a constraint solved again as the optimiser's last pass does (:func:`_repair_between`: the
+    two samples with margins twice as wide, round after round; a robust sample without room, a little less of its
+    tolerance). Returns (P_body (N, 3) [m], shares (N,), evaluations (N,))."""
+    n = len(problems)
+    found: list[Found | None] = []
+    for pr, p, share in zip(problems, np.asarray(p_body_m, dtype=float), shares, strict=True):
+        found.append(Found(p.copy(), AnalyticSample(robot, scaled(pr, float(share)), None).feasible(p)[1], True))
+    path = _Path(robot, problems, np.asarray(p_body_m, dtype=float), eps, half, found,
+                 np.array(shares, dtype=float, copy=True), np.zeros(n, dtype=np.int64), ["sqp"] * n,
+                 [pr.tolerance != NOMINAL for pr in problems])
+    held = [scaled(pr, s) for pr, s in zip(problems, path.shares, strict=True)]
+    _repair_between(path, held, between, row_positions)
+    return np.array([f.p for f in path.found if f is not None]), path.shares, path.evals
 
 
 def _evaluated(path: _Path, held: list[SampleProblem], request: PathRequest) -> PathResult:

@@ -46,12 +46,12 @@ def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> Plan
     """The one-step scenario ``one`` optimised again from the plan's own samples ``nominal``, their trunk moved by
     ``shift_m`` (N, 3) [m] (:func:`~jethr1_plan.optimisers.sqp.resolve_path`: each posture kept where it holds the
     planner's sample program at its share of the tolerance, else solved from there): its rows built by the planner's
-    row builder under the scenario's own limits (ρ too) and analysed; None where a sample finds no posture or a
-    row is not feasible."""
-    from jethr1_plan.optimisers import SampleResult
-    from jethr1_plan.optimisers.problem import evaluate_candidates, fitness
-    from jethr1_plan.optimisers.sqp import resolve_path
-    from jethr1_plan.optimisers.sqp_share import scaled
+    row builder under the scenario's own limits (ρ too) and analysed; where a row between two samples is not
+    feasible, the segments whose rows break a constraint solved again as the optimiser's last pass does
+    (:func:`~jethr1_plan.optimisers.sqp.repair_path_between`) and the rows built again. None where a sample finds
+    no posture or a row is still not feasible."""
+    from jethr1_plan.control.time_laws import swing_row_positions
+    from jethr1_plan.optimisers.sqp import repair_path_between, resolve_path
     from jethr1_plan.planning.problems import path_problems
 
     robot, st, cfg = one.robot, one.steps[0], one.optimiser
@@ -61,7 +61,24 @@ def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> Plan
                        cfg.initial.half_range_m)
     if got is None:
         return None
-    p_body, shares, evals = got
+    result = _planned(one, nominal, problems, *got)
+    if result is None:  # a row between two samples: those segments solved again, as the optimiser's last pass does
+        positions = swing_row_positions(len(problems), one.timing.swing_s, one.timing.rate_hz)
+        result = _planned(one, nominal, problems, *repair_path_between(
+            robot, problems, got[0], got[1], cfg.sqp_smoothness_n_per_m2, cfg.initial.half_range_m,
+            lambda i, lam: problem_at(i + lam), positions))
+    return result
+
+
+def _planned(one: Scenario, nominal: StepResult, problems: list, p_body: np.ndarray, shares: np.ndarray,
+             evals: np.ndarray) -> PlanResult | None:
+    """The one-step plan of the postures ``p_body`` (N, 3) [m] holding ``shares`` (N,) of their ``problems``'
+    tolerances: its rows built and analysed under ``one``'s own limits; None where a row is not feasible."""
+    from jethr1_plan.optimisers import SampleResult
+    from jethr1_plan.optimisers.problem import evaluate_candidates, fitness
+    from jethr1_plan.optimisers.sqp_share import scaled
+
+    robot, st, cfg = one.robot, one.steps[0], one.optimiser
     solver = row_solver(robot)
     samples = []
     for i, pr in enumerate(problems):
