@@ -125,3 +125,26 @@ def test_the_plans_own_samples_on_their_own_path_are_kept(trial):
         np.testing.assert_array_equal(p_body, st.p_body)
         np.testing.assert_array_equal(shares, st.shares)
     assert (nominal.steps[1].shares < 1.0).sum() >= 5  # the ditch's last samples hold a share of the tolerance
+
+
+def test_a_row_between_two_re_optimised_samples_refused_has_its_segments_solved_again(trial, monkeypatch):
+    """``simulate --trials``' first draw of the trial (its IMU law, thrust ×0.80, servos ×1.20, its sensors' errors):
+    re-optimised from the plan's samples, step 1 holds every sample, but a swing row between two of them (at the
+    share interpolated between theirs) finds no thrust that balances; with those segments solved again as the
+    optimiser's last pass does (``sqp.repair_path_between``) the step is re-optimised, every row within the
+    scenario's own limits, instead of optimised from scratch."""
+    import jethr1_plan.optimisers.sqp as sqp
+    from jethr1_plan.sim.certificate import draws
+    from jethr1_plan.sim.reoptimise import reoptimised
+
+    sc, nominal = trial
+    p = draws(0, 1, "default", None, sc.robot)[0]
+    ex = execute(sc, nominal.steps, "feedback", p)
+    assert ex.run.survived and [s["mode"] for s in ex.steps] == ["re-anchored", "re-optimised"]
+    step = ex.plans[1]
+    _within_every_limit(sc, step.result, step.start_m["right"][:2])
+    one = step.result.scenario
+    half = TRUNK_SHARES[0] * (one.steps[0].path_m - sc.steps[1].path_m)
+    monkeypatch.setattr(sqp, "repair_path_between", lambda *a: (_ for _ in ()).throw(AssertionError("repaired")))
+    with pytest.raises(AssertionError, match="repaired"):  # the rows of the samples as re-solved are refused
+        reoptimised(one, nominal.steps[1], half)
