@@ -12,6 +12,7 @@ distance to their footholds over all trials (the route's edge margin, robots/jet
 Resumable: a plan whose certificate is in --json already is not run again.
 
     .venv/bin/python bench/bench_stepwise.py [--trials 200] [--routes 20] [-j 2] [--json out/bench_stepwise.json]
+        [--seeds 2,3,9]
 """
 
 from __future__ import annotations
@@ -73,6 +74,7 @@ def main() -> int:
     ap.add_argument("--trials", type=int, default=200)
     ap.add_argument("--routes", type=int, default=20, help="seeded terrains with a route")
     ap.add_argument("--first", type=int, default=0, help="the first terrain seed")
+    ap.add_argument("--seeds", default=None, help="only these terrain seeds, comma-separated (each must have a route)")
     ap.add_argument("-j", "--jobs", type=int, default=2)
     ap.add_argument("--json", default=str(ROOT / "out" / "bench_stepwise.json"))
     ap.add_argument("--work", default=None, help="where the plans go (default: a temporary folder)")
@@ -86,8 +88,9 @@ def main() -> int:
     folders: dict[str, Path] = {}
     assert run(["plan", str(ROOT / "configs" / "scattered_steps.yaml"), "-o", str(work), "--no-progress"]) == 0
     folders["scattered_steps"] = work / "scattered_steps"
-    seed, found = args.first, 0
-    while found < args.routes and seed < args.first + 200:
+    chosen = [int(v) for v in args.seeds.split(",")] if args.seeds else None
+    seed, found = (chosen.pop(0) if chosen else args.first), 0
+    while found < args.routes and seed < args.first + 200 and (chosen is None or seed >= 0):
         path = work / f"random_{seed}.yaml"
         if not (work / path.stem / "trajectory.csv").exists():
             assert run(["terrain", "random", "--seed", str(seed), "-o", str(path)]) == 0
@@ -97,7 +100,9 @@ def main() -> int:
         if code == 0:
             folders[path.stem] = work / path.stem
             found += 1
-        seed += 1
+        elif chosen is not None:
+            raise SystemExit(f"terrain seed {seed} has no route")
+        seed = seed + 1 if chosen is None else (chosen.pop(0) if chosen else -1)
     print(f"{len(folders)} plans, {args.trials} trials each, feedback (Jet-HR1's IMU law), step by step, "
           f"-j {args.jobs}", flush=True)
     for name, folder in folders.items():
