@@ -6,8 +6,9 @@ plans on and on grows without bound. Here a wrapper is made once per URDF (its p
 flags) and handed out again once nobody holds it:
 
 * **free** is told by the reference count: a wrapper only this module refers to is free. Whatever is still
-  tied to it (a name, a ``KinematicsSolver`` built on it, its ``model`` or ``state`` taken out) keeps it
-  taken, so a solver never finds its robot reset under it.
+  tied to it (a name, an attribute, its ``model`` or ``state`` taken out) keeps it taken. A PlaCo
+  ``KinematicsSolver`` holds its wrapper by a C++ reference alone: whoever uses one keeps its wrapper too (as
+  PlaCo asks anyway: a wrapper freed under its solver is memory freed under it).
 * **a hand-out** returns it to a new wrapper's state: :meth:`placo.RobotWrapper.reset` (q neutral, q̇ and q̈
   zero), the model's joint limits, effort limits, rotor terms and gravity as the URDF gave them (whoever
   narrowed a limit, as the walk's IK does, had it only while holding the wrapper), and the forward
