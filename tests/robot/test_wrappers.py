@@ -5,6 +5,7 @@ number of them (PlaCo keeps 0.36 MB of every one it frees)."""
 from __future__ import annotations
 
 import numpy as np
+
 from jethr1_plan.robot import wrappers
 from tests.conftest import ROOT
 
