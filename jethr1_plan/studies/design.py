@@ -86,7 +86,8 @@ class Task:
 def judge_task(task: Task) -> tuple[str, dict[str, Any], dict[str, float]]:
     """Judge one variant (:func:`judge_here`) in a child of the calling process's thread that is replaced after
     every :data:`VARIANTS_PER_PROCESS` variants (``io.recycled``): whichever process calls it (this command's, a
-    loky or Dask worker), its memory does not grow with the sweep. Returns (key, result, {cpu_s, wall_s})."""
+    Dask worker), the memory of the processes that judge does not grow with the sweep. Returns (key, result,
+    {cpu_s, wall_s})."""
     from jethr1_plan.io.recycled import call
 
     return call("jethr1_plan.studies.design:judge_here", task, VARIANTS_PER_PROCESS)
@@ -231,10 +232,9 @@ def _threads(tasks: list[Task], jobs: int) -> Iterator[tuple[str, dict[str, Any]
 def run_tasks(tasks: dict[str, Task], cache: Path, jobs: int = 1, executor: str = "loky",
               scheduler: str | None = None, progress=None) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
     """Every task's result: read from the cache, else judged (one at a time with ``jobs`` 1 and no Dask; ``jobs``
-    at a time, each thread through its own child process; or on Dask: a local cluster of ``jobs`` workers, or the
-    one at ``scheduler``), each
-    kept in the cache as it arrives. Returns (key → result, timings: per judged key its CPU and wall time [s],
-    and how many came from the cache)."""
+    at a time, each thread through a child process of its own; or on Dask: a local cluster of ``jobs`` workers, or
+    the one at ``scheduler``), each kept in the cache as it arrives. Returns (key → result, timings: per judged key
+    its CPU and wall time [s], and how many came from the cache)."""
     results: dict[str, dict[str, Any]] = {}
     for key in tasks:
         found = read_cached(cache, key)
