@@ -17,6 +17,7 @@ def _readings(w, robot) -> dict[str, np.ndarray]:
                                   "qdd0": np.array(w.state.qdd), "com0": np.array(w.com_world())}
     for name in wrappers.MODEL_VECTORS:
         out[name] = np.array(getattr(w.model, name))
+    out["gravity vector"] = np.array(w.model.gravity.vector)
     frames = [robot.legs[s].sole for s in ("left", "right")] + [f.frame for f in robot.fans] + [robot.trunk]
     for f in frames:  # the neutral posture's frames, as a new wrapper has them before any update
         out[f"neutral {f}"] = np.array(w.get_T_world_frame(f))
@@ -37,12 +38,14 @@ def _readings(w, robot) -> dict[str, np.ndarray]:
 
 
 def _spoil(w, robot) -> None:
-    """A use that changes all a user can change: the posture, rates, a narrowed knee limit and a PlaCo IK solve."""
+    """A use that changes all a user can change: the posture, rates, a narrowed knee limit, a rate limit, gravity and
+    a PlaCo IK solve."""
     import placo
 
     k = 7 + robot.legs["left"].index[3]
     w.model.lowerPositionLimit[k] += 0.3
     w.model.velocityLimit[6] = 0.5
+    w.set_gravity(np.array([0.0, 0.0, -1.0]))
     w.state.q[7:] = 0.2
     w.state.qd[:] = 3.0
     w.state.qdd[:] = -2.0
