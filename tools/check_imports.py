@@ -52,11 +52,12 @@ WHAT: dict[str, str] = {
           "(`io/input_file.py`), YAML checked by a schema, JSON, wide CSV tables (the `csv` module), the one rule "
           "of every output: staging and commit (`io/atomic.py`) and the record of the files jethr1 wrote with the "
           "checks before a write (`io/record.py`), work forked to a child process (`io/forked.py`), worker pools "
-          "whose workers die with their command (`io/pool.py`), the Dask client",
+          "whose workers die with their command (`io/pool.py`), calls made in a child process replaced after a "
+          "number of them (`io/recycled.py`), the Dask client",
     "robot": "the robot as data: the typed `RobotModel` (`model.py`), the sensors it declares (`sensors.py`), "
              "`load_robot` putting the URDF and the robot YAML together (`load.py`), the YAML's schema, the URDF "
              "read and checked, `robot show`'s summary, a robot's design variants written as robot folders "
-             "(`variant.py`)",
+             "(`variant.py`), PlaCo's robot wrappers kept for reuse within a process (`wrappers.py`)",
     "records": "what the planner produces, typed: the plan's rows with fixed fields (`plan_rows.py`), every plan and "
                "walk column name (`plan_columns.py`, `walk_columns.py`), the topics and their message types "
                "(`topics.py`), the first infeasible sample (`infeasible.py`)",

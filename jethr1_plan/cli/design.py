@@ -23,7 +23,9 @@ __all__ = ["design_cmd"]
               help="Worker processes (a local Dask cluster's workers with --executor dask). The output does not "
                    "depend on it.")
 @click.option("--executor", type=click.Choice(["loky", "dask"]), default="loky", show_default=True,
-              help="loky (worker processes on this machine) or dask (a cluster: --scheduler, else a local one).")
+              help="loky (processes on this machine) or dask (a cluster: --scheduler, else a local one). Either "
+                   "way each variant is judged in a child process replaced after a fixed number of them: the memory "
+                   "stays bounded.")
 @click.option("--scheduler", default=None, help="Dask scheduler address (with --executor dask); default: local.")
 @click.option("--cache", "cache", default=None, type=click.Path(file_okay=False, path_type=Path),
               help="Where each variant's result is kept as it arrives, so that a run interrupted and started again "

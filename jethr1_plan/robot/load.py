@@ -28,6 +28,7 @@ from jethr1_plan.robot.model import (
 from jethr1_plan.robot.schema import LEG_ROLES, read_robot_yaml
 from jethr1_plan.robot.sensors import LAW_SENSORS, declared_sensors, sensor_names
 from jethr1_plan.robot.urdf import check_urdf, geometry_boxes, quiet_stderr
+from jethr1_plan.robot.wrappers import hand_out
 
 __all__ = ["ROBOTS_DIR", "build_with_robot", "forget_robots", "load_robot"]
 
@@ -98,11 +99,10 @@ def load_robot(name_or_path: str | Path | RobotModel = "jethr1") -> RobotModel:
 
 
 def forget_robots() -> None:
-    """Forget every robot loaded so far (the caches of :func:`load_robot`, of PlaCo's models and of the URDF
-    checks, all keyed by file path): for a process that loads robots from folders it then removes, so that a
-    later folder at the same path is read afresh."""
+    """Forget every robot loaded so far (the caches of :func:`load_robot` and of the URDF checks, keyed by file
+    path): for a process that loads robots from folders it then removes, so that a later folder at the same
+    path is read afresh (PlaCo's wrappers kept for reuse are keyed by the URDF's bytes too: :mod:`.wrappers`)."""
     _load.cache_clear()
-    _placo_robot.cache_clear()
     check_urdf.cache_clear()
 
 
@@ -313,19 +313,17 @@ def _leg(doc: dict, side: str, joints: tuple[str, ...], frames: set[str], src: s
     return Leg(side, sole, tuple(names), tuple(joints.index(n) for n in names))
 
 
-@functools.lru_cache(maxsize=4)
 def _placo_robot(urdf: str):
-    """PlaCo's model of the URDF (checked first by :func:`.urdf.check_urdf`); what pinocchio prints on
+    """PlaCo's model of the URDF (checked first by :func:`.urdf.check_urdf`), from the wrappers kept for reuse
+    (:mod:`.wrappers`: once dropped, it is the first the robot's plans are handed); what pinocchio prints on
     the C stderr is kept off the terminal.
 
     Raises:
         RobotModelError: PlaCo cannot load it (its first line of complaint in the message).
     """
-    import placo
-
     try:
         with quiet_stderr() as said:
-            return placo.RobotWrapper(urdf, placo.Flags.ignore_collisions)
+            return hand_out(urdf)
     except Exception as exc:  # PlaCo/pinocchio raise RuntimeError on a bad URDF
         first = (str(exc) or (said[0] if said else type(exc).__name__)).splitlines()[0][:160]
         if re.search(r"\.(cpp|hpp|cc|cxx|h)\b|From file", first):  # the C++ source file that threw: not the user's

@@ -246,7 +246,8 @@ class RobotModel:
         return {"left": np.array([0.0, half, 0.0]), "right": np.array([0.0, -half, 0.0])}
 
     def wrapper(self):
-        """A new PlaCo RobotWrapper for this model (PlaCo objects cannot be shared or pickled)."""
-        import placo
+        """A PlaCo RobotWrapper of this model that nobody else holds, in the state a new one has (kept for reuse
+        within the process: :mod:`.wrappers`; PlaCo objects cannot be shared between processes or pickled)."""
+        from jethr1_plan.robot.wrappers import hand_out
 
-        return placo.RobotWrapper(str(self.urdf_path), placo.Flags.ignore_collisions)
+        return hand_out(self.urdf_path)

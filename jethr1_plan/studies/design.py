@@ -2,8 +2,10 @@
 
 **A variant** (``studies.design_spec``) is written as a robot folder (``robot.variant``) and loaded through the
 checks every robot passes (``robot.load.load_robot``), then judged (``studies.design_judge``: its widest ditch
-crossed with the whole tolerance, with half of it and at all). A variant's plans are one task; the tasks run in
-this process (``-j 1``), in worker processes (loky) or on a Dask cluster, and their results do not depend on which.
+crossed with the whole tolerance, with half of it and at all). A variant's plans are one task; the tasks run
+one at a time (``-j 1``), ``jobs`` at a time on this machine or on a Dask cluster, and their results do not depend
+on which. Wherever a task runs, it is judged in a child process that a new one replaces after every
+:data:`VARIANTS_PER_PROCESS` variants (``io.recycled``): a sweep's memory does not grow with its length.
 
 **The cache** (resumption): every variant's result is kept in ``<cache>/design/<key>.json`` as it arrives, keyed
 by the SHA-256 of its robot files' bytes, the judge's settings, the package's version and the source of the code
@@ -28,13 +30,16 @@ from jethr1_plan import __version__
 from jethr1_plan.errors import InputError
 from jethr1_plan.studies.design_spec import DesignSpec, JudgeSettings, Variant
 
-__all__ = ["CODE", "Task", "cache_path", "check_first", "code_digest", "default_cache", "judge_task", "make_tasks",
-           "read_cached", "run_tasks", "variant_key", "write_cached"]
+__all__ = ["CODE", "VARIANTS_PER_PROCESS", "Task", "cache_path", "check_first", "code_digest", "default_cache",
+           "judge_here", "judge_task", "make_tasks", "read_cached", "run_tasks", "variant_key", "write_cached"]
 
 FORMAT = 1  # the cached result's layout; part of the key
 #: the package's code a variant's result depends on (its digest is part of the key)
 CODE = ("control", "kinematics", "optimisers", "physics", "planning", "robot", "geometry.py", "reasons.py",
         "scenario.py", "swing_path.py", "studies/ditch_curve.py", "studies/design_judge.py")
+#: variants one process judges before a new one takes over (each leaves PlaCo's models of its robot behind, about
+#: 0.8 MB: ``robot.wrappers``)
+VARIANTS_PER_PROCESS = 40
 JUDGED_NAME = "variant"  # the robot name of the folder a task judges (the same for every variant: not in the key)
 
 
@@ -79,7 +84,17 @@ class Task:
 
 
 def judge_task(task: Task) -> tuple[str, dict[str, Any], dict[str, float]]:
-    """Judge one variant (in any process): its files written to a folder of their own, loaded through every
+    """Judge one variant (:func:`judge_here`) in a child of the calling process's thread that is replaced after
+    every :data:`VARIANTS_PER_PROCESS` variants (``io.recycled``): whichever process calls it (this command's, a
+    Dask worker), the memory of the processes that judge does not grow with the sweep. Returns (key, result,
+    {cpu_s, wall_s})."""
+    from jethr1_plan.io.recycled import call
+
+    return call("jethr1_plan.studies.design:judge_here", task, VARIANTS_PER_PROCESS)
+
+
+def judge_here(task: Task) -> tuple[str, dict[str, Any], dict[str, float]]:
+    """Judge one variant in this process: its files written to a folder of their own, loaded through every
     check of a robot folder, judged, and the folder removed. Returns (key, result, {cpu_s, wall_s})."""
     from jethr1_plan.robot.load import forget_robots, load_robot
 
@@ -190,17 +205,36 @@ def write_cached(cache: Path, key: str, result: dict[str, Any]) -> None:
                          "or $JETHR1_CACHE choose another place)") from None
 
 
-def _in_process(tasks: list[Task]) -> Iterator[tuple[str, dict[str, Any], dict[str, float]]]:
+def _one_by_one(tasks: list[Task]) -> Iterator[tuple[str, dict[str, Any], dict[str, float]]]:
     for t in tasks:
         yield judge_task(t)
 
 
+def _threads(tasks: list[Task], jobs: int) -> Iterator[tuple[str, dict[str, Any], dict[str, float]]]:
+    """The tasks' outcomes as they arrive, ``jobs`` at a time: each thread judges through a child of its own."""
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    with ThreadPoolExecutor(max_workers=jobs, thread_name_prefix="jethr1-design") as pool:
+        pending = {pool.submit(judge_task, t) for t in tasks}
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in done:
+                    yield f.result()
+        finally:
+            for f in pending:
+                f.cancel()
+            from jethr1_plan.io.recycled import stop_all
+
+            stop_all()  # the threads still waiting for a child's answer get WorkerLost and end
+
+
 def run_tasks(tasks: dict[str, Task], cache: Path, jobs: int = 1, executor: str = "loky",
               scheduler: str | None = None, progress=None) -> tuple[dict[str, dict[str, Any]], dict[str, Any]]:
-    """Every task's result: read from the cache, else judged (in this process with ``jobs`` 1 and no Dask; in
-    ``jobs`` loky workers; or on Dask: a local cluster of ``jobs`` workers, or the one at ``scheduler``), each
-    kept in the cache as it arrives. Returns (key → result, timings: per judged key its CPU and wall time [s],
-    and how many came from the cache)."""
+    """Every task's result: read from the cache, else judged (one at a time with ``jobs`` 1 and no Dask; ``jobs``
+    at a time, each thread through a child process of its own; or on Dask: a local cluster of ``jobs`` workers, or
+    the one at ``scheduler``), each kept in the cache as it arrives. Returns (key → result, timings: per judged key
+    its CPU and wall time [s], and how many came from the cache)."""
     results: dict[str, dict[str, Any]] = {}
     for key in tasks:
         found = read_cached(cache, key)
@@ -236,15 +270,13 @@ def run_tasks(tasks: dict[str, Task], cache: Path, jobs: int = 1, executor: str 
 
         with dask_client(scheduler, jobs), parallel_config(backend="dask"):
             collect(Parallel(return_as="generator_unordered")(delayed(judge_task)(t) for t in todo))
-    elif jobs == 1:
-        collect(_in_process(todo))
     else:
-        from joblib import delayed
+        from jethr1_plan.io.recycled import stop_all
 
-        from jethr1_plan.io.pool import parallel
-
-        with parallel(min(jobs, len(todo)), return_as="generator_unordered") as par:  # workers die with the command
-            collect(par(delayed(judge_task)(t) for t in todo))
+        try:
+            collect(_one_by_one(todo) if jobs == 1 else _threads(todo, min(jobs, len(todo))))
+        finally:
+            stop_all()
     return results, timings
 
 

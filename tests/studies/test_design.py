@@ -155,6 +155,28 @@ def test_two_processes_and_a_dask_cluster_give_the_same_bytes(swept, tmp_path):
             assert (tmp_path / out / name).read_bytes() == (root / "j1" / name).read_bytes(), (out, name)
 
 
+def test_a_new_process_for_every_variant_gives_the_same_bytes(swept, tmp_path, monkeypatch):
+    """Each variant judged in a child process of its own (VARIANTS_PER_PROCESS 1: two children for two variants)
+    writes the bytes of -j 1's run, where one child judged both: nothing of a variant's judging leaks into the
+    next (a wrapper handed out again, a cache)."""
+    from jethr1_plan.io import recycled
+
+    root, spec, _ = swept
+    started: list[int] = []
+
+    class Counted(recycled.Child):
+        def __init__(self, limit: int) -> None:
+            super().__init__(limit)
+            started.append(self.proc.pid)
+
+    monkeypatch.setattr(design_mod, "VARIANTS_PER_PROCESS", 1)
+    monkeypatch.setattr(recycled, "Child", Counted)
+    assert design(spec, tmp_path / "each", tmp_path / "cache_each", "-j", "1") == 0
+    assert len(set(started)) == 2
+    for name in FILES[:2]:
+        assert (tmp_path / "each" / name).read_bytes() == (root / "j1" / name).read_bytes(), name
+
+
 @pytest.fixture()
 def tiny(tmp_path):
     """The two variants judged on one gap, 0.46 m (a plan or two each)."""
