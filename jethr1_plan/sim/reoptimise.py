@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.planning.plan import Sequence, add_analysis, row_solver
+from jethr1_plan.planning.plan import Sequence, add_analysis, one_blas_thread, row_solver
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Scenario
@@ -50,6 +50,11 @@ def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> Plan
     feasible, the segments whose rows break a constraint solved again as the optimiser's last pass does
     (:func:`~jethr1_plan.optimisers.sqp.repair_path_between`) and the rows built again. None where a sample finds
     no posture or a row is still not feasible."""
+    with one_blas_thread():  # as every plan: the answer must not depend on the BLAS's threads (-j)
+        return _reoptimised(one, nominal, shift_m)
+
+
+def _reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> PlanResult | None:
     from jethr1_plan.control.time_laws import swing_row_positions
     from jethr1_plan.optimisers.sqp import repair_path_between, resolve_path
     from jethr1_plan.planning.problems import path_problems

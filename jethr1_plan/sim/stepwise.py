@@ -53,7 +53,7 @@ from jethr1_plan.control.swing_placement import yaw_of
 from jethr1_plan.errors import InfeasiblePlan, InputError
 from jethr1_plan.files.plan_table import plan_table
 from jethr1_plan.geometry import SIDES
-from jethr1_plan.planning.plan import Sequence, add_analysis, plan, row_solver
+from jethr1_plan.planning.plan import Sequence, add_analysis, one_blas_thread, plan, row_solver
 from jethr1_plan.planning.problems import feet_before_each_step
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.records.infeasible import Infeasible
@@ -70,10 +70,6 @@ __all__ = ["MODES", "STAND_S", "Execution", "StepPlan", "execute", "executed_pla
            "refined_path", "replan_step"]
 
 STAND_S = 0.5  # after each step the robot stands this long before it measures and plans the next [s]
-#: a re-anchored step may exceed the edge angle ρ of (A-10) by this [rad]: the plan's postures sit on ρ
-#: (Paper A's margin for the mass model's error, not a balance condition: every row's thrust still balances
-#: within the tolerance), and moving the swing sole by millimetres tips them over it by tenths of a degree
-RHO_SLACK_RAD = math.radians(3.0)
 #: a re-anchored step's trunk moves by these shares of its swing sole's shift, tried in turn
 TRUNK_SHARES = (0.5, 0.0, 1.0)
 #: where a step optimised anew is refused, it is optimised again over its swing path with each segment split
@@ -137,11 +133,19 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
                 cartons: tuple[Carton, ...]) -> tuple[PlanResult, str]:
     """Step ``k`` of ``scenario`` planned from soles at ``start`` [m] to the landing ``target`` [m] among
     ``cartons`` (all in the step frame: the support sole where ``scenario`` has it before the step):
-    re-anchored where its rows are feasible, else optimised anew (:func:`plan_anew`); (the plan, its mode).
+    re-anchored where its rows are feasible under the scenario's own limits (ρ too), else re-optimised from the
+    plan's samples (:func:`~jethr1_plan.sim.reoptimise.reoptimised`), else optimised anew (:func:`plan_anew`);
+    (the plan, its mode).
 
     Raises:
         InfeasiblePlan: none plans.
     """
+    with one_blas_thread():  # as every plan: the answer must not depend on the BLAS's threads (-j)
+        return _replan_step(scenario, k, nominal, start, target, cartons)
+
+
+def _replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str, np.ndarray], target: np.ndarray,
+                 cartons: tuple[Carton, ...]) -> tuple[PlanResult, str]:
     robot = scenario.robot
     st = scenario.steps[k]
     path = reanchor_ends(st.path_m, start[st.swing], target)
@@ -149,7 +153,6 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
                   start={s: np.asarray(start[s], dtype=float) for s in SIDES}, steps=(Step(st.swing, path),),
                   cartons=cartons, expect={})
     if scenario.yaw_mode != "mpc":
-        moved_one = replace(one, balance=replace(one.balance, rho_rad=one.balance.rho_rad + RHO_SLACK_RAD))
         for share in TRUNK_SHARES:
             # the trunk follows the swing sole's shift by ``share``, sample by sample: both legs then bend by
             # part of the shift, away from the joint limits the plan's postures may sit on
@@ -159,13 +162,13 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
             samples = [replace(x, best=replace(x.best, p_body=x.best.p_body + shift[i]))
                        for i, x in enumerate(nominal.samples)]
             step = StepResult(0, st.swing, st.support, path, samples, nominal.fan_index)
-            seq = Sequence(moved_one, robot, row_solver(robot), None, stop_at_infeasible=True)
+            seq = Sequence(one, robot, row_solver(robot), None, stop_at_infeasible=True)
             bad = seq.add(step)
             rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
             if bad is None:
                 bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
             if bad is None and all(rows.columns[RowField.FEASIBLE]):
-                return PlanResult(moved_one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
+                return PlanResult(one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
         again = reoptimised(one, nominal, TRUNK_SHARES[0] * (path - st.path_m))
         if again is not None:
             return again, "re-optimised"
@@ -342,7 +345,7 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
     Each step's trunk postures as the robot planned them (carried into the world by its support sole's
     true pose), its swing path from where the sole stood to where it truly landed (the path moved to those
     ends, :func:`reanchor_ends`; the height of the carton it landed on), the rows built by the planner's
-    row builder (the edge angle widened as for a re-anchored step) with the scenario's timing: no pauses
+    row builder under the scenario's own limits with the scenario's timing: no pauses
     between the steps, every swing lasting the scenario's ``swing_s``, as it ran. A
     sole stands where it landed until it swings again (its slip while it supports is in the run's record).
     Rows that break the planner's rules are kept, marked infeasible."""
@@ -365,12 +368,10 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
         results.append(StepResult(len(results), st.swing, st.support, path, samples, st.fan_index))
         docs.append({"swing": str(st.swing), "path": {"kind": "points", "points_m": path.tolist()}})
         feet[st.swing] = landed
-    rho = scenario.balance.rho_rad + RHO_SLACK_RAD
     doc = yaml.safe_load(scenario.text) if scenario.text else {}
     doc.pop("expect", None)
     doc.update(name=f"{scenario.name}_executed", steps=docs,
                start={str(s): [float(v) for v in scenario.start[s]] for s in SIDES})
-    doc.setdefault("balance", {})["rho_rad"] = float(rho)
     text = ("# The steps `jethr1 simulate` executed step by step (the twin's world): each swing from where its\n"
             "# sole stood to where it landed. Written beside the plan it makes (docs/rehearsal.md).\n"
             + yaml.safe_dump(doc, sort_keys=False))
@@ -380,8 +381,7 @@ def executed_plan(scenario: Scenario, execution: Execution, folder: Path) -> tup
     except InputError:
         text = ""
     done = replace(scenario, name=f"{scenario.name}_executed", steps=tuple(steps), expect={}, source=source,
-                   text=text, start={s: np.asarray(scenario.start[s], dtype=float) for s in SIDES},
-                   balance=replace(scenario.balance, rho_rad=rho))
+                   text=text, start={s: np.asarray(scenario.start[s], dtype=float) for s in SIDES})
     seq = Sequence(done, robot, row_solver(robot), None)
     for st in results:
         seq.add(st)

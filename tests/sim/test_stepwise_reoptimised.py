@@ -83,8 +83,7 @@ def test_the_trial_at_nominal_is_executed_without_a_step_optimised_from_scratch(
                                                                                      + shift[i]))
                                                              for i, x in enumerate(nominal.steps[1].samples)],
                            nominal.steps[1].fan_index)
-        widened = replace(one, balance=replace(one.balance, rho_rad=one.balance.rho_rad + stepwise.RHO_SLACK_RAD))
-        seq = Sequence(widened, sc.robot, row_solver(sc.robot), None, stop_at_infeasible=True)  # as re-anchoring
+        seq = Sequence(one, sc.robot, row_solver(sc.robot), None, stop_at_infeasible=True)  # as re-anchoring
         bad = seq.add(moved)
         assert (bad or seq.finish()[1]) is not None  # the rows refuse it too
     _within_every_limit(sc, step.result, step.start_m["right"][:2])
