@@ -19,7 +19,6 @@ import numpy as np
 __all__ = ["SlsqpResult", "minimize_slsqp"]
 
 
-
 def _compiled_step() -> Callable[..., None] | None:
     """SciPy's compiled SLSQP step (``scipy.optimize._slsqplib.slsqp``, SciPy ≥ 1.16), else None.
 

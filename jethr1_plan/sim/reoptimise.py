@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from jethr1_plan.planning.plan import Sequence, add_analysis, one_blas_thread, row_solver
+from jethr1_plan.planning.plan import Sequence, add_analysis, row_solver
 from jethr1_plan.planning.results import PlanResult, StepResult
 from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Scenario
 
-__all__ = ["ends_reached", "reoptimised"]
+__all__ = ["ends_reached", "reoptimised", "step_plan"]
 
 
 def ends_reached(one: Scenario, path_m: np.ndarray, p_body_m: np.ndarray) -> bool:
@@ -49,12 +49,8 @@ def reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> Plan
     row builder under the scenario's own limits (ρ too) and analysed; where a row between two samples is not
     feasible, the segments whose rows break a constraint solved again as the optimiser's last pass does
     (:func:`~jethr1_plan.optimisers.sqp.repair_path_between`) and the rows built again. None where a sample finds
-    no posture or a row is still not feasible."""
-    with one_blas_thread():  # as every plan: the answer must not depend on the BLAS's threads (-j)
-        return _reoptimised(one, nominal, shift_m)
-
-
-def _reoptimised(one: Scenario, nominal: StepResult, shift_m: np.ndarray) -> PlanResult | None:
+    no posture or a row is still not feasible. Called within ``planning.plan.one_blas_thread`` (as
+    :func:`~jethr1_plan.sim.stepwise.replan_step` calls it), its answer does not depend on the BLAS's threads."""
     from jethr1_plan.control.time_laws import swing_row_positions
     from jethr1_plan.optimisers.sqp import repair_path_between, resolve_path
     from jethr1_plan.planning.problems import path_problems
@@ -83,19 +79,26 @@ def _planned(one: Scenario, nominal: StepResult, problems: list, p_body: np.ndar
     from jethr1_plan.optimisers.problem import evaluate_candidates, fitness
     from jethr1_plan.optimisers.sqp_share import scaled
 
-    robot, st, cfg = one.robot, one.steps[0], one.optimiser
-    solver = row_solver(robot)
+    st, cfg = one.steps[0], one.optimiser
+    solver = row_solver(one.robot)
     samples = []
     for i, pr in enumerate(problems):
         cand = evaluate_candidates(solver, scaled(pr, float(shares[i])), p_body[i][None])
         samples.append(SampleResult(cand, float(fitness(cand, cfg.constants)[0]), int(evals[i]), "sqp",
                                     float(shares[i])))
     step = StepResult(0, st.swing, st.support, st.path_m, samples, nominal.fan_index)
-    seq = Sequence(one, robot, solver, None, stop_at_infeasible=True)
+    return step_plan(one, step, "re-optimised", int(evals.sum()))
+
+
+def step_plan(one: Scenario, step: StepResult, method: str, evaluations: int = 0) -> PlanResult | None:
+    """The one-step plan of ``step`` (its samples chosen) in the one-step scenario ``one``: its rows built by the
+    planner's row builder and analysed under ``one``'s own limits; None where a row is not feasible."""
+    robot = one.robot
+    seq = Sequence(one, robot, row_solver(robot), None, stop_at_infeasible=True)
     bad = seq.add(step)
     rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
     if bad is None:
         bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
     if bad is not None or not all(rows.columns[RowField.FEASIBLE]):
         return None
-    return PlanResult(one, robot, "re-optimised", one.seed, [step], rows, None, int(evals.sum()), 0.0)
+    return PlanResult(one, robot, method, one.seed, [step], rows, None, evaluations, 0.0)

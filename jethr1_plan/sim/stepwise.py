@@ -60,7 +60,7 @@ from jethr1_plan.records.infeasible import Infeasible
 from jethr1_plan.records.plan_rows import RowField
 from jethr1_plan.scenario import Scenario, Step, load_scenario_text
 from jethr1_plan.sim.judge import RunResult
-from jethr1_plan.sim.reoptimise import ends_reached, reoptimised
+from jethr1_plan.sim.reoptimise import ends_reached, reoptimised, step_plan
 from jethr1_plan.sim.run import HOLD_S, SETTLE_S, TwinRun
 from jethr1_plan.sim.sensors import OwnKinematics
 from jethr1_plan.sim.track import Frame, Perturbation, moved, plan_kinematics, track_of
@@ -146,7 +146,6 @@ def replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str
 
 def _replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[str, np.ndarray], target: np.ndarray,
                  cartons: tuple[Carton, ...]) -> tuple[PlanResult, str]:
-    robot = scenario.robot
     st = scenario.steps[k]
     path = reanchor_ends(st.path_m, start[st.swing], target)
     one = replace(scenario, name=f"{scenario.name}_step{k}",
@@ -161,14 +160,10 @@ def _replan_step(scenario: Scenario, k: int, nominal: StepResult, start: dict[st
                 continue  # its first swing row or the first row after its landing is out of reach: refused
             samples = [replace(x, best=replace(x.best, p_body=x.best.p_body + shift[i]))
                        for i, x in enumerate(nominal.samples)]
-            step = StepResult(0, st.swing, st.support, path, samples, nominal.fan_index)
-            seq = Sequence(one, robot, row_solver(robot), None, stop_at_infeasible=True)
-            bad = seq.add(step)
-            rows, bad = (seq.seq.rows, bad) if bad is not None else seq.finish()
-            if bad is None:
-                bad = add_analysis(rows, robot, 1.0 / one.timing.rate_hz, False)
-            if bad is None and all(rows.columns[RowField.FEASIBLE]):
-                return PlanResult(one, robot, "re-anchored", one.seed, [step], rows, None, 0, 0.0), "re-anchored"
+            planned = step_plan(one, StepResult(0, st.swing, st.support, path, samples, nominal.fan_index),
+                                "re-anchored")
+            if planned is not None:
+                return planned, "re-anchored"
         again = reoptimised(one, nominal, TRUNK_SHARES[0] * (path - st.path_m))
         if again is not None:
             return again, "re-optimised"
