@@ -6,8 +6,9 @@ delays and the perception error: ``configs/scattered_steps.yaml`` and the routes
 k from ``default_rng([0, k])``, as ``jethr1 simulate PLAN --controller feedback --trials N``), the
 survivors and their 95 % Clopper–Pearson interval, the failures with their draws, the steps planned in
 each way (``modes``: re-anchored, optimised, and the fall-backs ``stepwise.plan_anew``), and the landings'
-distance to their footholds over all trials (the route's edge margin, robots/jethr1/jethr1.yaml
-``execution.landing_error_m``, is its 99th percentile). docs/rehearsal.md quotes it.
+distance to their footholds over all trials, and every landing (trial, step, mode, distance), so that the
+landings of all plans can be pooled (the route's edge margin, robots/jethr1/jethr1.yaml
+``execution.landing_error_m``, is to cover their 99th percentile). docs/rehearsal.md quotes it.
 
 Resumable: a plan whose certificate is in --json already is not run again.
 
@@ -58,7 +59,10 @@ def certify(folder: Path, trials: int, jobs: int) -> dict:
             "refused": [{"trial": k, **ex.refused} for k, ex in enumerate(execs) if ex.refused],
             "modes": {m: sum(s["mode"] == m for ex in execs for s in ex.steps) for m in MODES},
             "landing_error_m": _stats(landings), "support_slip_m": _stats(slips), "support_turn_rad": _stats(turns),
-            "simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None}
+            "simulated_s": simulated, "wall_s": wall, "realtime_factor": simulated / wall if wall else None,
+            # every landing: [trial, step, how it was planned, its distance to the foothold [m] (0.1 µm)]
+            "landings": [[k, s["step"], s["mode"], round(s["landing_error_m"], 7)]
+                         for k, ex in enumerate(execs) for s in ex.steps if "landing_error_m" in s]}
 
 
 def _stats(x: list[float]) -> dict:
@@ -126,6 +130,12 @@ def main() -> int:
     passed = sum(r["certificate"]["lower_bound"] >= 0.95 for r in plans.values())
     print(f"\n{passed} of {len(plans)} plans reach a 95 % lower bound of 0.95; the landings' 99th percentile per plan: "
           f"at most {1000 * max(landings):.1f} mm" if landings else "")
+    pooled = [row[3] for r in plans.values() for row in r.get("landings", [])]
+    if pooled:
+        kept = [name for name, r in plans.items() if r.get("landings")]
+        p99, top = 1000 * np.percentile(pooled, 99), 1000 * max(pooled)
+        print(f"all {len(pooled)} landings of {len(kept)} plans: 99th percentile {p99:.1f} mm, largest {top:.1f} mm "
+              "(the route's edge margin, execution.landing_error_m, is to cover the 99th)")
     return 0
 
 
