@@ -308,8 +308,12 @@ class TwinRun:
         return False
 
     def _record(self, cop: np.ndarray | None) -> None:
+        """The state at the run's clock, once per instant: the first tick of a plan followed after another carries
+        the clock where the last one left it, and that instant is recorded already."""
         d, twin = self.data, self.twin
         assert self.rec is not None
+        if self.rec["t"] and self.t <= self.rec["t"][-1]:
+            return
         self.rec["t"].append(self.t)
         self.rec["qpos"].append(d.qpos[:7].tolist() + d.qpos[twin.qpos_adr].tolist())
         self.rec["thrust"].append(self.applied.tolist())

@@ -277,6 +277,8 @@ def execute(scenario: Scenario, nominal: list[StepResult], controller: str = "fe
             run.start(first.pelvis[0], first.q[0])
         seg = run.follow(moved(track, to_world), moved(track, to_imu), settle_s=SETTLE_S if k == 0 else 0.0,
                          hold_s=HOLD_S if k == n - 1 else STAND_S)
+        for landing in seg.landings:  # the scenario's step (the run's landings are the segment's, step 0 each)
+            landing["step"] = k
         out.plans.append(StepPlan(k, result.scenario, result, mode, to_world, start, target))
         out.steps.append(_step_record(k, st, mode, to_world, target, error, start, (sup_true, yaw_true), seg))
         out.steps[-1].update(path_samples=len(result.steps[0].path_m), swing_s=float(result.scenario.timing.swing_s))

@@ -132,3 +132,18 @@ def test_a_feedforward_robot_reads_its_sensors_every_tick_while_it_estimates(two
     rehearse(track_of(plan_table(sc.robot, nominal.rows), sc.robot, sc.cartons, 50.0, 23.0,
                       {"thrust_error": 0.1, "mass_error": 0.05, "com_error_m": 0.01}), "feedforward")
     assert reads == []
+
+
+def test_the_run_names_each_landing_by_its_step_and_records_each_instant_once(two_steps):
+    """The run's landings (``simulation.json``'s ``landing_errors_m``) name the scenario's step and the sole that
+    swung, not the step within each executed one-step plan (which is 0 for every one); the record
+    (``simulation.mcap``'s 50 Hz samples) holds each instant once: where one step's plan hands over to the next,
+    the next plan's first tick carries the run's clock where the last one left it, and is not recorded again
+    (a repeated stamp on ``/tf``: two transforms of every frame at one time, which tf2 rejects)."""
+    sc, nominal = two_steps
+    ex = execute(sc, nominal.steps, "feedback", record=True)
+    assert ex.run.survived
+    assert [(e["step"], e["sole"]) for e in ex.run.landing_errors_m] == [(k, st.swing) for k, st in enumerate(sc.steps)]
+    t = np.asarray(ex.run.record["t"])
+    np.testing.assert_allclose(np.diff(t), 0.02, atol=1e-9)  # 50 Hz throughout, across the hand-over
+    assert len(t) == round(t[-1] / 0.02) + 1 and t[0] == 0.0
