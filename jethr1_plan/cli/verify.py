@@ -20,14 +20,15 @@ __all__ = ["verify"]
 def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
     """Re-check a trajectory (CSV, MCAP or an output folder) with PlaCo, independently of the planner.
 
-    Exit 0 when every row holds, 5 when any fails (one line per failing row on stderr).
+    Exit 0 when every row holds, 5 when any fails (one line per failing row on stderr, the first 50
+    failures in row order and the first of every other check; then how many rows fail in all).
     """
     from jethr1_plan.verify.folder import verify_path
 
     n, failures, what, checked = verify_path(path, scenario)
     if as_json:
         print_json({"file": what, "rows": n, "ok": not failures, "checked": [str(p) for p in checked],
-                    "failures": [f.__dict__ for f in failures]})
+                    "failing_rows": len(failures.rows), "failures": [f.__dict__ for f in failures]})
     by_row: dict[int, list] = {}
     for f in failures:
         by_row.setdefault(f.row, []).append(f)
@@ -36,7 +37,8 @@ def verify(path: Path, scenario: Path | None, as_json: bool) -> None:
         err_console.print(f"{what}: row {row} (t = {fs[0].time_s:.3f} s): {checks}", markup=False, soft_wrap=True)
     err_console.print(f"checked {_names(checked)}", markup=False, highlight=False, soft_wrap=True)
     if failures:
-        err_console.print(f"[red]verify: {len(by_row)} failing rows{'+' if len(failures) >= 50 else ''} of {n}[/]")
+        cut = f" (the first {len(by_row)} listed)" if len(failures.rows) > len(by_row) else ""
+        err_console.print(f"[red]verify: {len(failures.rows)} failing rows of {n}{cut}[/]")
         raise click.exceptions.Exit(EXIT_VERIFY_FINDING)
     err_console.print(f"[green]verify: all {n} rows of {what} hold[/]")
 

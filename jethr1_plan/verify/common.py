@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["TOL_M", "TOL_RAD", "TOL_T", "Failure", "csv_header", "is_walk"]
+__all__ = ["TOL_M", "TOL_RAD", "TOL_T", "Failure", "Failures", "csv_header", "is_walk"]
 
 TOL_M = 1e-6  # written against recomputed positions [m] (the IK tolerance; floats round-trip exactly)
 TOL_RAD = 1e-6  # written against recomputed angles [rad]
@@ -25,6 +26,16 @@ class Failure:
 
     def __str__(self) -> str:
         return f"row {self.row} (t = {self.time_s:.3f} s): {self.check}: {self.detail}"
+
+
+class Failures(list[Failure]):
+    """The failures a verifier reports (the first ones in row order: a long list is cut short) and
+    ``rows``, every row that fails a check, whether or not its failures are listed."""
+
+    def __init__(self, listed: Iterable[Failure] = (), rows: Iterable[int] = ()) -> None:
+        items = list(listed)
+        super().__init__(items)
+        self.rows: frozenset[int] = frozenset(rows) | {f.row for f in items}
 
 
 def csv_header(path: Path) -> list[str] | None:

@@ -8,13 +8,13 @@ from pathlib import Path
 from jethr1_plan.errors import InputError
 from jethr1_plan.files.plan_folder import TRAJECTORY_FILES, read_json
 from jethr1_plan.folders.plan import read_plan
-from jethr1_plan.verify.common import Failure, csv_header, is_walk
+from jethr1_plan.verify.common import Failures, csv_header, is_walk
 from jethr1_plan.verify.plan import verify_plan
 
 __all__ = ["verify_path"]
 
 
-def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Failure], str, list[Path]]:
+def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, Failures, str, list[Path]]:
     """Verify a ``trajectory.csv``, a ``trajectory.mcap``, a plan folder (every file, the CSV and the
     MCAP checked against each other) or a walk folder; returns (rows, failures, what was checked,
     every file read).
@@ -36,7 +36,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, list[Fai
 
         files = [folder / f for f in TRAJECTORY_FILES if (folder / f).is_file()]
         n, failures, what = verify_walk(folder, summary, files)
-        return n, failures, what, [summary_path, folder / "trajectory.csv"]
+        return n, Failures(failures), what, [summary_path, folder / "trajectory.csv"]
     plan = read_plan(path, scenario)
     n, failures = verify_plan(plan)
     what = str(path) if len(plan.files) > 1 else str(plan.files[0])

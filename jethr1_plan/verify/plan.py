@@ -31,7 +31,7 @@ from jethr1_plan.folders.plan import PlanFolder
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify import analysis_checks, balance_checks, plan_checks, timing
 from jethr1_plan.verify.checks import RowCheck
-from jethr1_plan.verify.common import Failure
+from jethr1_plan.verify.common import Failure, Failures
 from jethr1_plan.verify.plan_rows import RowData
 
 __all__ = ["CHECKS", "verify_plan", "verify_rows"]
@@ -40,12 +40,12 @@ __all__ = ["CHECKS", "verify_plan", "verify_rows"]
 CHECKS: list[RowCheck] = [*plan_checks.CHECKS, *balance_checks.CHECKS, *analysis_checks.CHECKS, *timing.CHECKS]
 
 
-def verify_plan(plan: PlanFolder) -> tuple[int, list[Failure]]:
+def verify_plan(plan: PlanFolder) -> tuple[int, Failures]:
     """Every row of every trajectory file of ``plan`` (and, with both, the CSV against the MCAP);
     (rows, failures sorted by row). The checks are a function of what they read: a file whose rows,
     numbers and swing paths are those of a file already checked has that file's findings (the MCAP
     of a plan carries the CSV's very floats), and its rows are not checked a second time."""
-    n, failures = 0, []
+    n, failures, rows = 0, [], set[int]()
     done: list[tuple[dict, list | None, tuple[int, list[Failure]]]] = []
     for f, table in plan.tables.items():
         paths = plan.swing_paths.get(f)
@@ -56,13 +56,14 @@ def verify_plan(plan: PlanFolder) -> tuple[int, list[Failure]]:
                                                              summary=plan.summary, scenario=plan.scenario)
         done.append((table, paths, (k, fails)))
         n = max(n, k)
+        rows |= fails.rows if isinstance(fails, Failures) else {x.row for x in fails}
         failures += [Failure(x.row, x.time_s, x.check, f"{f.name}: {x.detail}" if len(plan.tables) > 1 else x.detail)
                      for x in fails]
     if len(plan.tables) == 2:
         (_, csv_rows), (_, mcap_rows) = sorted(plan.tables.items(), key=lambda kv: kv[0].suffix)
         failures += _compare_files(csv_rows, mcap_rows)
     failures.sort(key=lambda x: x.row)
-    return n, failures
+    return n, Failures(failures, rows)
 
 
 def _same_table(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
@@ -143,8 +144,9 @@ def verify_rows(c: dict[str, np.ndarray], robot: RobotModel, swing_paths: list[n
     return data.n, _failures(found, c, max_failures)
 
 
-def _failures(found: list, c: dict, max_failures: int) -> list[Failure]:
-    """The first ``max_failures`` failures in row order, and the first of every other kind of check."""
+def _failures(found: list, c: dict, max_failures: int) -> Failures:
+    """The first ``max_failures`` failures in row order, and the first of every other kind of check; every
+    failing row counted (``Failures.rows``)."""
     found.sort(key=lambda f: (f[0], f[1]))
     chosen = found[:max_failures]
     shown = {f[2] for f in chosen}
@@ -157,4 +159,4 @@ def _failures(found: list, c: dict, max_failures: int) -> list[Failure]:
     for i, _, check, detail in chosen:
         t = float(times[i]) if 0 <= i < len(times) and np.isfinite(times[i]) else float(len(times))
         out.append(Failure(i, t, check, detail))
-    return out
+    return Failures(out, {f[0] for f in found})

@@ -191,3 +191,25 @@ def test_verify_reads_only_what_was_written(planned, tmp_path, capsys):
     (d / "summary.json").write_text(json.dumps(s))
     assert _verify(rewritten(d), capsys)[0] == 0
     assert os.path.exists(d / "trajectory.mcap")
+
+
+def test_verify_counts_every_failing_row_beyond_those_it_lists(planned, tmp_path, capsys):
+    """80 rows marked infeasible: the first 50 failures are listed, one line each, and the last line counts all 80
+    (not the 50 listed); --json says so too."""
+    d = _copy(planned, tmp_path)
+    marked = list(range(200, 280))
+
+    def edit(header, rows):
+        for i in marked:
+            rows = _set(header, rows, i, "feasible", "false")
+        return rows
+
+    _edit_csv(d, edit)
+    code, err = _verify(d / "trajectory.csv", capsys)
+    lines = err.strip().splitlines()
+    listed = {int(ln.split(": row ")[1].split(" ")[0]) for ln in lines[:-2]}
+    assert code == 5 and len(listed) == 50 and listed <= set(marked)
+    assert "80 failing rows of" in lines[-1] and "the first 50 listed" in lines[-1], lines[-1]
+    code = run(["verify", str(d / "trajectory.csv"), "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert code == 5 and doc["failing_rows"] == 80 and len(doc["failures"]) == 50
