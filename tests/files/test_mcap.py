@@ -133,7 +133,7 @@ def test_the_docs_print_the_declared_topics():
     ("LAYOUT", ("trajectory", "simulation"), {"/robot_description", "/sim/robot_description"}),
     ("WALK_LAYOUT", ("walk",), {"/robot_description"}),
     ("BALANCE_SPACE_LAYOUT", ("balance_space",), set()),
-    ("ROUTE_LAYOUT", ("route_plan", "route"), {"/robot_description"})])
+    ("ROUTE_LAYOUT", ("route_plan", "route", "simulation"), {"/robot_description", "/sim/robot_description"})])
 def test_the_shipped_layouts_read_what_the_files_have(files, layout, kinds, urdf_topics):
     """Every plot path of a layout (``/topic.field[index]``) resolves to a number on a message of its
     files; its URDF layers and 3D topics are topics the files carry."""
