@@ -36,7 +36,7 @@ def verify_path(path: Path, scenario: Path | None = None) -> tuple[int, Failures
 
         files = [folder / f for f in TRAJECTORY_FILES if (folder / f).is_file()]
         n, failures, what = verify_walk(folder, summary, files)
-        return n, Failures(failures), what, [summary_path, folder / "trajectory.csv"]
+        return n, failures, what, [summary_path, folder / "trajectory.csv"]
     plan = read_plan(path, scenario)
     n, failures = verify_plan(plan)
     what = str(path) if len(plan.files) > 1 else str(plan.files[0])

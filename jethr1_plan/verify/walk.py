@@ -47,7 +47,7 @@ from jethr1_plan.robot.load import load_robot
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.verify.balance import hull_edges, sole_edges, support_margin
 from jethr1_plan.verify.commands import WALK_SAG_FILTER_S, servo_commands
-from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, is_walk
+from jethr1_plan.verify.common import TOL_M, TOL_T, Failure, Failures, is_walk
 from jethr1_plan.verify.motion import base_wrench, row_motion
 
 __all__ = ["CRITERIA", "EDGE_ROWS", "is_walk", "verify_walk"]
@@ -127,8 +127,9 @@ def _footsteps(summary: dict, src: str) -> Footsteps:
     return Footsteps(start, sides, landings, lift, land)
 
 
-def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: int = 50):
-    """Verify a walk's files; (rows, failures, what was checked).
+def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: int = 50) -> tuple[int, Failures, str]:
+    """Verify a walk's files; (rows, failures (the first ``max_failures`` listed, every failing row counted), what
+    was checked).
 
     Raises:
         InputError: an unreadable or malformed file or summary.
@@ -151,10 +152,12 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     if missing:
         raise InputError(str(csv_path), "header", f"missing column {missing[0]!r}")
     found: list[Failure] = []
+    failing: set[int] = set()  # every failing row, listed or not
     n = len(c["time_s"])
     t = c["time_s"]
 
     def fail(rows, check: str, detail) -> None:
+        failing.update(int(i) for i in np.atleast_1d(rows))
         for i in np.atleast_1d(rows)[:max_failures]:
             i = int(i)
             found.append(Failure(i, float(t[i]) if i < n else float("nan"), check,
@@ -168,7 +171,7 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     if summary.get("ok") is not True:
         fail([0], "verdict", "summary.json says the walk failed its own criteria")
     if n == 0:
-        return 0, found, str(folder)
+        return 0, Failures(found, failing), str(folder)
     bad_t = np.flatnonzero(np.abs(t - np.arange(n) / rate) > TOL_T)
     fail(bad_t, "time", lambda i: f"t = {t[i]!r} s, expected {i / rate:.9f} s at {rate:g} Hz")
     quat = np.column_stack([c[f"pelvis_q{a}"] for a in "xyzw"])
@@ -184,7 +187,7 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
          "the servo commands are not the rows plus the sag under their torques")
     if np.isnan(np.concatenate([quat.ravel(), q.ravel()])).any():
         fail([int(np.flatnonzero(np.isnan(np.column_stack([quat, q])).any(axis=1))[0])], "file", "an empty pose cell")
-        return n, found[:max_failures], str(folder)
+        return n, Failures(found[:max_failures], failing), str(folder)
     given = summary.get("spec", {}).get("success", {})
     if not isinstance(given, dict):
         raise InputError(src, "spec.success", "not a mapping")
@@ -197,7 +200,7 @@ def verify_walk(folder: Path, summary: dict, files: list[Path], max_failures: in
     if mcap_path in files and mcap_path.is_file():
         _check_mcap(mcap_path, robot, q, t, fail)
     found.sort(key=lambda f: f.row)
-    return n, found[:max_failures], str(folder)
+    return n, Failures(found[:max_failures], failing), str(folder)
 
 
 def _knee_bend(w, robot: RobotModel, side: str) -> float:

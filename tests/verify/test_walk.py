@@ -76,3 +76,17 @@ def test_a_knee_reversal_within_one_period_is_named(walked, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "acceleration: R_KneePitch accelerates at" in err and "row 506" in err
     np.testing.assert_array_less(100.0, np.nanmax(np.abs(audit_walk(bad).qdd)))
+
+
+def test_every_failing_row_of_a_walk_is_counted(walked, tmp_path, capsys):
+    """A trunk quaternion of norm 2 on 120 rows: the first 50 are listed, and the count is all 120."""
+    def change(header, rows):
+        j = header.index("pelvis_qw")
+        for k in range(300, 420):
+            rows[k][j] = "2.0"
+
+    bad = _edit(walked, tmp_path, "quat", change)
+    capsys.readouterr()
+    assert run(["verify", str(bad)]) == 5
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "120 failing rows of" in last and "listed" in last, last
