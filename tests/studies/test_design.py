@@ -381,3 +381,19 @@ def test_a_cache_that_cannot_be_a_folder_is_refused_before_any_work(tmp_path, ca
     assert len(err) == 1 and f"{cache}: cannot keep the design cache here" in err[0], err
     assert not (tmp_path / "out").exists()
     assert (cache / "design" if where == "design_file" else cache).read_text() == "mine\n"
+
+
+def test_variants_that_would_not_fit_in_memory_are_refused_before_any_work(tmp_path, capsys, monkeypatch, no_judging):
+    """A design whose variants' robot files (held until the files are written, VARIANT_BYTES each) are more than
+    the memory available: one line naming the design file and its axes, exit 2, before any variant is built or
+    judged; nothing written, no cache made."""
+    from jethr1_plan.cli import common
+
+    spec = tmp_path / "two.yaml"
+    spec.write_text(SPEC)
+    monkeypatch.setattr(common, "memory_available", lambda: int(1.5 * design_mod.VARIANT_BYTES))
+    monkeypatch.setattr(design_mod, "make_tasks", lambda *a, **k: pytest.fail("the variants were built"))
+    assert design(spec, tmp_path / "out", tmp_path / "cache") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{spec}: axes: 2 variants' robot files need about" in err[0], err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
