@@ -9,7 +9,15 @@ from pathlib import Path
 import click
 from rich.table import Table
 
-from jethr1_plan.cli.common import Progress, cap_jobs, err_console, print_json, report_kept, require_dask
+from jethr1_plan.cli.common import (
+    Progress,
+    cap_jobs,
+    check_memory,
+    err_console,
+    print_json,
+    report_kept,
+    require_dask,
+)
 from jethr1_plan.errors import InputError
 
 __all__ = ["design_cmd"]
@@ -39,9 +47,8 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     timings.json and the best variants as robot folders (OUTDIR/robots/)."""
     from jethr1_plan.io.atomic import staged_directory
     from jethr1_plan.io.json_text import json_text
-    from jethr1_plan.io.record import check_writable
     from jethr1_plan.robot.load import load_robot
-    from jethr1_plan.studies.design import check_first, default_cache, make_tasks, run_tasks
+    from jethr1_plan.studies.design import check_first, make_tasks, run_tasks
     from jethr1_plan.studies.design_report import (
         OWN_FILES,
         best_folders,
@@ -61,11 +68,10 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
         raise InputError(str(spec_path), "base_robot", str(exc)) from None
     variants = spec.variants()
     require_dask(executor, scheduler)
-    check_writable(outdir, need_bytes=200_000 + 2_000 * len(variants))
+    folder = check_places(spec_path, outdir, cache, len(variants))
     keys, tasks = make_tasks(spec, variants)
     check_first(spec, tasks[keys[0]])
     jobs = cap_jobs(jobs) if scheduler is None else jobs
-    folder = default_cache(cache)
     err_console.print(f"design {spec.name}: {len(variants)} variants of {base.name} ({len(tasks)} distinct), "
                       f"judged on ditches of {spec.judge.gaps_m[0]:g}-{spec.judge.gaps_m[1]:g} m every "
                       f"{1000 * spec.judge.resolution_m:g} mm; results kept in {folder}/design/",
@@ -112,6 +118,26 @@ def design_cmd(spec_path: Path, outdir: Path, jobs: int, executor: str, schedule
     err_console.print(f"{judged} variants judged ({cpu:.0f} s of CPU), {timings['from_cache']} from the cache; "
                       f"{wall:.0f} s in all. Wrote {outdir}/design.csv, design.json, design.png, timings.json{written}",
                       markup=False, highlight=False)
+
+
+def check_places(spec_path: Path, outdir: Path, cache: Path | None, variants: int) -> Path:
+    """Before any work: the memory holds the ``variants``' robot files, the output folder can take the files (none
+    of its names a file of the user's, robots/ and scenarios/ folders where they exist, room for a row a variant)
+    and the cache can keep results; the cache's folder.
+
+    Raises:
+        InputError: the first problem (exit 2).
+    """
+    from jethr1_plan.io.record import check_subfolders, check_writable
+    from jethr1_plan.studies.design import VARIANT_BYTES, check_cache, default_cache
+    from jethr1_plan.studies.design_report import OWN_FILES, SUBFOLDERS
+
+    check_memory(str(spec_path), "axes", variants * VARIANT_BYTES, f"{variants:,} variants' robot files")
+    check_writable(outdir, need_bytes=200_000 + 2_000 * variants, writes=sorted(OWN_FILES))
+    check_subfolders(outdir, SUBFOLDERS)
+    folder = default_cache(cache)
+    check_cache(folder)
+    return folder
 
 
 def best_table(spec, best) -> Table:

@@ -28,8 +28,8 @@ from jethr1_plan.files.plan_folder import (
 from jethr1_plan.files.plan_mcap import read_trajectory_mcap
 from jethr1_plan.io.input_file import read_input
 from jethr1_plan.io.json_text import MAX_JSON_BYTES, json_document
-from jethr1_plan.io.yaml_input import check_schema
-from jethr1_plan.records.plan_columns import TIME, TOLERANCE_SHARE, ZMP_MARGIN
+from jethr1_plan.io.yaml_input import check_schema, short
+from jethr1_plan.records.plan_columns import PHASE, SAMPLE, STEP, SUPPORT, TIME, TOLERANCE_SHARE, ZMP_MARGIN
 from jethr1_plan.robot.load import load_robot
 from jethr1_plan.robot.model import RobotModel
 from jethr1_plan.scenario import Scenario, load_scenario, load_scenario_text
@@ -121,9 +121,40 @@ class PlanFolder:
                 if len(bad):
                     out.append((f.name, int(bad[0]), f"{name} is empty or not a finite number"))
                     break
+            out += self._word_problems(f, table)
+        return out
+
+    def _word_problems(self, f: Path, table: dict[str, np.ndarray]) -> list[tuple[str, int, str]]:
+        """The first row whose phase or support is not one of :data:`ROW_WORDS`, the first whose step is not
+        one of summary.json's steps or the transfer after the last (0 to their count), the first whose sample
+        is negative."""
+        out = []
+        for name, words in ROW_WORDS.items():
+            col = table.get(name)
+            if col is not None:
+                bad = np.flatnonzero(~np.isin(col.astype(str), words))
+                if len(bad):
+                    out.append((f.name, int(bad[0]), f"{name} {short(str(col[bad[0]]))}: expected "
+                                f"{', '.join(words)}"))
+        steps = (self.summary or {}).get("steps")
+        feasible = (self.summary or {}).get("feasible") is True  # (an infeasible plan's rows end where it failed)
+        count = len(steps) if feasible and isinstance(steps, list) and steps else None
+        for name, hi in ((STEP, count), (SAMPLE, None)):
+            col = table.get(name)
+            if col is None or col.dtype.kind not in "iuf":
+                continue
+            bad = np.flatnonzero((col < 0) | (col > hi) if hi is not None else col < 0)
+            if len(bad):
+                within = f"0 to {hi} (summary.json's {hi} steps, then the last transfer)" if hi is not None else \
+                    "0 or more"
+                value = col[bad[0]]
+                text = f"{value:.0f}" if float(value).is_integer() else f"{value:g}"
+                out.append((f.name, int(bad[0]), f"{name} {text}: expected {within}"))
         return out
 
 
+#: the words a plan's rows take in their text columns (a plan of jethr1's: a swing or a transfer, on one sole or both)
+ROW_WORDS = {PHASE: ("swing", "transfer"), SUPPORT: ("left", "right", "both")}
 #: number columns that may be empty (NaN): no swing sole in a transfer, no thrust window, no tolerance
 OPTIONAL_PREFIXES = ("swing_", "thrust_window_")  # the swing sole's and the window's columns (SWING, WINDOW)
 OPTIONAL_NUMBER_COLUMNS = frozenset({ZMP_MARGIN, TOLERANCE_SHARE})

@@ -19,8 +19,9 @@ from typing import Any
 from jethr1_plan.errors import InputError
 from jethr1_plan.io.input_file import describe_kind, is_input
 
-__all__ = ["MAX_RECORD_BYTES", "NAME_MAX", "RECORD", "check_names", "check_targets", "check_writable", "file_sha256",
-           "nearest_existing", "os_problem", "read_record", "record_text", "write_record"]
+__all__ = ["MAX_RECORD_BYTES", "NAME_MAX", "RECORD", "check_names", "check_subfolders", "check_targets",
+           "check_writable", "file_sha256", "nearest_existing", "os_problem", "read_record", "record_text",
+           "write_record"]
 
 RECORD = ".jethr1-files.json"  # in every folder jethr1 writes into: the files it wrote there, size and SHA-256
 MAX_RECORD_BYTES = 10_000_000
@@ -182,6 +183,27 @@ def check_writable(folder: Path, need_bytes: int = 0, writes: Iterable[str] = ()
         if free < need_bytes:
             raise InputError(str(folder), "", f"needs about {need_bytes / 1e6:.1f} MB, {free / 1e6:.1f} MB free "
                              f"in {base}")
+
+
+def check_subfolders(folder: Path, names: Iterable[str]) -> None:
+    """Check, before any work, that each of ``names`` in ``folder`` (subfolders a command writes files into) is
+    a folder where it exists, not a file, a link or a device in the way; nothing is created.
+
+    Raises:
+        InputError: the first name that is not a folder (exit 2), "nothing written".
+    """
+    for name in names:
+        p = Path(folder) / name
+        try:
+            st = os.lstat(p)
+        except FileNotFoundError:
+            continue
+        except OSError as exc:
+            raise InputError(str(p), "", f"cannot write here: {os_problem(exc)}; nothing written") from None
+        if not stat.S_ISDIR(st.st_mode):
+            raise InputError(str(p), "", f"{describe_kind(st.st_mode) if not stat.S_ISREG(st.st_mode) else 'a file'} "
+                             f"where jethr1 writes its {name}/ folder: move it away or choose another output; "
+                             "nothing written")
 
 
 def write_record(folder: Path, record: dict[str, dict[str, Any]], tmp: Path) -> None:

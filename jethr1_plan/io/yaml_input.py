@@ -123,13 +123,15 @@ def check_schema(doc: dict, src: str, schema: dict) -> None:
         if old is not None:
             raise InputError(src, *old)
     err = errors[0]
-    # for oneOf failures, report the most specific error of the branch whose discriminator (``kind``) matched
+    # for oneOf failures, report the most specific error of the branch the value was meant for: the one whose
+    # discriminator (``kind``) matched, else the one whose shape it has (its keys, its type)
     while err.context:
         branches: dict = {}
         for sub in err.context:
             branches.setdefault(sub.relative_schema_path[0], []).append(sub)
         matched = [errs for errs in branches.values() if not any(e.validator == "const" for e in errs)]
-        pool = matched[0] if matched else err.context
+        depth = len(err.absolute_path)
+        pool = min(matched, key=lambda errs: _shape_errors(errs, depth)) if matched else err.context
         err = sorted(pool, key=lambda e: (-len(e.absolute_path), str(e.message)))[0]
     if err.validator == "additionalProperties":
         extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
@@ -139,6 +141,14 @@ def check_schema(doc: dict, src: str, schema: dict) -> None:
         missing = err.message.split("'")[1] if "'" in err.message else err.message
         raise InputError(src, keypath([*err.absolute_path, missing]), "missing")
     raise InputError(src, keypath(err.absolute_path), describe(err))
+
+
+def _shape_errors(errors: list, depth: int) -> int:
+    """How many of a oneOf branch's ``errors`` say the value is not of the branch's shape (a key it requires
+    missing, a key it does not know, another type) rather than a bad value inside it: at the value itself
+    (``depth``: the length of its key path)."""
+    return sum(len(e.absolute_path) == depth and e.validator in ("required", "additionalProperties", "type")
+               for e in errors)
 
 
 def short(value, limit: int = 60) -> str:

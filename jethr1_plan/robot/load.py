@@ -65,6 +65,12 @@ def _resolve(name_or_path: str | Path) -> Path:
     d = ROBOTS_DIR / str(name_or_path)
     if d.is_dir() and (d / f"{name_or_path}.yaml").is_file():
         return d / f"{name_or_path}.yaml"
+    if os.path.lexists(p):
+        raise RobotModelError(str(p), "", "not a robot: expected a folder holding one robot YAML, or a robot YAML "
+                              "(.yaml)")
+    if len(p.parts) > 1 or p.suffix in (".yaml", ".yml"):
+        raise RobotModelError(str(p), "", "no such file or folder: expected a robot's folder or YAML (or the name of "
+                              "one of robots/)")
     known = ", ".join(sorted(x.name for x in ROBOTS_DIR.iterdir() if x.is_dir())) if ROBOTS_DIR.is_dir() else ""
     raise RobotModelError(str(name_or_path), "robot", f"unknown robot (known: {known or 'none'})")
 

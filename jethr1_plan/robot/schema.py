@@ -14,7 +14,7 @@ from pathlib import Path
 from jethr1_plan.errors import InputError, RobotModelError
 from jethr1_plan.io.yaml_input import read_document, read_text
 
-__all__ = ["LAWS", "LEG_ROLES", "MAX_ROBOT_BYTES", "SCHEMA", "read_robot_yaml"]
+__all__ = ["LAWS", "LEG_ROLES", "MAX_ROBOT_BYTES", "MIN_CONTROL_HZ", "MIN_TWIN_STEP_S", "SCHEMA", "read_robot_yaml"]
 
 #: a leg's six joints by role, hip to ankle: the closed-form IK's structure (kinematics.closed_form)
 LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
@@ -22,6 +22,11 @@ LEG_ROLES = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_r
 LAWS = ("imu_tilt_pid", "cop_edge_pi")
 MAX_ROBOT_BYTES = 1_000_000  # a robot YAML is a few kilobytes
 MAX_VALUES = 20_000  # values in the document, aliases expanded (Jet-HR1's has about 150)
+#: the slowest thrust loop [Hz]: the twin steps 1 / (rate · timestep) times between two of its ticks in one call
+#: that Ctrl-C cannot stop, and a slower loop acts a few times at most in a swing of about 1 s
+MIN_CONTROL_HZ = 10.0
+#: the twin's finest step [s] (ten times finer than its default, 1 ms): a run costs 1 / timestep steps a second
+MIN_TWIN_STEP_S = 1e-4
 
 _name = {"type": "string", "minLength": 1, "maxLength": 200}
 _ident = {"type": "string", "pattern": "^[A-Za-z0-9_]+$", "maxLength": 100}
@@ -73,7 +78,7 @@ SCHEMA = _obj({
     }, ("stall_torque_nm", "joints")),
     "controller": _obj({
         "law": {"enum": list(LAWS)},
-        "rate_hz": _num(0, 1e4, lo_open=True),
+        "rate_hz": _num(MIN_CONTROL_HZ, 1e4),
         "band_margin_m": _num(0, 0.5),
         "kp_n_per_m": _num(0, 1e7),
         "ki_n_per_m_s": _num(0, 1e8),
@@ -110,7 +115,7 @@ SCHEMA = _obj({
     }),
     "execution": _obj({"landing_error_m": _num(0, 0.5)}),
     "twin": _obj({
-        "timestep_s": _num(0, 0.01, lo_open=True),
+        "timestep_s": _num(MIN_TWIN_STEP_S, 0.01),
         "sole_friction": _num(0, 10, lo_open=True),
         "sole_thickness_m": _num(0, 0.1, lo_open=True),
     }),

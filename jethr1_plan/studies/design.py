@@ -30,8 +30,9 @@ from jethr1_plan import __version__
 from jethr1_plan.errors import InputError
 from jethr1_plan.studies.design_spec import DesignSpec, JudgeSettings, Variant
 
-__all__ = ["CODE", "VARIANTS_PER_PROCESS", "Task", "cache_path", "check_first", "code_digest", "default_cache",
-           "judge_here", "judge_task", "make_tasks", "read_cached", "run_tasks", "variant_key", "write_cached"]
+__all__ = ["CODE", "VARIANTS_PER_PROCESS", "VARIANT_BYTES", "Task", "cache_path", "check_cache", "check_first",
+           "code_digest", "default_cache", "judge_here", "judge_task", "make_tasks", "read_cached", "run_tasks",
+           "variant_key", "write_cached"]
 
 FORMAT = 1  # the cached result's layout; part of the key
 #: the package's code a variant's result depends on (its digest is part of the key)
@@ -40,6 +41,9 @@ CODE = ("control", "kinematics", "optimisers", "physics", "planning", "robot", "
 #: variants one process judges before a new one takes over (each leaves PlaCo's models of its robot behind, about
 #: 0.8 MB: ``robot.wrappers``)
 VARIANTS_PER_PROCESS = 40
+#: a variant held in memory until the files are written: its task's robot files (Jet-HR1's URDF and YAML, 14 kB;
+#: 15 kB a variant measured over 20,000) and its result [bytes]
+VARIANT_BYTES = 20_000
 JUDGED_NAME = "variant"  # the robot name of the folder a task judges (the same for every variant: not in the key)
 
 
@@ -167,6 +171,22 @@ def check_first(spec: DesignSpec, task: Task) -> None:
                              + str(exc).replace(str(folder), "<variant>")) from None
         finally:
             forget_robots()
+
+
+def check_cache(cache: Path) -> None:
+    """Refuse, before any work, a cache where results cannot be kept: ``<cache>/design`` (or the nearest of its
+    folders that exists) a file, or a place that cannot be written; nothing is created.
+
+    Raises:
+        InputError: naming the cache (exit 2).
+    """
+    from jethr1_plan.io.record import check_writable
+
+    try:
+        check_writable(Path(cache) / "design")
+    except InputError as exc:
+        raise InputError(str(cache), "", f"cannot keep the design cache here: {exc.source}: {exc.problem} (--cache "
+                         "DIR or $JETHR1_CACHE choose another place)") from None
 
 
 def read_cached(cache: Path, key: str) -> dict[str, Any] | None:

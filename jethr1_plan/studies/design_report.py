@@ -17,11 +17,12 @@ import numpy as np
 from jethr1_plan.io.csv_table import csv_text, number_text
 from jethr1_plan.studies.design_spec import DesignSpec, Variant
 
-__all__ = ["COLUMNS", "OWN_FILES", "best_folders", "best_variants", "design_csv", "design_doc", "design_png",
-           "pareto_front", "readme_text", "scenario_text", "variant_rows"]
+__all__ = ["COLUMNS", "OWN_FILES", "SUBFOLDERS", "best_folders", "best_variants", "design_csv", "design_doc",
+           "design_png", "pareto_front", "readme_text", "scenario_text", "variant_rows"]
 
 MASS_DIGITS = 9  # masses in the files to the microgram [kg]: sums of link masses differ from the design by rounding
 OWN_FILES = frozenset({"design.csv", "design.json", "design.png", "timings.json"})
+SUBFOLDERS = ("robots", "scenarios")  # the best variants' robot folders and their crossings
 LEVEL_NAMES = ("whole", "half", "crossed")
 #: design.csv's columns after the axes' (each axis a column of its own, named as in the design file)
 COLUMNS = (

@@ -38,7 +38,7 @@ MAX_AXES = 8
 ROBUST_TOLERANCE = Tolerance(thrust=0.10, mass=0.05, com_m=0.01)  # a scenario's balance.robust default
 REF = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
 
-_ref = {"type": "string", "pattern": REF.pattern}
+_ref = {"type": "string", "pattern": REF.pattern, "description": "a number, or an axis by name: $name or -$name"}
 
 
 def _num_or_ref(lo: float, hi: float) -> dict:

@@ -95,6 +95,15 @@ ROWS = {  # simulate refuses these (exit 2); verify finds them (exit 5)
     "an empty cell": (lambda h, r: _cell(h, r, 10, "left_knee_rad", ""), "row 11: left_knee_rad is empty", "not a "
                       "number"),
     "cut to 476 rows": (lambda h, r: r[:476], "476 rows, summary.json says 676", "row count"),
+    # words and indices no plan has (a support of 'none' was a KeyError in the twin, exit 1; the others ran)
+    "a support of none": (lambda h, r: _cell(h, r, 300, "support", "none"),
+                          "row 301: support 'none': expected left, right, both", "phase out of order"),
+    "a phase of flying": (lambda h, r: _cell(h, r, 300, "phase", "flying"),
+                          "row 301: phase 'flying': expected swing, transfer", "phase out of order"),
+    "a step of 1e11": (lambda h, r: _cell(h, r, 300, "step", "99999999999"),
+                       "row 301: step 99999999999: expected 0 to 1 (summary.json's 1 steps", "phase out of order"),
+    "a negative sample": (lambda h, r: _cell(h, r, 300, "sample", "-5"), "row 301: sample -5: expected 0 or more",
+                          "phase out of order"),
 }
 
 
@@ -105,6 +114,7 @@ def test_rows_that_disagree_are_refused_by_simulate_and_found_by_verify(side_ste
     assert run(["simulate", str(d), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and words in err and "Traceback" not in err
+    assert not (d / "simulation.json").exists() and not (d / "simulation.mcap").exists()
     assert run(["verify", str(d / "trajectory.csv")]) == 5  # no LinAlgError on the nan cell
     err = capsys.readouterr().err
     assert f": {check}: " in err and "Traceback" not in err

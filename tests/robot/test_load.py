@@ -52,7 +52,10 @@ def test_a_forgotten_robot_is_read_afresh(tmp_path) -> None:
     assert np.allclose(again.servo_limit_nm / first.servo_limit_nm, 9.0 / 7.8)
 
 
-@pytest.mark.parametrize("name, problem", [("", "empty"), ("no_such_robot", "unknown robot")])
+@pytest.mark.parametrize("name, problem", [("", "empty"), ("no_such_robot", "unknown robot"),
+                                           ("/no/such/robot", r"^/no/such/robot: no such file or folder"),
+                                           ("gone.yaml", r"^gone\.yaml: no such file or folder"),
+                                           ("/dev/null", r"^/dev/null: not a robot: expected a folder")])
 def test_a_robot_that_is_not_there_is_named(name, problem) -> None:
     with pytest.raises(RobotModelError, match=problem):
         load_robot(name)

@@ -298,3 +298,102 @@ def test_a_bad_design_file_is_one_line_and_exit_2(tmp_path, capsys, bad, key):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and key in err[0] and str(path) in err[0], err
     assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
+
+
+ONE = "axes:\n  thrust_n: {values: [18.0]}\n"
+
+
+@pytest.mark.parametrize("bad, key, problem", [
+    # a value of the branch it was written for, named as such (not as the other branch's missing key)
+    ("axes:\n  thrust_n: {values: []}\n" + FANS, "axes.thrust_n.values", "0 items: expected at least 1"),
+    ("axes:\n  thrust_n: {values: [a, 23.0]}\n" + FANS, "axes.thrust_n.values[0]", "expected number, got 'a'"),
+    ("axes:\n  thrust_n: {values: [1.0e+300]}\n" + FANS, "axes.thrust_n.values[0]", "above the largest allowed"),
+    (ONE + FANS.replace("{kg_per_n: 0.0100869565217391}", "{table: [[23, 0.2]]}"), "fan_mass.table",
+     "1 items: expected at least 2"),
+    (ONE + FANS.replace("{kg_per_n: 0.0100869565217391}", "{table: [[10, -1], [30, 0.3]]}"),
+     "fan_mass.table[0][1]", "-1 is below the smallest allowed, 0"),
+    (ONE + FANS.replace("$thrust_n", "$$thrust_n", 1), "fans[0].thrust_max_n",
+     "must be a number, or an axis by name"),
+    (ONE + FANS.replace("$thrust_n", "-3", 1), "fans[0].thrust_max_n", "-3 is below the smallest allowed, 0"),
+])
+def test_a_bad_value_of_a_one_of_key_names_its_own_key(tmp_path, capsys, bad, key, problem):
+    """A key that takes one of two shapes (an axis's values or range, fan_mass's line or table, a number or an axis
+    reference) is refused for what is wrong in the shape it has, not for a key of the other shape it lacks."""
+    path = tmp_path / "bad.yaml"
+    path.write_text(bad)
+    assert design(path, tmp_path / "out", tmp_path / "cache") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{path}: {key}: " in err[0] and problem in err[0], err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
+
+
+@pytest.fixture()
+def no_judging(monkeypatch):
+    """A judge that must not be reached: a refusal comes before any variant is judged."""
+    def judge(task):
+        raise RuntimeError("a variant was judged before the refusal")
+
+    monkeypatch.setattr(design_mod, "judge_task", judge)
+
+
+@pytest.mark.parametrize("prepare, named", [
+    (lambda out: (out.mkdir(), (out / "design.csv").write_text("mine\n")), "out/design.csv"),
+    (lambda out: (out.mkdir(), (out / "robots").write_text("mine\n")), "out/robots"),
+    (lambda out: (out.mkdir(), (out / "scenarios").mkdir(), (out / "design.png").mkdir()), "out/design.png"),
+])
+def test_an_output_folder_holding_the_user_s_files_is_refused_before_any_work(tmp_path, capsys, no_judging,
+                                                                               prepare, named):
+    """-o naming a folder of the user's where design writes its files (a file of an output's name, a file where
+    its robots/ folder goes): one line naming it, exit 2, before any variant is judged; the user's files as they
+    were, no cache made."""
+    spec = tmp_path / "two.yaml"
+    spec.write_text(SPEC)
+    out = tmp_path / "out"
+    prepare(out)
+    before = {p: p.read_bytes() if p.is_file() else None for p in out.rglob("*")}
+    assert design(spec, out, tmp_path / "cache") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{tmp_path / named}: " in err[0] and "nothing written" in err[0], err
+    assert {p: p.read_bytes() if p.is_file() else None for p in out.rglob("*")} == before
+    assert not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("where", ["design_file", "env_file"])
+def test_a_cache_that_cannot_be_a_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch, no_judging,
+                                                                     where):
+    """$JETHR1_CACHE naming a file, or a cache whose design/ is a file: one line naming the cache,
+    exit 2, before any variant is judged; nothing written, the file as it was."""
+    spec = tmp_path / "two.yaml"
+    spec.write_text(SPEC)
+    cache = tmp_path / "cache"
+    if where == "design_file":
+        cache.mkdir()
+        (cache / "design").write_text("mine\n")
+    else:
+        cache.write_text("mine\n")
+    if where == "env_file":
+        monkeypatch.setenv("JETHR1_CACHE", str(cache))
+        code = run(["design", str(spec), "-o", str(tmp_path / "out"), "--no-progress"])
+    else:
+        code = design(spec, tmp_path / "out", cache)
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{cache}: cannot keep the design cache here" in err[0], err
+    assert not (tmp_path / "out").exists()
+    assert (cache / "design" if where == "design_file" else cache).read_text() == "mine\n"
+
+
+def test_variants_that_would_not_fit_in_memory_are_refused_before_any_work(tmp_path, capsys, monkeypatch, no_judging):
+    """A design whose variants' robot files (held until the files are written, VARIANT_BYTES each) are more than
+    the memory available: one line naming the design file and its axes, exit 2, before any variant is built or
+    judged; nothing written, no cache made."""
+    from jethr1_plan.cli import common
+
+    spec = tmp_path / "two.yaml"
+    spec.write_text(SPEC)
+    monkeypatch.setattr(common, "memory_available", lambda: int(1.5 * design_mod.VARIANT_BYTES))
+    monkeypatch.setattr(design_mod, "make_tasks", lambda *a, **k: pytest.fail("the variants were built"))
+    assert design(spec, tmp_path / "out", tmp_path / "cache") == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{spec}: axes: 2 variants' robot files need about" in err[0], err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "cache").exists()
