@@ -123,12 +123,9 @@ def check_targets(folder: Path, names: Iterable[str], record: dict[str, dict[str
         record = read_record(folder, strict=True) if folder.is_dir() else {}
     for name in names:
         p = folder / name
-        try:
-            st = os.lstat(p)
-        except FileNotFoundError:
+        st = _lstat(p)
+        if st is None:
             continue
-        except OSError as exc:
-            raise InputError(str(p), "", f"cannot write here: {os_problem(exc)}; nothing written") from None
         if not stat.S_ISREG(st.st_mode):
             raise InputError(str(p), "", f"{describe_kind(st.st_mode)} where jethr1 writes its {name}: jethr1 "
                              "replaces only files it wrote; move it away or choose another output; nothing written")
@@ -194,16 +191,27 @@ def check_subfolders(folder: Path, names: Iterable[str]) -> None:
     """
     for name in names:
         p = Path(folder) / name
-        try:
-            st = os.lstat(p)
-        except FileNotFoundError:
+        st = _lstat(p)
+        if st is None:
             continue
-        except OSError as exc:
-            raise InputError(str(p), "", f"cannot write here: {os_problem(exc)}; nothing written") from None
         if not stat.S_ISDIR(st.st_mode):
             raise InputError(str(p), "", f"{describe_kind(st.st_mode) if not stat.S_ISREG(st.st_mode) else 'a file'} "
                              f"where jethr1 writes its {name}/ folder: move it away or choose another output; "
                              "nothing written")
+
+
+def _lstat(p: Path) -> os.stat_result | None:
+    """What is at ``p`` (not following a link), None where nothing is.
+
+    Raises:
+        InputError: ``p`` cannot be looked at (exit 2), "nothing written".
+    """
+    try:
+        return os.lstat(p)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise InputError(str(p), "", f"cannot write here: {os_problem(exc)}; nothing written") from None
 
 
 def write_record(folder: Path, record: dict[str, dict[str, Any]], tmp: Path) -> None:
