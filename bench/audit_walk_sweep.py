@@ -16,6 +16,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

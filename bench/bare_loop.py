@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 import placo
 

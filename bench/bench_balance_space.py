@@ -36,6 +36,8 @@ import threading
 import time
 from pathlib import Path
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 
 from jethr1_plan.balance_space.agreement import (

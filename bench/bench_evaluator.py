@@ -13,6 +13,8 @@ import sys
 import time
 from pathlib import Path
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

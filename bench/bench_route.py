@@ -26,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 
 from jethr1_plan.io.json_text import json_text

@@ -23,6 +23,8 @@ import math
 import sys
 from pathlib import Path
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 import yaml
 

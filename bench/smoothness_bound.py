@@ -20,6 +20,8 @@ import itertools
 import time
 from dataclasses import replace
 
+import jethr1_plan.arithmetic  # noqa: F401  (first: NumPy's and OpenBLAS's kernels pinned before they load)
+
 import numpy as np
 
 from jethr1_plan.optimisers.search import Evaluator

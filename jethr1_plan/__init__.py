@@ -4,8 +4,8 @@ walking with pelvic rotation (Paper B).
 The package is layered, lowest first; a layer imports only its own and the layers below
 (``tools/check_imports.py`` holds them, ``make lint`` checks them, docs/architecture.md explains them):
 
-0. :mod:`.errors` — the exception tree; :mod:`.reasons` — why things fail; :mod:`.geometry` — the words
-   everything uses
+0. :mod:`.arithmetic` — the same bytes on every machine; :mod:`.errors` — the exception tree; :mod:`.reasons`
+   — why things fail; :mod:`.geometry` — the words everything uses
 1. :mod:`.io` — YAML, JSON, CSV tables, atomic writes
 2. :mod:`.robot` — the robot as data
 3. :mod:`.records` — what the planner produces, typed
@@ -27,6 +27,10 @@ The package is layered, lowest first; a layer imports only its own and the layer
 17. :mod:`.viewer` — written folders shown in Rerun (``jethr1 view``)
 18. :mod:`.cli` — the command line
 """
+
+from jethr1_plan.arithmetic import pin_arithmetic
+
+pin_arithmetic()  # before any import of NumPy: the same bytes on every x86-64 machine (arithmetic.py)
 
 __version__ = "0.1.0"
 __all__ = ["__version__"]

@@ -16,7 +16,7 @@ from collections import defaultdict
 from pathlib import Path
 
 LAYERS: list[tuple[str, ...]] = [
-    ("__init__", "errors", "reasons", "geometry"),  # the words everything uses
+    ("__init__", "arithmetic", "errors", "reasons", "geometry"),  # the words everything uses
     ("io",),  # YAML, JSON, CSV tables, atomic writes
     ("robot",),  # the robot as data
     ("records",),  # what the planner produces, typed: rows, columns, topics, the first infeasible sample
@@ -42,6 +42,8 @@ LAYERS: list[tuple[str, ...]] = [
 #: package's own docstring, which the table does not list.
 WHAT: dict[str, str] = {
     "__init__": "the package: its version and this map of the house",
+    "arithmetic": "the same bytes on every machine: OpenBLAS's and NumPy's kernels pinned before they load, on "
+                  "every x86-64 processor with AVX2 and FMA",
     "errors": "the exception tree: every expected failure carries its exit code (`InputError` 2, `InfeasiblePlan` "
               "3, ...)",
     "reasons": "why things fail: one vocabulary of why a posture, a sample or a cell fails (`Reason`, with "

@@ -38,5 +38,28 @@ def dask_client(scheduler: str | None, jobs: int) -> Any:
         raise InputError("--scheduler", scheduler, f"no Dask scheduler answered within {CONNECT_TIMEOUT_S:g} s "
                          f"({problem})") from None
     with client:
+        _same_arithmetic(client, scheduler)
         client.run(show_notices_as_lines)
         yield client
+
+
+def _same_arithmetic(client: Any, scheduler: str) -> None:
+    """Refuse a cluster whose workers compute otherwise than this process (``arithmetic.signature``): their
+    results would differ from ``-j 1``'s in the last digits, and a sweep's bytes would depend on which worker
+    ran which task. (A local cluster's workers inherit this process's pinned environment.)
+
+    Raises:
+        InputError: a worker's signature differs from this process's (exit 2).
+    """
+    import platform
+
+    from jethr1_plan.arithmetic import cpu_flags, pinned_environment, signature
+
+    mine = signature()
+    for worker, theirs in sorted(client.run(signature).items()):
+        if theirs != mine:
+            pins = pinned_environment({}, platform.machine(), cpu_flags())
+            how = (" ".join(f"{k}='{v}'" for k, v in pins.items()) if pins else "the same processor type")
+            raise InputError("--scheduler", scheduler, f"worker {worker} computes with {theirs}, this command with "
+                             f"{mine}: its results would differ from -j 1's in the last digits; start the workers "
+                             f"with {how} (docs/install.md)")
