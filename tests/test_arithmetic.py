@@ -5,6 +5,7 @@ different machine does to the bytes."""
 
 from __future__ import annotations
 
+import json
 import os
 import platform
 import subprocess
@@ -88,6 +89,8 @@ def test_a_plan_has_the_same_bytes_with_another_processors_kernels(tmp_path) -> 
                         "-o", str(tmp_path / name), "--no-progress"], env={**base, **env}, check=True,
                        capture_output=True)
         outs.append((tmp_path / name / "side_step" / "trajectory.csv").read_bytes())
+        summary = json.loads((tmp_path / name / "side_step" / "summary.json").read_text())
+        assert summary["arithmetic"] == signature()  # (the folder names the arithmetic that wrote it)
     assert outs[0] == outs[1]
 
 
@@ -114,3 +117,4 @@ def test_a_cluster_whose_workers_compute_otherwise_is_refused_naming_the_worker(
 def test_this_test_process_computes_as_the_command_line_does() -> None:
     # (the tests compare files written by the commands with results computed here: both must be pinned)
     assert signature() == _probe()[1]
+

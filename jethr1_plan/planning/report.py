@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from jethr1_plan.arithmetic import signature
+
 import numpy as np
 
 from jethr1_plan import __version__
@@ -147,6 +149,7 @@ def plan_summary(result: PlanResult) -> dict:
         "optimiser": result.method,
         "seed": result.seed,
         "version": __version__,
+        "arithmetic": signature(),  # the kernels that computed it: the bytes are the same wherever this is
         "feasible": result.feasible,
         "first_infeasible": None if result.first_infeasible is None else result.first_infeasible.to_dict(),
         "sample_count": int(sum(len(st.samples) for st in result.steps)),

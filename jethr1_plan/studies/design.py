@@ -62,9 +62,12 @@ def code_digest(root: Path | None = None) -> bytes:
 
 def variant_key(files: dict[str, bytes], judge: JudgeSettings, code: bytes) -> str:
     """The cache key of a variant's result: SHA-256 of its files (names and bytes), the judge's settings, the
-    package's version and the code's digest (:func:`code_digest`)."""
+    package's version, the code's digest (:func:`code_digest`) and this process's arithmetic
+    (``arithmetic.signature``: a result computed with other kernels may differ in its last digits)."""
+    from jethr1_plan.arithmetic import signature
+
     h = hashlib.sha256()
-    parts = [f"jethr1-plan {__version__} design result {FORMAT}".encode(), code,
+    parts = [f"jethr1-plan {__version__} design result {FORMAT}".encode(), code, signature().encode(),
              json.dumps(judge.as_dict(), sort_keys=True).encode()]
     for name in sorted(files):
         parts += [name.encode(), files[name]]

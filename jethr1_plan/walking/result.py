@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from jethr1_plan.arithmetic import signature
+
 import numpy as np
 
 from jethr1_plan.geometry import SIDES
@@ -94,6 +96,7 @@ def walk_summary(result: WalkResult) -> dict:
     return {
         "kind": "walk",
         "version": __version__,
+        "arithmetic": signature(),  # the kernels that computed it: the bytes are the same wherever this is
         "name": spec.name,
         "walk_file": spec.source,
         "robot": spec.robot.name,
