@@ -97,9 +97,10 @@ def test_every_step_of_the_route_holds_on_the_map(synthetic_maps):
 @pytest.mark.parametrize("seed", range(3))
 def test_the_route_is_as_cheap_as_the_exhaustive_search(synthetic_maps, seed):
     """A* with its admissible heuristic against Dijkstra over every reachable stance: both find a route
-    or neither does, at the same cost, and A* expands fewer stances."""
+    or neither does, at the same cost, and A* expands fewer stances. (Within 4 steps seeds 0 and 1 have a
+    route of 4 steps, seed 2 none; the exhaustive search's time grows with the limit: 6 steps took 3× as long.)"""
     doc = yaml.safe_load(random_terrain(seed, cartons=3, gaps_m=(0.02, 0.12)))
-    t = terrain_of(yaml.safe_dump({**doc, "limits": {"max_steps": 6}}))
+    t = terrain_of(yaml.safe_dump({**doc, "limits": {"max_steps": 4}}))
     holds = footholds(t)
     a = astar(StepModel(t, holds, synthetic_maps))
     e = exhaustive(StepModel(t, holds, synthetic_maps))
