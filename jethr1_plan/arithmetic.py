@@ -17,6 +17,7 @@ the machine's own kernels.
 
 from __future__ import annotations
 
+import functools
 import os
 import platform
 import sys
@@ -77,6 +78,7 @@ def blas_cores() -> list[str]:
     return sorted(str(i.get("architecture")) for i in threadpool_info() if i.get("internal_api") == "openblas")
 
 
+@functools.cache  # (the libraries' kernels are chosen once, when they load)
 def signature() -> str:
     """How this process computes, in one line: the processor's architecture, each OpenBLAS's kernels and the
     highest NumPy code path in use (e.g. ``x86_64, OpenBLAS Haswell/Haswell, NumPy AVX2``). Two processes of the
