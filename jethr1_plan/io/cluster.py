@@ -59,7 +59,8 @@ def _same_arithmetic(client: Any, scheduler: str) -> None:
     for worker, theirs in sorted(client.run(signature).items()):
         if theirs != mine:
             pins = pinned_environment({}, platform.machine(), cpu_flags())
-            how = (" ".join(f"{k}='{v}'" for k, v in pins.items()) if pins else "the same processor type")
+            how = ("with " + " ".join(f"{k}='{v}'" for k, v in pins.items()) if pins
+                   else f"on {platform.machine()} machines of this one's kind")
             raise InputError("--scheduler", scheduler, f"worker {worker} computes with {theirs}, this command with "
                              f"{mine}: its results would differ from -j 1's in the last digits; start the workers "
-                             f"with {how} (docs/install.md)")
+                             f"{how} (docs/install.md)")
