@@ -118,3 +118,21 @@ def test_this_test_process_computes_as_the_command_line_does() -> None:
     # (the tests compare files written by the commands with results computed here: both must be pinned)
     assert signature() == _probe()[1]
 
+
+
+@here_only
+def test_a_real_cluster_with_a_worker_on_other_kernels_is_refused() -> None:
+    distributed = pytest.importorskip("distributed")
+    from jethr1_plan.io.cluster import dask_client
+
+    other = {"OPENBLAS_CORETYPE": "Sandybridge", NATIVE_VARIABLE: "1"}  # a worker as an older processor runs
+    for env, refused in (({}, False), (other, True)):
+        with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                      env=env) as cluster:
+            if not refused:
+                with dask_client(cluster.scheduler_address, 1) as client:  # workers started like the command
+                    assert set(client.run(signature).values()) == {signature()}
+                continue
+            with pytest.raises(InputError) as exc, dask_client(cluster.scheduler_address, 1):
+                pass
+            assert "Sandybridge" in str(exc.value) and "OPENBLAS_CORETYPE='Haswell'" in str(exc.value)
