@@ -172,8 +172,10 @@ class StepModel:
             all_ok = np.all(ok, axis=1)
             peak = np.where(all_ok, np.max(thrust, axis=1), np.inf)
             hit = collides(paths, self.L, self.W, self.cartons)
+            with np.errstate(invalid="ignore"):  # rows beyond the map hold inf: judged by ``all_ok`` first
+                means, leasts = thrust.mean(axis=1), margin.min(axis=1)
             for i in range(len(targets)):
-                if tall[i]:
+                if tall[i] or best[i].ok:  # a lower arc of the list the map accepts stands
                     continue
                 if reach[i]:
                     e = Edge(False, why="reach")
@@ -191,8 +193,7 @@ class StepModel:
                 elif not all_ok[i]:
                     e = Edge(False, clearance_m=clearance, why="margin")
                 else:
-                    mean = float(np.mean(thrust[i]))
-                    least = float(np.min(margin[i]))
+                    mean, least = float(means[i]), float(leasts[i])
                     cost = (w.step + w.peak_thrust * peak[i] / self.fmax + w.mean_thrust * mean / self.fmax
                             + w.margin * max(0.0, 1.0 - least / w.margin_m)
                             + w.edge * max(0.0, 1.0 - float(self.holds.edge_m[targets[i]]) / w.edge_m))
