@@ -253,20 +253,30 @@ def collides(paths: np.ndarray, length_m: float, width_m: float, cartons: list[C
     k = len(paths)
     if paths.shape[1] < 2 or not cartons or not k:
         return np.zeros(k, dtype=bool)
-    t = np.linspace(0.0, 1.0, densify, endpoint=False)
-    p = paths[:, :-1, None, :] + t[None, None, :, None] * (paths[:, 1:] - paths[:, :-1])[:, :, None, :]
-    p = p.reshape(k, -1, 3)
     rect = np.array([carton.top_rectangle() for carton in cartons])  # (C, 4): x0, x1, y0, y1
     top = np.array([carton.top_z for carton in cartons])
     bottom = np.array([carton.top_z - carton.size_m[2] for carton in cartons])
+    # each path's box (its densified points lie within it, to rounding) against each carton's, the sole's size
+    # around: (K, C), those that cannot touch left out
+    lo, hi = paths.min(axis=1) - 1e-9, paths.max(axis=1) + 1e-9
+    near = ((rect[None, :, 1] > lo[:, None, 0] - length_m) & (rect[None, :, 0] < hi[:, None, 0] + length_m)
+            & (rect[None, :, 3] > lo[:, None, 1] - width_m) & (rect[None, :, 2] < hi[:, None, 1] + width_m)
+            & (top[None, :] > lo[:, None, 2]) & (bottom[None, :] < hi[:, None, 2]))
     hit = np.zeros(k, dtype=bool)
-    lo, hi = p.reshape(-1, 3).min(axis=0), p.reshape(-1, 3).max(axis=0)
-    near = np.flatnonzero((rect[:, 1] > lo[0] - length_m) & (rect[:, 0] < hi[0] + length_m)
-                          & (rect[:, 3] > lo[1] - width_m) & (rect[:, 2] < hi[1] + width_m)
-                          & (top > lo[2]) & (bottom < hi[2]))
-    for j in near:  # one carton at a time: (K, P) arrays, not (K, P, C); those the paths' box cannot touch skipped
-        x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    rows = np.flatnonzero(near.any(axis=1))
+    if not len(rows):
+        return hit
+    t = np.linspace(0.0, 1.0, densify, endpoint=False)
+    some = paths[rows]
+    p = (some[:, :-1, None, :] + t[None, None, :, None] * (some[:, 1:] - some[:, :-1])[:, :, None, :]).reshape(
+        len(rows), -1, 3)
+    for j in np.flatnonzero(near[rows].any(axis=0)):  # one carton at a time, over the paths that may touch it
+        mine = np.flatnonzero(near[rows, j] & ~hit[rows])
+        if not len(mine):
+            continue
+        q = p[mine]
+        x, y, z = q[..., 0], q[..., 1], q[..., 2]
         over = ((np.minimum(x + length_m / 2, rect[j, 1]) - np.maximum(x - length_m / 2, rect[j, 0]) > 1e-9)
                 & (np.minimum(y + width_m / 2, rect[j, 3]) - np.maximum(y - width_m / 2, rect[j, 2]) > 1e-9))
-        hit |= np.any(over & (z < top[j] - 1e-9) & (z > bottom[j]), axis=1)
+        hit[rows[mine]] = np.any(over & (z < top[j] - 1e-9) & (z > bottom[j]), axis=1)
     return hit

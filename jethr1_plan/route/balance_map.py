@@ -146,6 +146,11 @@ class BalanceMap:
         self.margin[~self.member] = 0.0
         self.origin = np.array([a[0] for a in self.axes])
         self.shape = np.array(self.member.shape)
+        # :meth:`lookup`'s gathers on the raveled grids: a node's index is its (ix, iy, iz) @ strides
+        self._strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1], dtype=np.int64)
+        self._corners = np.array([[dx, dy, dz] for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)]) @ self._strides
+        self._member_flat, self._thrust_flat = self.member.ravel(), np.ravel(self.thrust)
+        self._margin_flat, self._reason_flat = self.margin.ravel(), np.ravel(self.reason)
         xy = np.stack(np.meshgrid(self.axes[0], self.axes[1], indexing="ij"), axis=-1)[self.member.any(axis=2)]
         #: the farthest a member node lies from the support sole's centre, horizontally [m]
         self.reach_m = float(np.linalg.norm(xy, axis=1).max() + res) if len(xy) else 0.0
@@ -158,20 +163,14 @@ class BalanceMap:
         g = (rel - self.origin) / res
         i0 = np.floor(g + 1e-9).astype(np.int64)
         inside = np.all((i0 >= 0) & (i0 + 1 < self.shape), axis=-1)
-        i0c = np.clip(i0, 0, self.shape - 2)
-        ok = inside.copy()
-        thrust = np.zeros(rel.shape[:-1])
-        margin = np.full(rel.shape[:-1], np.inf)
-        for dx in (0, 1):
-            for dy in (0, 1):
-                for dz in (0, 1):
-                    ix, iy, iz = i0c[..., 0] + dx, i0c[..., 1] + dy, i0c[..., 2] + dz
-                    ok &= self.member[ix, iy, iz]
-                    thrust = np.maximum(thrust, self.thrust[ix, iy, iz])
-                    margin = np.minimum(margin, self.margin[ix, iy, iz])
-        near = np.clip(np.rint(g).astype(np.int64), 0, self.shape - 1)
-        reason = np.where(inside, self.reason[near[..., 0], near[..., 1], near[..., 2]], OUTSIDE)
-        need = np.where(inside, self.thrust[near[..., 0], near[..., 1], near[..., 2]], np.inf)
+        # the cell's eight corner nodes, as indices into the raveled grids
+        corners = (np.clip(i0, 0, self.shape - 2) @ self._strides)[..., None] + self._corners
+        ok = inside & self._member_flat.take(corners).all(axis=-1)
+        thrust = self._thrust_flat.take(corners).max(axis=-1)
+        margin = self._margin_flat.take(corners).min(axis=-1)
+        near = np.clip(np.rint(g).astype(np.int64), 0, self.shape - 1) @ self._strides
+        reason = np.where(inside, self._reason_flat.take(near), OUTSIDE)
+        need = np.where(inside, self._thrust_flat.take(near), np.inf)
         return ok, np.where(inside, thrust, np.inf), np.where(ok, margin, 0.0), reason, need
 
     def reach_along(self, direction_xy: np.ndarray, within_rad: float = math.radians(10.0)) -> float:
