@@ -89,7 +89,15 @@ def test_the_warm_up_inputs_are_valid_scenarios_and_walks(tmp_path):
     robust, trunk = load_scenario(tmp_path / "robust.yaml"), load_scenario(tmp_path / "trunk_fan.yaml")
     assert robust.balance.policy == "robust" and trunk.balance.policy == "minimal"
     assert len(trunk.robot.fans) == 3 and trunk.balance.thrust_max_n == 20.0
+    # GAS's share pass runs only where the whole tolerance cannot be held: beyond Jet-HR1's widest robust ditch,
+    # 350 mm (docs/robust_planning.md)
+    edge = load_scenario(tmp_path / "edge.yaml")
+    assert edge.balance.policy == "robust" and edge.steps[0].landing_m[0] - robust.steps[0].landing_m[0] == \
+        pytest.approx(0.1)
+    assert any("edge.yaml" in a and "gas" in a for g in groups for a in map(" ".join, g))
     load_walk(tmp_path / "walk.yaml")
+    arms = load_walk(tmp_path / "arms.yaml")  # the arm-swing kernels: a robot with arms that swing
+    assert arms.arms.enabled and arms.robot.name == "dyros_jet_like"
 
 
 @pytest.mark.parametrize("terrain", ["missing.yaml", "bad.yaml"])
