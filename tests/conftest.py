@@ -1,5 +1,9 @@
 from __future__ import annotations
 
+import fcntl
+import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -10,6 +14,27 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Jet-HR1's joints as its URDF names them (docs/robots.md), left leg then right, hip yaw to ankle roll
 JOINT_NAMES = tuple(f"{side}_{j}" for side in ("left", "right")
                     for j in ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"))
+
+
+def made_once(tmp_path_factory, key: str, make: Callable[[Path], Path]) -> Path:
+    """``make(folder)``'s folder, made once per test run: under pytest-xdist once for all its workers (in the run's
+    base temporary folder, under a lock: the others wait for it and read it), else once in this process. What is
+    made so is read by tests, never edited (copy it to tamper with)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return make(tmp_path_factory.mktemp(key))
+    root = tmp_path_factory.getbasetemp().parent / "made_once"  # the run's, shared by its workers
+    root.mkdir(exist_ok=True)
+    with open(root / f"{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        done = root / f"{key}.done"
+        if done.exists():
+            return Path(done.read_text())
+        out = root / key
+        shutil.rmtree(out, ignore_errors=True)  # what a worker that failed half-way left
+        out.mkdir()
+        made = make(out)
+        done.write_text(str(made))
+        return made
 
 
 @pytest.fixture(scope="session")
@@ -33,17 +58,20 @@ def written(tmp_path_factory) -> dict[str, Path]:
 
     from jethr1_plan.cli import run
 
-    out = tmp_path_factory.mktemp("written")
-    assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
-    assert run(["simulate", str(out / "side_step"), "--no-progress"]) == 0
-    doc = yaml.safe_load((ROOT / "configs" / "walks" / "dyros_walk.yaml").read_text())
-    doc["footsteps"]["count"] = 2
-    doc["name"] = "two_steps"
-    walk = out / "two_steps.yaml"
-    walk.write_text(yaml.safe_dump(doc))
-    assert run(["walk", str(walk), "-o", str(out), "--no-rehearse"]) == 0
-    assert run(["balance-space", "--resolution", "0.1", "-j", "1", "-o", str(out / "balance_space"),
-                "--no-progress"]) == 0
+    def make(out: Path) -> Path:
+        assert run(["plan", str(ROOT / "configs" / "side_step.yaml"), "-o", str(out), "--no-progress"]) == 0
+        assert run(["simulate", str(out / "side_step"), "--no-progress"]) == 0
+        doc = yaml.safe_load((ROOT / "configs" / "walks" / "dyros_walk.yaml").read_text())
+        doc["footsteps"]["count"] = 2
+        doc["name"] = "two_steps"
+        walk = out / "two_steps.yaml"
+        walk.write_text(yaml.safe_dump(doc))
+        assert run(["walk", str(walk), "-o", str(out), "--no-rehearse"]) == 0
+        assert run(["balance-space", "--resolution", "0.1", "-j", "1", "-o", str(out / "balance_space"),
+                    "--no-progress"]) == 0
+        return out
+
+    out = made_once(tmp_path_factory, "written", make)
     return {"plan": out / "side_step", "walk": out / "two_steps", "balance_space": out / "balance_space"}
 
 
@@ -57,9 +85,11 @@ def plan_of(tmp_path_factory):
 
     def get(name: str) -> Path:
         if name not in folders:
-            out = tmp_path_factory.mktemp(f"plan_{name}")
-            assert run(["plan", str(ROOT / "configs" / f"{name}.yaml"), "-o", str(out), "--no-progress"]) == 0
-            folders[name] = out / name
+            def make(out: Path) -> Path:
+                assert run(["plan", str(ROOT / "configs" / f"{name}.yaml"), "-o", str(out), "--no-progress"]) == 0
+                return out
+
+            folders[name] = made_once(tmp_path_factory, f"plan_{name}", make) / name
         return folders[name]
 
     return get
