@@ -125,8 +125,8 @@ def test_a_blacklisted_step_or_transfer_is_not_taken_again(synthetic_maps):
 
 
 def test_no_route_names_the_frontier_the_nearest_carton_and_why(synthetic_maps):
-    # 1.2 m beyond the start: no step of a 0.45 m map gets there (two steps reach every other carton: a search
-    # without the limit explores 3,700 stances to say the same, 15x the time)
+    # 1.2 m beyond the start: no step of a 0.45 m map gets there (two steps reach every other carton; without the
+    # limit the two searches of this test took 33 s, with it 5.5 s)
     far = row(far_x=1.3, limits={"max_steps": 2})
     found = astar(StepModel(far, footholds(far), synthetic_maps))
     assert found.steps is None

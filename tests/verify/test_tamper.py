@@ -136,7 +136,7 @@ def test_an_infeasible_plan_written_anyway_fails(tmp_path, capsys):
     doc = yaml.safe_load((ROOT / "configs" / "side_step.yaml").read_text())
     doc["balance"]["thrust_max_n"] = 0.0
     doc["balance"]["policy"] = "minimal"
-    doc["steps"][0]["path"]["samples"] = 6  # as infeasible as with 60, found 15x sooner
+    doc["steps"][0]["path"]["samples"] = 6  # as infeasible as with 60, and found sooner
     path = tmp_path / "nofan.yaml"
     path.write_text(yaml.safe_dump(doc))
     assert run(["plan", str(path), "-o", str(tmp_path), "--no-progress", "--write-infeasible"]) == 3
