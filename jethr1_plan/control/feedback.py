@@ -99,6 +99,7 @@ class Controller:
         self.tick = 0
         self.polygon = sole_polygon(np.zeros(2), 0.0, robot.sole_length_m, robot.sole_width_m)
         self.last = Diagnostics()
+        self._pose_at: tuple[np.ndarray, np.ndarray] | None = None  # the tick's pose, not yet given to ``kin``
 
     def _single(self, m: Measurement, support: str) -> bool:
         if support == "both":
@@ -108,6 +109,15 @@ class Controller:
         return (m.soles[support].force_n > 0.2 * self.weight_n
                 and m.soles[other_side(support)].force_n < UNLOADED * self.weight_n)
 
+    def _posed(self) -> Kinematics:
+        """The robot's kinematics posed at this tick's encoders and IMU attitude (posed once a tick, on first use:
+        a tick that needs no pose, as most of double support, poses nothing)."""
+        assert self.kin is not None
+        if self._pose_at is not None:
+            self.kin.update(*self._pose_at)
+            self._pose_at = None
+        return self.kin
+
     def step(self, m: Measurement, ref: Reference) -> Command:
         """The commands of one tick from its measurement and the plan's reference."""
         q = np.array(ref.q_cmd, dtype=float)
@@ -115,10 +125,10 @@ class Controller:
         if self.law_name is None or not ref.active:
             self.last = Diagnostics()
             return Command(q, ff)
-        kin = self.kin
-        assert kin is not None and m.joints_rad is not None
-        rotation = m.trunk_rotation if m.trunk_rotation is not None else np.eye(3)
-        kin.update(m.joints_rad, rotation)
+        assert self.kin is not None and m.joints_rad is not None
+        # the robot's own kinematics, posed at this measurement when first asked this tick (:meth:`_posed`)
+        self._pose_at = (
+            m.joints_rad, m.trunk_rotation if m.trunk_rotation is not None else np.eye(3))
         sup = ref.support
         single = self._single(m, sup)
         thrust = ff.copy()
@@ -134,6 +144,7 @@ class Controller:
                 top = float((self.caps[carry] / share).min())
                 if self.law_name == "cop_edge_pi":
                     assert m.soles is not None
+                    kin = self._posed()
                     p_s, r_s = kin.sole(sup)
                     fan = sum(share[n] * kin.fan(int(f)) for n, f in enumerate(carry))
                     fan_xy = (r_s.T @ (fan - p_s))[:2]  # in the support sole's frame
@@ -156,6 +167,7 @@ class Controller:
                 # the support sole's yaw: the IMU's attitude through the encoders' kinematics
                 sw = other_side(sup)
                 si, wi = SIDES.index(sup), SIDES.index(sw)
+                kin = self._posed()
                 _, r_sup = kin.sole(sup)
                 lever = ref.feet_m[wi, :2] - ref.feet_m[si, :2]
                 dt = self.place_every / self.rate_hz
@@ -168,6 +180,6 @@ class Controller:
         self.extra += (thrust - ff - self.extra) * self.lag_step
         if self.compensate:
             for f in (np.abs(self.extra) > 1e-6).nonzero()[0].tolist():
-                q -= kin.fan_lift_jacobian(int(f)) * self.extra[f] / self.stiffness
+                q -= self._posed().fan_lift_jacobian(int(f)) * self.extra[f] / self.stiffness
         self.last = Diagnostics(single, error, float((thrust - ff).sum()))
         return Command(q, thrust)

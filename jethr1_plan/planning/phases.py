@@ -60,6 +60,8 @@ class Sequence:
         if schedule is not None:
             self.seq.yaw_of_row = schedule.at_row
         self.seq.smooth_trunk = self.fast is not None
+        # a swing refused at a row need not be built past it (a fastest timing's search reads whole swings)
+        self.seq.stop_at_infeasible = stop_at_infeasible and self.fast is None
         self.feet = {k: v.copy() for k, v in scenario.start.items()}
         self.p_prev, self.yaw_prev = standing_pose(robot, self.feet, 0.0), 0.0
         self.thrust_out: FanThrust | None = None

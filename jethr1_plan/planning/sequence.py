@@ -86,6 +86,9 @@ class SequenceBuilder:
         #: instead of linearly (a fastest timing: the trunk's path has no corner at a sample for the rows to feel)
         self.smooth_trunk = False
         self.linear_segments: set[int] = set()  # segments (i → i + 1) kept linear where the smooth trunk fails
+        #: a swing's rows end at its first infeasible row (the plan is refused there: the rows after it would be
+        #: discarded; set by ``phases.Sequence`` when it stops at the first infeasible row)
+        self.stop_at_infeasible = False
         self.caps = np.array([min(f.thrust_max_n, thrust_max_n) for f in robot.fans])  # per fan [N]
 
     def _sole(self, xyz: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
@@ -369,4 +372,6 @@ class SequenceBuilder:
                 step=step, phase="swing", sample=k, support=support, feasible=reason is None, p_body_m=p,
                 ground_z_m=feet[support][2], yaw_rad=yaw, q_rad=q, swing_m=swing, com_m=com, zmp_m=zmp,
                 window_n=self._window(com[:2], fans, fan_share, sole), zmp_margin_m=float(polygon_margin(zmp, sole)))))
+            if reason is not None and self.stop_at_infeasible:
+                break
         self._emit_all(step, "swing", pending, poly)
