@@ -136,3 +136,21 @@ def test_a_real_cluster_with_a_worker_on_other_kernels_is_refused() -> None:
             with pytest.raises(InputError) as exc, dask_client(cluster.scheduler_address, 1):
                 pass
             assert "Sandybridge" in str(exc.value) and "OPENBLAS_CORETYPE='Haswell'" in str(exc.value)
+
+
+def test_scipys_compiled_modules_load_from_their_files_without_their_subpackages() -> None:
+    # the same files SciPy imports, loaded alone: scipy.linalg's and scipy.optimize's __init__ not run
+    code = ("import sys; from jethr1_plan.arithmetic import scipy_extension, scipy_extension_file, signature\n"
+            "blas = scipy_extension('linalg', 'cython_blas'); step = scipy_extension('optimize', '_slsqplib')\n"
+            "alone = [m for m in ('scipy.linalg', 'scipy.optimize') if m in sys.modules]\n"
+            "first = signature()\n"
+            "import scipy.linalg.cython_blas as real, scipy.optimize._slsqplib as real_step\n"
+            "from jethr1_plan.arithmetic import blas_cores\n"
+            "print(alone, str(scipy_extension_file('linalg', 'cython_blas')) == real.__file__,\n"
+            "      sorted(blas.__pyx_capi__) == sorted(real.__pyx_capi__), callable(step.slsqp),\n"
+            "      step.__file__ == real_step.__file__, first.split(', ')[1] == 'OpenBLAS ' + '/'.join(blas_cores()),\n"
+            "      scipy_extension('linalg', 'no_such_module') is None)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    # nothing of either subpackage imported; the very files SciPy loads; the arithmetic signature (summary.json's
+    # line) reads the same libraries whether SciPy's linear algebra is imported or not
+    assert out == "[] True True True True True True"

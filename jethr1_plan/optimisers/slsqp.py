@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from jethr1_plan.arithmetic import scipy_extension
+
 import numpy as np
 
 __all__ = ["SlsqpResult", "minimize_slsqp"]
@@ -22,34 +24,15 @@ __all__ = ["SlsqpResult", "minimize_slsqp"]
 def _compiled_step() -> Callable[..., None] | None:
     """SciPy's compiled SLSQP step (``scipy.optimize._slsqplib.slsqp``, SciPy ≥ 1.16), else None.
 
-    The extension is loaded from its file, without running ``scipy.optimize``'s ``__init__`` (which imports
-    all of SciPy's optimisers, linear algebra and statistics: about 0.25 s of every command that plans). The
-    module is the same compiled file SciPy itself loads; loading it also loads SciPy's BLAS, which
+    The extension is loaded from its file (:func:`jethr1_plan.arithmetic.scipy_extension`), without running
+    ``scipy.optimize``'s ``__init__`` (which imports all of SciPy's optimisers, linear algebra and statistics:
+    about 0.25 s of every command that plans). Loading it also loads SciPy's BLAS, which
     :func:`jethr1_plan.planning.plan.one_blas_thread` then limits to one thread.
     """
-    import importlib.machinery
-    import importlib.util
-    from pathlib import Path
-
-    name = "scipy.optimize._slsqplib"
-    try:
-        scipy_spec = importlib.util.find_spec("scipy")
-        if scipy_spec is None or not scipy_spec.submodule_search_locations:
-            return None
-        folder = Path(next(iter(scipy_spec.submodule_search_locations))) / "optimize"
-        for suffix in importlib.machinery.EXTENSION_SUFFIXES:
-            path = folder / f"_slsqplib{suffix}"
-            if path.is_file():
-                spec = importlib.util.spec_from_file_location(
-                    name, path, loader=importlib.machinery.ExtensionFileLoader(name, str(path)))
-                if spec is None or spec.loader is None:
-                    return None
-                module = importlib.util.module_from_spec(spec)
-                spec.loader.exec_module(module)
-                step: Callable[..., None] = module.slsqp
-                return step
-    except (ImportError, OSError, AttributeError):  # pragma: no cover - an unusual SciPy build
-        pass
+    module = scipy_extension("optimize", "_slsqplib")
+    if module is not None and hasattr(module, "slsqp"):
+        step: Callable[..., None] = module.slsqp
+        return step
     try:  # pragma: no cover - the file was not found where SciPy's wheels put it
         from scipy.optimize._slsqplib import slsqp as imported
 

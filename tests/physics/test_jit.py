@@ -108,3 +108,22 @@ def test_a_second_process_loads_the_kernels_from_the_cache_without_compiling():
     said = [line for line in (runs[1].stdout + runs[1].stderr).splitlines() if line.startswith("[cache]")]
     assert sum(line.startswith("[cache] data loaded") for line in said) == 2  # both kernels from the cache
     assert all(" loaded from " in line for line in said)  # nothing saved: nothing was compiled
+
+
+def test_loading_a_kernel_leaves_scipy_linalg_unimported_and_numba_its_blas():
+    """numba checks SciPy's BLAS by its file, not by importing scipy.linalg (0.25 s of every command): the check
+    answers as numba's own (BLAS found), and a kernel that calls BLAS still compiles and computes NumPy's product."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np, numba\n"
+            "from jethr1_plan.geometry import sole_polygon\n"
+            "from jethr1_plan.physics.balance import thrust_window\n"
+            "thrust_window(np.zeros((2, 2)), np.ones((2, 2)), sole_polygon((0, 0), 0.0, 0.2, 0.1), 6.8)\n"
+            "import numba.np.arraymath as am\n"
+            "before = 'scipy.linalg' in sys.modules\n"
+            "a = np.random.default_rng(0).standard_normal((5, 5))\n"
+            "dot = numba.njit(lambda x, y: np.dot(x, y))\n"
+            "print(before, am._HAVE_BLAS, bool(np.allclose(dot(a, a), a @ a, rtol=1e-12, atol=1e-12)))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "True", "True"]

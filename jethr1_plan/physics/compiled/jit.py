@@ -23,10 +23,32 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from jethr1_plan.arithmetic import scipy_extension_file
+
 import numba
+import numba.np.linalg as numba_linalg
 from numba.core import event as numba_event
 
 __all__ = ["KERNEL_SOURCES", "cache_dir", "kernel", "sources_digest"]
+
+
+def _ensure_blas_by_its_file(numba_check: Callable[[], None] = numba_linalg.ensure_blas) -> None:
+    """numba's check that SciPy's BLAS is there (``numba.np.linalg.ensure_blas``, run once when numba loads its first
+    kernel, ``numba.np.arraymath``'s import), made without ``import scipy.linalg.cython_blas``: that import runs
+    ``scipy.linalg``'s ``__init__`` (about 0.25 s of CPU in every command that loads a kernel, for a module no
+    kernel loaded from the cache calls). The module's file is looked for instead, then numba's own check of the
+    BLAS's integer width; numba imports the module itself where it compiles a kernel that calls BLAS. Where the
+    file is not found, numba's check as it is."""
+    if scipy_extension_file("linalg", "cython_blas") is None:
+        numba_check()
+        return
+    width = getattr(numba_linalg, "_check_lapack_int_width", None)
+    if width is not None:
+        width()
+
+
+if "numba.np.arraymath" not in sys.modules:  # (arraymath binds the check when it is imported)
+    numba_linalg.ensure_blas = _ensure_blas_by_its_file
 
 PACKAGE = Path(__file__).resolve().parents[2]  # jethr1_plan/
 #: every module (relative to the package) whose kernels may call a kernel of another module, and every callee's
