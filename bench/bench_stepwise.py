@@ -42,13 +42,23 @@ from jethr1_plan.studies.step_by_step import nominal_plan, run_steps  # noqa: E4
 SEED = 0  # simulate's default seed
 
 
+def _progress(name: str, every: int = 10):
+    """A line on stderr every ``every`` trials: how many are done, and the time since the plan's first."""
+    t0 = time.perf_counter()
+
+    def say(_what: str, done: int, total: int) -> None:
+        if done % every == 0 or done == total:
+            print(f"  {name}: {done}/{total} trials, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
+    return say
+
+
 def certify(folder: Path, trials: int, jobs: int) -> dict:
     track = load_plan(folder)
     summary = json.loads((folder / "summary.json").read_text())
     scenario, nominal = nominal_plan(folder, summary, track)
     ps = draws(SEED, trials, "default", track.tolerance, track.robot)
     t0 = time.perf_counter()
-    execs = run_steps(folder, summary, scenario, nominal, "feedback", ps, jobs, None, SEED)
+    execs = run_steps(folder, summary, scenario, nominal, "feedback", ps, jobs, _progress(folder.name), SEED)
     wall = time.perf_counter() - t0
     runs = [ex.run for ex in execs]
     cert = certificate(runs, ps, track.tolerance, "default")
