@@ -126,3 +126,36 @@ def test_rows_solved_at_once_are_those_solved_row_by_row(robot, positions):
     assert feasible.any() and not feasible.all()  # the far end is out of reach: rows of both kinds
     phase, share = np.asarray(batch["phase"]), np.asarray(batch["tolerance_share"], dtype=float)
     assert (phase == "swing").sum() == 25 and np.isfinite(share).all() and np.ptp(share) > 0
+
+
+def test_a_swing_refused_at_a_row_ends_there_with_the_same_first_infeasible_row(robot):
+    """Where the plan stops at its first infeasible row (``stop_at_infeasible``), a swing's rows end at it: the rows
+    before it and it are those of the whole swing, to the bit, and the builder keeps the same first infeasible row
+    (step, phase, sample, reason, time, P_body, swing sole) that refuses the plan."""
+    from jethr1_plan.kinematics.closed_form import ClosedFormPostureSolver
+    from jethr1_plan.physics.balance import Tolerance
+    from jethr1_plan.planning.sequence import SequenceBuilder
+
+    feet = {"left": np.array([0.0, 0.1125, 0.0]), "right": np.array([0.06, -0.1125, 0.0])}
+    path = np.column_stack([np.linspace(0.0, 0.16, 6), np.full(6, 0.1125), 0.04 * np.sin(np.linspace(0, np.pi, 6))])
+    # the trunk rises out of the legs' reach towards the end of the swing
+    p_samples = np.column_stack([np.linspace(0.05, 0.09, 6), np.linspace(-0.07, -0.04, 6), np.linspace(0.40, 0.60, 6)])
+    built = []
+    for stop in (False, True):
+        seq = SequenceBuilder(robot, ClosedFormPostureSolver(robot), 50.0, 23.0, np.radians(40.0), 0.005,
+                              Tolerance(0.1, 0.05, 0.01))
+        seq.stop_at_infeasible = stop
+        seq.swing(1, "right", feet, path, p_samples, lambda swing: 0.05 * swing[0], 0.5, np.linspace(1.0, 0.6, 6))
+        built.append((seq.rows.columns, seq.first_infeasible))
+    (whole, first_whole), (cut, first_cut) = built
+    feasible = np.asarray(whole["feasible"])
+    k = int(np.flatnonzero(~feasible)[0])
+    assert 0 < k < len(feasible) - 1  # feasible rows before it and rows after it
+    assert first_cut == first_whole and first_whole is not None and first_whole.phase == "swing"
+    assert len(cut["feasible"]) == k + 1 and not cut["feasible"][-1]
+    for key in whole:
+        a, b = np.asarray(whole[key])[:k + 1], np.asarray(cut[key])
+        if a.dtype.kind == "f":
+            assert np.array_equal(a, b, equal_nan=True), key
+        else:
+            assert a.tolist() == b.tolist(), key
