@@ -181,6 +181,7 @@ def test_trials_do_not_depend_on_jobs(plans, capsys):
 def test_simulation_mcap_plays_beside_the_plan(plans):
     """Every robot frame prefixed sim/ (the plan's are bare), the URDF with prefixed links, the
     declared topics and types."""
+    assert run(["simulate", str(plans / "side_step"), "--no-progress"]) == 0  # (not left to another test's run)
     msgs = read_mcap((plans / "side_step" / "simulation.mcap").read_bytes())
     assert {(m[0], m[1]) for m in msgs} == {(name, t.type) for name, t in SIMULATION_TOPICS.items()}
     tf = [m for m in msgs if m[0] == "/tf"]
