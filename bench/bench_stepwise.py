@@ -14,6 +14,7 @@ Resumable: a plan whose certificate is in --json already is not run again.
 
     .venv/bin/python bench/bench_stepwise.py [--trials 200] [--routes 20] [-j 2] [--json out/bench_stepwise.json]
         [--seeds 2,3,9]
+    .venv/bin/python bench/bench_stepwise.py --report --json docs/data/stepwise_certificates_2026-11-29.json
 """
 
 from __future__ import annotations
@@ -85,6 +86,38 @@ def _stats(x: list[float]) -> dict:
             "p95": float(np.percentile(a, 95)), "p99": float(np.percentile(a, 99)), "max": float(a.max())}
 
 
+def plan_line(name: str, rec: dict) -> str:
+    """One plan's certificate and landings on a line."""
+    c, e = rec["certificate"], rec["landing_error_m"]
+    return (f"{name:18s} {rec['steps']} steps  {c['survived']:4d}/{c['trials']:<4d} lower bound "
+            f"{c['lower_bound']:.4f}  landing p50 {1000 * e.get('p50', np.nan):.1f} p99 "
+            f"{1000 * e.get('p99', np.nan):.1f} max {1000 * e.get('max', np.nan):.1f} mm  {rec['wall_s']:.0f} s "
+            f"({rec['realtime_factor']:.1f}x)")
+
+
+def report(plans: dict[str, dict]) -> None:
+    """The certificates together: how many reach 0.95, the landings' 99th percentiles, and the landings kept one by one
+    pooled, over all and by how their step was planned (the route's edge margin, execution.landing_error_m, is to
+    cover the pooled 99th percentile)."""
+    landings = [v for r in plans.values() for v in [r["landing_error_m"].get("p99")] if v is not None]
+    passed = sum(r["certificate"]["lower_bound"] >= 0.95 for r in plans.values())
+    print(f"\n{passed} of {len(plans)} plans reach a 95 % lower bound of 0.95; the landings' 99th percentile per plan: "
+          f"at most {1000 * max(landings):.1f} mm" if landings else "")
+    rows = [row for r in plans.values() for row in r.get("landings", [])]
+    if not rows:
+        return
+    kept = [name for name, r in plans.items() if r.get("landings")]
+
+    def stats(mm: np.ndarray) -> str:
+        return (f"median {np.median(mm):.1f} mm, 99th percentile {np.percentile(mm, 99):.1f} mm, largest "
+                f"{mm.max():.1f} mm, {int((mm > 8.0).sum())} beyond 8.0 mm")
+    every = 1000 * np.array([row[3] for row in rows])
+    print(f"all {len(every)} landings of {len(kept)} plans: {stats(every)}")
+    for mode in dict.fromkeys(row[2] for row in rows):
+        mm = 1000 * np.array([row[3] for row in rows if row[2] == mode])
+        print(f"  steps {mode}: {len(mm)} landings, {stats(mm)}")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--trials", type=int, default=200)
@@ -94,9 +127,16 @@ def main() -> int:
     ap.add_argument("-j", "--jobs", type=int, default=2)
     ap.add_argument("--json", default=str(ROOT / "out" / "bench_stepwise.json"))
     ap.add_argument("--work", default=None, help="where the plans go (default: a temporary folder)")
+    ap.add_argument("--report", action="store_true",
+                    help="only print the certificates already in --json (e.g. docs/data/stepwise_certificates_*.json)")
     args = ap.parse_args()
     out = Path(args.json)
     doc = json.loads(out.read_text()) if out.exists() else {"trials": args.trials, "plans": {}}
+    if args.report:
+        for name, rec in doc["plans"].items():
+            print(plan_line(name, rec))
+        report(doc["plans"])
+        return 0
     if doc.get("trials") != args.trials:
         doc = {"trials": args.trials, "plans": {}}
     work = Path(args.work) if args.work else Path(tempfile.mkdtemp(prefix="bench-stepwise-"))
@@ -128,26 +168,13 @@ def main() -> int:
         doc["plans"][name] = rec
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json_text(doc))
-        c, e = rec["certificate"], rec["landing_error_m"]
-        print(f"{name:18s} {rec['steps']} steps  {c['survived']:4d}/{c['trials']:<4d} lower bound "
-              f"{c['lower_bound']:.4f}  landing p50 {1000 * e.get('p50', np.nan):.1f} p99 "
-              f"{1000 * e.get('p99', np.nan):.1f} max {1000 * e.get('max', np.nan):.1f} mm  {rec['wall_s']:.0f} s "
-              f"({rec['realtime_factor']:.1f}x)", flush=True)
+        print(plan_line(name, rec), flush=True)
+        c = rec["certificate"]
         for f in c["failures"]:
             p = f["perturbation"]
             print(f"    trial {f['trial']}: {f['why']}; thrust x{p['thrust_gain']:.3f} mass x{p['mass_scale']:.3f} "
                   f"lag {1000 * p['fan_lag_s']:.0f} ms stiffness x{p['servo_stiffness_scale']:.2f}", flush=True)
-    plans = doc["plans"]
-    landings = [v for r in plans.values() for v in [r["landing_error_m"].get("p99")] if v is not None]
-    passed = sum(r["certificate"]["lower_bound"] >= 0.95 for r in plans.values())
-    print(f"\n{passed} of {len(plans)} plans reach a 95 % lower bound of 0.95; the landings' 99th percentile per plan: "
-          f"at most {1000 * max(landings):.1f} mm" if landings else "")
-    pooled = [row[3] for r in plans.values() for row in r.get("landings", [])]
-    if pooled:
-        kept = [name for name, r in plans.items() if r.get("landings")]
-        p99, top = 1000 * np.percentile(pooled, 99), 1000 * max(pooled)
-        print(f"all {len(pooled)} landings of {len(kept)} plans: 99th percentile {p99:.1f} mm, largest {top:.1f} mm "
-              "(the route's edge margin, execution.landing_error_m, is to cover the 99th)")
+    report(doc["plans"])
     return 0
 
 
