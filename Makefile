@@ -16,6 +16,7 @@ $(VENV)/.installed: pyproject.toml $(LOCK)
 	$(BIN)/python -m pip install --quiet --upgrade pip -c $(LOCK)
 	$(BIN)/python -m pip install --quiet -c $(LOCK) --build-constraint $(LOCK) -e ".[dev]"
 	$(BIN)/python tools/check_lock.py $(LOCK)
+	$(BIN)/python -m compileall -q jethr1_plan  # the bytecode written now (an editable install writes none), not in a first command
 	$(BIN)/jethr1 warm-up configs/terrains/*.yaml  # the kernels compiled and Paper A's maps computed, ahead of any command
 	touch $@
 
