@@ -32,7 +32,7 @@ def test_help_loads_no_planner_library():
 def test_a_plan_and_its_verify_load_no_simulator_plotting_viewer_or_cluster_library(tmp_path):
     rc, loaded = _loaded_after(["plan", "configs/jet_hr1_trial.yaml", "-o", str(tmp_path), "--no-progress"])
     assert rc == 0 and (tmp_path / "jet_hr1_trial" / "trajectory.mcap").is_file()
-    assert {"placo", "numba"} <= loaded  # (the check sees the planner's own libraries)
+    assert "placo" in loaded  # (the check sees the planner's own libraries; numba only without the AOT module)
     assert not loaded & set(HEAVY)
     rc, loaded = _loaded_after(["verify", str(tmp_path / "jet_hr1_trial")])
     assert rc == 0

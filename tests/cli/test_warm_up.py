@@ -121,3 +121,18 @@ def test_a_local_dask_workers_notices_are_one_line_too():
 
     with dask_client(None, 1) as client:
         assert list(client.run(installed).values()) == [True]
+
+
+def test_the_warm_up_says_why_when_the_ahead_of_time_module_cannot_be_built(monkeypatch):
+    """No C compiler (pycc's build fails): one line with the builder's last line and what the commands do instead;
+    the warm-up goes on."""
+    import jethr1_plan.cli.warm_up as warm_up
+
+    stderr = "Traceback ...\ndistutils.errors.CompileError: command 'gcc' failed"
+    failed = subprocess.CompletedProcess([], 1, "", stderr)
+    monkeypatch.setattr(warm_up.subprocess, "run", lambda *a, **k: failed)
+    said: list[str] = []
+    warm_up._build_ahead(lambda line, **_: said.append(line))
+    assert said[-1] == ("jethr1 warm-up: no ahead-of-time module (distutils.errors.CompileError: command 'gcc' "
+                        "failed); plan and simulate load their kernels from numba's cache instead (about 0.45 s more "
+                        "each)")

@@ -41,9 +41,13 @@ def _rel(module) -> str:
 def test_every_kernel_calling_another_modules_kernel_is_keyed_on_all_sources():
     """A kernel whose code calls a kernel of another module, and that callee, live in KERNEL_SOURCES; and every
     kernel of those modules is cached in the keyed directory."""
+    from jethr1_plan.physics.compiled.jit import jit_all
+
+    modules = _modules()
+    jit_all()  # (every kernel numba's dispatcher, bound as such in every module)
     crossing = set()
     kernels = 0
-    for module in _modules():
+    for module in modules:
         for value in vars(module).values():
             if not isinstance(value, CPUDispatcher) or value.py_func.__module__ != module.__name__:
                 continue
@@ -102,7 +106,7 @@ def test_a_second_process_loads_the_kernels_from_the_cache_without_compiling():
             "thrust_window(np.zeros((2, 2)), np.ones((2, 2)), sole_polygon((0, 0), 0.0, 0.2, 0.1), 6.8)\n"
             "feet = {'left': (np.array([0.0, 0.09, 0.0]), 0.0), 'right': (np.array([0.0, -0.09, 0.0]), 0.0)}\n"
             "solve_postures(load_robot('jethr1'), np.array([[0.0, 0.0, 0.3]]), 0.0, feet)\n")
-    env = {**os.environ, "NUMBA_DEBUG_CACHE": "1"}
+    env = {**os.environ, "NUMBA_DEBUG_CACHE": "1", "JETHR1_AOT": "0"}  # (numba's path, not the AOT module's)
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
             for _ in range(2)]  # the first may compile (a cold cache); the second must not
     said = [line for line in (runs[1].stdout + runs[1].stderr).splitlines() if line.startswith("[cache]")]
@@ -113,6 +117,7 @@ def test_a_second_process_loads_the_kernels_from_the_cache_without_compiling():
 def test_loading_a_kernel_leaves_scipy_linalg_unimported_and_numba_its_blas():
     """numba checks SciPy's BLAS by its file, not by importing scipy.linalg (0.25 s of every command): the check
     answers as numba's own (BLAS found), and a kernel that calls BLAS still compiles and computes NumPy's product."""
+    import os
     import subprocess
     import sys
 
@@ -125,5 +130,7 @@ def test_loading_a_kernel_leaves_scipy_linalg_unimported_and_numba_its_blas():
             "a = np.random.default_rng(0).standard_normal((5, 5))\n"
             "dot = numba.njit(lambda x, y: np.dot(x, y))\n"
             "print(before, am._HAVE_BLAS, bool(np.allclose(dot(a, a), a @ a, rtol=1e-12, atol=1e-12)))\n")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    env = {**os.environ, "JETHR1_AOT": "0"}  # (numba's path, not the AOT module's)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env=env).stdout.split()
     assert out == ["False", "True", "True"]
