@@ -58,8 +58,8 @@ def module_path(directory: str | Path) -> Path:
 
 def _accepts(types: tuple[str, ...]) -> Callable[..., bool]:
     """A check that positional arguments are of ``types``: arrays of that dtype and rank (any strides, aligned),
-    scalars of the Python or NumPy types numba would type as such. Written as one expression (about 4 µs for the
-    21 arguments of ``sample_terms``, a third of a loop over per-argument checks)."""
+    scalars of the Python or NumPy types numba would type as such. Written as one expression (for the 21 arguments
+    of ``sample_terms`` about half the time of a loop over per-argument checks)."""
     terms: list[str] = []
     env: dict[str, Any] = {"ndarray": np.ndarray}
     for i, t in enumerate(types):
