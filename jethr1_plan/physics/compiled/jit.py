@@ -8,6 +8,10 @@ directory named after a hash of every module in :data:`KERNEL_SOURCES`, so any e
 fresh cache (compiled once) and a stale one is never loaded. ``tests/physics/test_jit.py`` checks that
 every module whose kernels call another module's is listed.
 
+:func:`kernel` gives a :class:`Kernel`: the kernels a plan calls from Python run the module compiled ahead of time
+next to that cache (:mod:`.aot`) where it was built, without importing numba; any other call makes every kernel
+numba's dispatcher (:func:`jit_all`).
+
 The directory: ``$NUMBA_CACHE_DIR/jethr1_plan-<hash>`` where that variable is set, else
 ``jethr1_plan/__pycache__/numba-<hash>`` where the package can be written, else
 ``~/.cache/jethr1_plan/numba-<hash>`` (``$XDG_CACHE_HOME``).
@@ -57,8 +61,8 @@ def sources_digest(root: Path = PACKAGE, sources: tuple[str, ...] = KERNEL_SOURC
 
 
 def _numba_version_bytes() -> bytes:
-    """numba's version, read without importing numba (0.2 s): its ``_version.py`` file's bytes (the version
-    string where that file is not found)."""
+    """numba's version, read without importing numba (about 0.2 s of CPU): its ``_version.py`` file's bytes (the
+    version string where that file is not found)."""
     spec = importlib.util.find_spec("numba")
     if spec is not None and spec.origin:
         version_file = Path(spec.origin).with_name("_version.py")
