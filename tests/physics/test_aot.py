@@ -137,6 +137,29 @@ def test_a_kernel_given_other_types_computes_through_numba(built, monkeypatch):
         aot.forget_loaded()
 
 
+def test_a_long_run_goes_over_to_numba(built, monkeypatch):
+    """Past AHEAD_CALLS_MAX calls of the module's kernels in one process, a kernel becomes numba's dispatcher (the
+    same floats), as numba's faster calls then repay its import."""
+    from jethr1_plan.physics.compiled import jit
+    from jethr1_plan.physics.compiled.jit import Kernel
+
+    monkeypatch.setenv("JETHR1_AOT", str(built))
+    aot.forget_loaded()
+    try:
+        dispatcher = _dispatcher("jethr1_plan.physics.compiled.edge:edge_errors")
+        proxy = Kernel(dispatcher.py_func, {})
+        args = tuple(np.random.default_rng(5).normal(size=(4, 2)) for _ in range(3))
+        monkeypatch.setattr(jit, "_ahead_calls", jit.AHEAD_CALLS_MAX - 1)
+        first = proxy(*args)  # the last call the module takes
+        assert proxy._call.__name__ == "call" and jit._ahead_calls == jit.AHEAD_CALLS_MAX
+        second = proxy(*args)
+        assert proxy._call is proxy.jit()
+        assert _same(first, dispatcher(*args)) and _same(second, first)
+    finally:
+        monkeypatch.delenv("JETHR1_AOT")
+        aot.forget_loaded()
+
+
 def test_a_plan_with_the_aot_module_imports_no_numba_and_writes_numbas_bytes(built, tmp_path):
     """The trial planned in a fresh interpreter with the module and with ``JETHR1_AOT=0``: numba imported only in
     the second; trajectory.csv, trajectory.mcap and optimised_steps.json byte-identical."""
