@@ -45,6 +45,7 @@ _SCALARS: dict[str, tuple[type, ...]] = {"float64": (float, np.float64), "int64"
 
 
 def export_name(key: str) -> str:
+    """The module's name for the kernel ``key`` ("module:function"): the module's last part and the function's."""
     module, name = key.split(":")
     return f"{module.rsplit('.', 1)[1]}__{name.lstrip('_')}"
 
