@@ -83,6 +83,14 @@ def _build_ahead(say: Callable[..., None]) -> None:
     """Compile the kernels a plan calls from Python ahead of time (``physics.compiled.aot``: no numba import in
     ``plan`` and ``simulate``), in a child process (this one keeps numba unimported); where that fails (no C
     compiler, no setuptools), say why: every command still runs, on numba's cache."""
+    from jethr1_plan.physics.compiled.aot import module_path
+    from jethr1_plan.physics.compiled.jit import cache_dir
+
+    path = module_path(cache_dir())
+    if path.is_file():  # (built for these kernel sources, numba, Python and NumPy: nothing to do)
+        say(f"jethr1 warm-up: the plan's kernels compiled ahead of time are in {path}", markup=False,
+            highlight=False)
+        return
     t0 = time.perf_counter()
     say("jethr1 warm-up: compiling the plan's kernels ahead of time (a C extension, about 20 s)", markup=False,
         highlight=False)

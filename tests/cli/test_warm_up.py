@@ -123,10 +123,13 @@ def test_a_local_dask_workers_notices_are_one_line_too():
         assert list(client.run(installed).values()) == [True]
 
 
-def test_the_warm_up_says_why_when_the_ahead_of_time_module_cannot_be_built(monkeypatch):
+def test_the_warm_up_says_why_when_the_ahead_of_time_module_cannot_be_built(monkeypatch, tmp_path):
     """No C compiler (pycc's build fails): one line with the builder's last line and what the commands do instead;
     the warm-up goes on."""
     import jethr1_plan.cli.warm_up as warm_up
+    from jethr1_plan.physics.compiled import aot
+
+    monkeypatch.setattr(aot, "module_path", lambda directory: tmp_path / "not_built.so")
 
     stderr = "Traceback ...\ndistutils.errors.CompileError: command 'gcc' failed"
     failed = subprocess.CompletedProcess([], 1, "", stderr)
@@ -136,3 +139,18 @@ def test_the_warm_up_says_why_when_the_ahead_of_time_module_cannot_be_built(monk
     assert said[-1] == ("jethr1 warm-up: no ahead-of-time module (distutils.errors.CompileError: command 'gcc' "
                         "failed); plan and simulate load their kernels from numba's cache instead (about 0.45 s more "
                         "each)")
+
+
+def test_the_warm_up_builds_no_module_that_is_there(monkeypatch, tmp_path):
+    """The module of these kernel sources, numba, Python and NumPy is there: the warm-up says where, and starts no
+    build."""
+    import jethr1_plan.cli.warm_up as warm_up
+    from jethr1_plan.physics.compiled import aot
+
+    there = tmp_path / "built.so"
+    there.write_bytes(b"")
+    monkeypatch.setattr(aot, "module_path", lambda directory: there)
+    monkeypatch.setattr(warm_up.subprocess, "run", lambda *a, **k: pytest.fail("a build was started"))
+    said: list[str] = []
+    warm_up._build_ahead(lambda line, **_: said.append(line))
+    assert said == [f"jethr1 warm-up: the plan's kernels compiled ahead of time are in {there}"]

@@ -49,17 +49,6 @@ def built(tmp_path_factory) -> Path:
     return build(tmp_path_factory.mktemp("aot"))
 
 
-def _load(path: Path):
-    import importlib.machinery
-    import importlib.util
-
-    loader = importlib.machinery.ExtensionFileLoader(aot.MODULE_NAME, str(path))
-    spec = importlib.util.spec_from_file_location(aot.MODULE_NAME, path, loader=loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
-
-
 def _dispatcher(key: str):
     import importlib
 
@@ -84,7 +73,7 @@ def test_every_exported_kernel_gives_numbas_floats_on_a_plans_own_arguments(buil
     subprocess.run([sys.executable, "-c", RECORD, str(tmp_path / "out"), str(pickled)], cwd=ROOT, check=True,
                    env={**os.environ, "JETHR1_AOT": str(built)}, capture_output=True)
     calls = pickle.loads(pickled.read_bytes())
-    module = _load(built)
+    module = aot.load_file(built)
     for key, recorded in calls.items():
         assert recorded, f"the trial's plan never called {key}: the export list is stale"
         compiled = getattr(module, aot.export_name(key))

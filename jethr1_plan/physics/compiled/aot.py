@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["EXPORTS", "MODULE_NAME", "export_name", "exported", "forget_loaded", "module_path"]
+__all__ = ["EXPORTS", "MODULE_NAME", "export_name", "exported", "forget_loaded", "load_file", "module_path"]
 
 MODULE_NAME = "jethr1_kernels_aot"
 F1, F2, F3 = "float64[:]", "float64[:, :]", "float64[:, :, :]"
@@ -91,14 +91,20 @@ def _module(directory: str) -> Any:
     if not path.is_file():
         return None
     try:
-        loader = importlib.machinery.ExtensionFileLoader(MODULE_NAME, str(path))
-        spec = importlib.util.spec_from_file_location(MODULE_NAME, path, loader=loader)
-        if spec is None:
-            return None
-        module = importlib.util.module_from_spec(spec)
-        loader.exec_module(module)
+        return load_file(path)
     except ImportError:  # a broken or foreign file: numba's JIT instead
         return None
+
+
+def load_file(path: Path) -> Any:
+    """The extension module in the file ``path`` (not entered in ``sys.modules``). Raises ImportError where the file
+    is not such a module."""
+    loader = importlib.machinery.ExtensionFileLoader(MODULE_NAME, str(path))
+    spec = importlib.util.spec_from_file_location(MODULE_NAME, path, loader=loader)
+    if spec is None:
+        raise ImportError(f"{path}: not an extension module")
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
     return module
 
 

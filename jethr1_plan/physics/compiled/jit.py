@@ -220,9 +220,8 @@ class Kernel:
 #: calls of the module's kernels after which a process makes every kernel numba's: the module saves numba's
 #: import and set-up (about 0.45 s of CPU) once, and costs more per call than numba's dispatcher (``sample_terms``
 #: on a slow night: 3.5 µs for the generic unboxing of its arguments, 6.3 µs for their check), so a process that
-#: calls far more than a plan does
-#: (a design sweep's worker, a route: hundreds of plans) is faster with numba. The shipped scenarios' plans make
-#: 3,600-17,300 calls.
+#: calls far more than a plan does (a design sweep's worker, a route: hundreds of plans) is faster with numba. The
+#: shipped scenarios' plans make 3,600-17,300 calls.
 AHEAD_CALLS_MAX = 30_000
 _ahead_calls = 0
 _KERNELS: list[Kernel] = []
